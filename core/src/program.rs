@@ -1,0 +1,393 @@
+//! The field program: a scene flattened into primitives with their kernels, a blend tree and a
+//! BVH over the supports (DESIGN.md: `Scene` → `FieldProgram` → tracers).
+//!
+//! Lifetimes: a program is built once per scene edit and then only read, from any number of
+//! threads. Point queries (`value`, `value_gradient`) visit the primitives whose support box
+//! contains the point; ray queries (`ray_jet`, `ray_supports`) those whose box meets the ray
+//! interval. Group fields are sums of their primitives; the blend tree combines groups.
+
+use glam::{DMat3, DVec3, EulerRot};
+
+use crate::blend;
+use crate::bvh::Bvh;
+use crate::geometry::{Aabb, Ray, SphereCone};
+use crate::interval::{Interval, Jet};
+use crate::kernel::KernelProfile;
+use crate::primitives::{
+    DistanceSegment, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
+};
+use crate::scene::{Blend, Scene, Shape, Skeleton, SkeletonField, Vec3};
+
+/// Groups evaluated without heap allocation per query.
+const INLINE_GROUPS: usize = 8;
+
+/// The part of a ray inside one primitive's support.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupportSpan {
+    /// Ray parameter interval inside the support (clipped to the query interval).
+    pub span: Interval,
+    /// Index of the primitive.
+    pub primitive: u32,
+}
+
+/// A scene compiled for evaluation.
+#[derive(Clone, Debug)]
+pub struct FieldProgram {
+    isovalue: f64,
+    primitives: Vec<Primitive>,
+    groups_of: Vec<u32>,
+    kernels: Vec<KernelProfile>,
+    blend: Blend,
+    bvh: Bvh,
+    unbounded: Vec<u32>,
+}
+
+fn v3(a: Vec3) -> DVec3 {
+    DVec3::from_array(a)
+}
+
+/// Orthonormal frame whose `y` column is `axis`.
+fn frame_from_axis(axis: Vec3) -> DMat3 {
+    let y = v3(axis).normalize();
+    let (x, z) = y.any_orthonormal_pair();
+    DMat3::from_cols(x, y, z)
+}
+
+impl FieldProgram {
+    /// Compiles a validated scene.
+    #[must_use]
+    pub fn new(scene: &Scene) -> Self {
+        let c = scene.isovalue;
+        let mut primitives = Vec::new();
+        let mut groups_of = Vec::new();
+        let mut kernels = Vec::with_capacity(scene.groups.len());
+        for (gi, group) in scene.groups.iter().enumerate() {
+            let k = KernelProfile::new(group.kernel);
+            let gi = gi as u32;
+            let mut push = |p: Primitive| {
+                primitives.push(p);
+                groups_of.push(gi);
+            };
+            let point_norm = k.point_normalisation(c);
+            let scalis_norm = k.scalis_normalisation(c);
+            let corrector = k.end_corrector_ratio();
+            for skeleton in &group.skeletons {
+                skeleton_primitives(skeleton, point_norm, scalis_norm, corrector, &mut push);
+            }
+            for blob in &group.blobs {
+                push(Primitive::Point(PointBlob {
+                    center: v3(blob.center),
+                    radius: blob.radius,
+                    norm: point_norm,
+                }));
+            }
+            for shape in &group.shapes {
+                push(Primitive::Shape(shape_primitive(shape, point_norm)));
+            }
+            kernels.push(k);
+        }
+        let blend = scene
+            .blend
+            .clone()
+            .unwrap_or_else(|| Blend::Sum((0..scene.groups.len() as u32).map(Blend::Group).collect()));
+        let mut boxes = Vec::with_capacity(primitives.len());
+        let mut unbounded = Vec::new();
+        for (i, p) in primitives.iter().enumerate() {
+            match p.support_aabb(&kernels[groups_of[i] as usize]) {
+                Some(b) => boxes.push((i as u32, b)),
+                None => unbounded.push(i as u32),
+            }
+        }
+        Self {
+            isovalue: c,
+            bvh: Bvh::build(&boxes),
+            primitives,
+            groups_of,
+            kernels,
+            blend,
+            unbounded,
+        }
+    }
+
+    /// Isovalue `c`.
+    #[must_use]
+    pub fn isovalue(&self) -> f64 {
+        self.isovalue
+    }
+
+    /// The primitives (skeleton segments, end-point correctors, blobs, shapes).
+    #[must_use]
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.primitives
+    }
+
+    /// Kernel profile of primitive `i`.
+    #[must_use]
+    pub fn kernel_of(&self, i: u32) -> &KernelProfile {
+        &self.kernels[self.groups_of[i as usize] as usize]
+    }
+
+    /// Union of the bounded supports (planes excluded).
+    #[must_use]
+    pub fn support_bounds(&self) -> Aabb {
+        self.bvh.bounds()
+    }
+
+    /// Whether some primitive has an unbounded support (a plane).
+    #[must_use]
+    pub fn has_unbounded_support(&self) -> bool {
+        !self.unbounded.is_empty()
+    }
+
+    fn for_each_near(&self, p: DVec3, mut visit: impl FnMut(u32)) {
+        self.bvh.for_each_containing(p, &mut visit);
+        self.unbounded.iter().copied().for_each(visit);
+    }
+
+    fn with_group_slots<T: Copy, R>(&self, zero: T, f: impl FnOnce(&mut [T]) -> R) -> R {
+        let n = self.kernels.len();
+        if n <= INLINE_GROUPS {
+            let mut slots = [zero; INLINE_GROUPS];
+            f(&mut slots[..n])
+        } else {
+            f(&mut vec![zero; n])
+        }
+    }
+
+    /// Field value at `p`.
+    #[must_use]
+    pub fn value(&self, p: DVec3) -> f64 {
+        if let Blend::Group(_) = self.blend {
+            let mut sum = 0.0;
+            self.for_each_near(p, |i| {
+                sum += self.primitives[i as usize].value(p, self.kernel_of(i));
+            });
+            return sum;
+        }
+        self.value_gradient(p).0
+    }
+
+    /// Field value and gradient at `p`.
+    #[must_use]
+    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        self.with_group_slots((0.0, DVec3::ZERO), |slots| {
+            self.for_each_near(p, |i| {
+                let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
+                let slot = &mut slots[self.groups_of[i as usize] as usize];
+                slot.0 += v;
+                slot.1 += g;
+            });
+            blend::value_gradient(&self.blend, slots, self.isovalue)
+        })
+    }
+
+    /// Restriction to a ray: `(f(t), f′(t))`.
+    #[must_use]
+    pub fn along_ray(&self, ray: &Ray, t: f64) -> (f64, f64) {
+        let (v, g) = self.value_gradient(ray.at(t));
+        (v, g.dot(ray.direction))
+    }
+
+    /// Enclosures of `f`, `f′` and `f″` along the ray over `span` (MATH.md §5; the bounds the
+    /// marching methods need).
+    #[must_use]
+    pub fn ray_jet(&self, ray: &Ray, span: Interval) -> Jet {
+        self.with_group_slots(Jet::ZERO, |slots| {
+            let mut add = |i: u32| {
+                let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+                let slot = &mut slots[self.groups_of[i as usize] as usize];
+                *slot = *slot + jet;
+            };
+            self.bvh.for_each_on_ray(ray, span, &mut add);
+            self.unbounded.iter().copied().for_each(add);
+            blend::jet(&self.blend, slots, self.isovalue)
+        })
+    }
+
+    /// Local directional Lipschitz bound on `span`: `max |f′|` (segment tracing; forward
+    /// inclusion eq. 11).
+    #[must_use]
+    pub fn directional_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
+        self.ray_jet(ray, span).d1.magnitude()
+    }
+
+    /// The supports the ray crosses on `span`, sorted by entry.
+    #[must_use]
+    pub fn ray_supports(&self, ray: &Ray, span: Interval) -> Vec<SupportSpan> {
+        let mut out = Vec::new();
+        let mut add = |i: u32| {
+            let p = &self.primitives[i as usize];
+            if let Some(s) = p
+                .support_interval(ray, self.kernel_of(i))
+                .and_then(|s| s.intersect(span))
+            {
+                out.push(SupportSpan {
+                    span: s,
+                    primitive: i,
+                });
+            }
+        };
+        self.bvh.for_each_on_ray(ray, span, &mut add);
+        self.unbounded.iter().copied().for_each(add);
+        out.sort_by(|a, b| a.span.lo.total_cmp(&b.span.lo));
+        out
+    }
+}
+
+/// Primitives of one skeleton: a segment per edge and, for SCALIS skeletons with end-point
+/// correctors, a constant-radius segment of length `λ·τ` beyond each free end (scalis §1.1).
+fn skeleton_primitives(
+    skeleton: &Skeleton,
+    point_norm: f64,
+    scalis_norm: f64,
+    corrector_ratio: f64,
+    push: &mut impl FnMut(Primitive),
+) {
+    let position = |i: u32| v3(skeleton.vertices[i as usize].position);
+    let radius = |i: u32| skeleton.vertices[i as usize].radius;
+    let cone = |a: DVec3, ra: f64, b: DVec3, rb: f64| {
+        let (start, r0, end, r1) = if ra <= rb { (a, ra, b, rb) } else { (b, rb, a, ra) };
+        let length = (end - start).length();
+        SphereCone {
+            start,
+            axis: (end - start) / length,
+            length,
+            radius: r0,
+            slope: (r1 - r0) / length,
+        }
+    };
+    for &[a, b] in &skeleton.edges {
+        let c = cone(position(a), radius(a), position(b), radius(b));
+        push(match skeleton.field {
+            SkeletonField::Distance => Primitive::Distance(DistanceSegment {
+                cone: c,
+                norm: point_norm,
+            }),
+            SkeletonField::Scalis => Primitive::Scalis(ScalisSegment {
+                cone: c,
+                norm: scalis_norm,
+            }),
+        });
+    }
+    if skeleton.field == SkeletonField::Scalis && skeleton.end_correctors {
+        let mut degree = vec![0_u32; skeleton.vertices.len()];
+        let mut neighbour = vec![0_u32; skeleton.vertices.len()];
+        for &[a, b] in &skeleton.edges {
+            degree[a as usize] += 1;
+            degree[b as usize] += 1;
+            neighbour[a as usize] = b;
+            neighbour[b as usize] = a;
+        }
+        for (end, &d) in degree.iter().enumerate() {
+            if d != 1 {
+                continue;
+            }
+            let end = end as u32;
+            let tip = position(end);
+            let outward = (tip - position(neighbour[end as usize])).normalize();
+            let tau = radius(end);
+            push(Primitive::Scalis(ScalisSegment {
+                cone: SphereCone {
+                    start: tip,
+                    axis: outward,
+                    length: corrector_ratio * tau,
+                    radius: tau,
+                    slope: 0.0,
+                },
+                norm: scalis_norm,
+            }));
+        }
+    }
+}
+
+fn shape_primitive(shape: &Shape, norm: f64) -> ShapePrimitive {
+    let euler = |r: Vec3| {
+        DMat3::from_euler(
+            EulerRot::XYZ,
+            r[0].to_radians(),
+            r[1].to_radians(),
+            r[2].to_radians(),
+        )
+    };
+    let (solid, center, frame, radius) = match *shape {
+        Shape::Plane {
+            normal,
+            offset,
+            radius,
+        } => {
+            let n = v3(normal);
+            let len = n.length();
+            (
+                Solid::Plane {
+                    normal: n / len,
+                    offset: offset / len,
+                },
+                DVec3::ZERO,
+                DMat3::IDENTITY,
+                radius,
+            )
+        }
+        Shape::Box {
+            center,
+            half_extents,
+            rotation,
+            radius,
+        } => (
+            Solid::Box {
+                half_extents: v3(half_extents),
+            },
+            v3(center),
+            euler(rotation),
+            radius,
+        ),
+        Shape::RoundedBox {
+            center,
+            half_extents,
+            rounding,
+            rotation,
+            radius,
+        } => (
+            Solid::RoundedBox {
+                half_extents: v3(half_extents),
+                rounding,
+            },
+            v3(center),
+            euler(rotation),
+            radius,
+        ),
+        Shape::Torus {
+            center,
+            axis,
+            major,
+            minor,
+            radius,
+        } => (
+            Solid::Torus { major, minor },
+            v3(center),
+            frame_from_axis(axis),
+            radius,
+        ),
+        Shape::Cylinder {
+            center,
+            axis,
+            cylinder_radius,
+            half_height,
+            radius,
+        } => (
+            Solid::Cylinder {
+                radius: cylinder_radius,
+                half_height,
+            },
+            v3(center),
+            frame_from_axis(axis),
+            radius,
+        ),
+    };
+    ShapePrimitive {
+        solid,
+        center,
+        frame,
+        radius,
+        norm,
+    }
+}

@@ -1,0 +1,742 @@
+//! The scene model and its RON file format.
+//!
+//! A scene holds material *groups*; each group has one kernel and one material and sums its
+//! primitives: skeletons (vertices with radii joined by edges, each skeleton a distance or a
+//! SCALIS field, scalis 2021 eq. 7–8), point blobs and distance-based shapes. A blend tree
+//! (sum, max, min, difference, Ricci p-blend) combines the groups. Camera and lights are stored
+//! with the scene.
+//!
+//! Loading validates everything. Value constraints (finite numbers, positive radii, kernel
+//! parameters) are checked while parsing, so the error carries the exact line and column of the
+//! offending value; constraints between values (edge indices, segment lengths, the SCALIS slope
+//! limit, blend references) are checked when the enclosing item is complete and point at its
+//! end. Saving is atomic: the text goes to a temporary file in the same folder, which is then
+//! renamed over the target.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::kernel::{Kernel, KernelProfile};
+
+/// Version written by this build; files of other versions are refused with a clear message.
+pub const SCENE_VERSION: u32 = 1;
+
+/// A 3-vector as stored in files: `(x, y, z)`.
+pub type Vec3 = [f64; 3];
+
+/// Errors of loading and saving scenes; every message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{file}: cannot read the scene: {source}")]
+    Read {
+        /// File name.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The text is not a valid scene.
+    #[error("{file}:{line}:{column}: {message}")]
+    Invalid {
+        /// File name.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong, naming the item and the value.
+        message: String,
+    },
+    /// The file could not be written.
+    #[error("{file}: cannot save the scene: {source}")]
+    Write {
+        /// File name.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+}
+
+/// A complete scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Scene {
+    /// File format version ([`SCENE_VERSION`]).
+    #[serde(deserialize_with = "de_version")]
+    pub version: u32,
+    /// Isovalue `c`: inside where `f ≥ c`.
+    #[serde(default = "default_isovalue", deserialize_with = "de_positive")]
+    pub isovalue: f64,
+    /// Material groups; each sums its primitives.
+    pub groups: Vec<Group>,
+    /// How groups combine; `None` sums all groups.
+    #[serde(default)]
+    pub blend: Option<Blend>,
+    /// Viewpoint.
+    #[serde(default)]
+    pub camera: Camera,
+    /// Lights.
+    #[serde(default = "default_lights")]
+    pub lights: Vec<Light>,
+}
+
+/// A group of primitives sharing a kernel and a material, blended by summation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "GroupFile")]
+pub struct Group {
+    /// Display name.
+    pub name: String,
+    /// Kernel of every primitive of the group.
+    pub kernel: Kernel,
+    /// Surface material.
+    pub material: Material,
+    /// Skeletons.
+    pub skeletons: Vec<Skeleton>,
+    /// Point blobs.
+    pub blobs: Vec<Blob>,
+    /// Distance-based primitives.
+    pub shapes: Vec<Shape>,
+}
+
+#[derive(Deserialize)]
+struct GroupFile {
+    #[serde(default)]
+    name: String,
+    #[serde(default)]
+    kernel: Kernel,
+    #[serde(default)]
+    material: Material,
+    #[serde(default)]
+    skeletons: Vec<Skeleton>,
+    #[serde(default)]
+    blobs: Vec<Blob>,
+    #[serde(default)]
+    shapes: Vec<Shape>,
+}
+
+impl TryFrom<GroupFile> for Group {
+    type Error = String;
+
+    fn try_from(g: GroupFile) -> Result<Self, String> {
+        let support = KernelProfile::new(g.kernel).support_radius();
+        for (si, skeleton) in g.skeletons.iter().enumerate() {
+            for (ei, &[a, b]) in skeleton.edges.iter().enumerate() {
+                let (va, vb) = (&skeleton.vertices[a as usize], &skeleton.vertices[b as usize]);
+                let length = distance(va.position, vb.position);
+                let slope = (va.radius - vb.radius).abs() / length;
+                if slope * support >= 1.0 {
+                    return Err(format!(
+                        "group '{}', skeleton {si} '{}', edge {ei} ({a}, {b}): radius slope \
+                         |Δτ|/L = {slope:.4} must be below 1/σ = {:.4} for this kernel (the \
+                         support would not be a sphere-cone)",
+                        g.name,
+                        skeleton.name,
+                        1.0 / support
+                    ));
+                }
+            }
+        }
+        for (i, shape) in g.shapes.iter().enumerate() {
+            if let Shape::RoundedBox {
+                half_extents,
+                rounding,
+                ..
+            } = shape
+            {
+                let smallest = half_extents.iter().copied().fold(f64::INFINITY, f64::min);
+                if *rounding > smallest {
+                    return Err(format!(
+                        "group '{}', shape {i}: rounding {rounding} exceeds the smallest half \
+                         extent {smallest}",
+                        g.name
+                    ));
+                }
+            }
+        }
+        Ok(Self {
+            name: g.name,
+            kernel: g.kernel,
+            material: g.material,
+            skeletons: g.skeletons,
+            blobs: g.blobs,
+            shapes: g.shapes,
+        })
+    }
+}
+
+/// How a skeleton turns into a field.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SkeletonField {
+    /// Kernel of the homothetic distance to each segment (scalis eq. 7).
+    Distance,
+    /// SCALIS integral along each segment (scalis eq. 8).
+    #[default]
+    Scalis,
+}
+
+/// Vertices with radii joined by segments.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "SkeletonFile")]
+pub struct Skeleton {
+    /// Display name.
+    pub name: String,
+    /// Field type of every segment.
+    pub field: SkeletonField,
+    /// Add end-point correctors at free ends (SCALIS only; scalis §1.1).
+    pub end_correctors: bool,
+    /// Vertices.
+    pub vertices: Vec<Vertex>,
+    /// Segments as pairs of vertex indices.
+    pub edges: Vec<[u32; 2]>,
+}
+
+#[derive(Deserialize)]
+struct SkeletonFile {
+    #[serde(default)]
+    name: String,
+    #[serde(default)]
+    field: SkeletonField,
+    #[serde(default)]
+    end_correctors: bool,
+    vertices: Vec<Vertex>,
+    #[serde(default)]
+    edges: Vec<[u32; 2]>,
+}
+
+impl TryFrom<SkeletonFile> for Skeleton {
+    type Error = String;
+
+    fn try_from(s: SkeletonFile) -> Result<Self, String> {
+        let n = s.vertices.len();
+        for (i, &[a, b]) in s.edges.iter().enumerate() {
+            for v in [a, b] {
+                if v as usize >= n {
+                    return Err(format!(
+                        "skeleton '{}', edge {i} ({a}, {b}): vertex index {v} out of range \
+                         (the skeleton has {n} vertices)",
+                        s.name
+                    ));
+                }
+            }
+            let length = distance(s.vertices[a as usize].position, s.vertices[b as usize].position);
+            if length <= 1e-9 {
+                return Err(format!(
+                    "skeleton '{}', edge {i} ({a}, {b}): zero-length segment (length {length:e})",
+                    s.name
+                ));
+            }
+        }
+        Ok(Self {
+            name: s.name,
+            field: s.field,
+            end_correctors: s.end_correctors,
+            vertices: s.vertices,
+            edges: s.edges,
+        })
+    }
+}
+
+/// A skeleton vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Vertex {
+    /// Position.
+    #[serde(deserialize_with = "de_finite3")]
+    pub position: Vec3,
+    /// Prescribed radius `τ > 0`.
+    #[serde(deserialize_with = "de_radius")]
+    pub radius: f64,
+}
+
+/// A point blob.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Blob {
+    /// Centre.
+    #[serde(deserialize_with = "de_finite3")]
+    pub center: Vec3,
+    /// Prescribed radius `ρ > 0`.
+    #[serde(deserialize_with = "de_radius")]
+    pub radius: f64,
+}
+
+/// A distance-based primitive; `radius` is the distance from the solid to the surface.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Shape {
+    /// Infinite plane `normal·p = offset`; the surface is a slab of half-width `radius`.
+    Plane {
+        /// Normal (normalised on use).
+        #[serde(deserialize_with = "de_direction")]
+        normal: Vec3,
+        /// Offset along the normal.
+        #[serde(deserialize_with = "de_finite")]
+        offset: f64,
+        /// Prescribed radius.
+        #[serde(deserialize_with = "de_radius")]
+        radius: f64,
+    },
+    /// Box.
+    Box {
+        /// Centre.
+        #[serde(deserialize_with = "de_finite3")]
+        center: Vec3,
+        /// Half extents (> 0).
+        #[serde(deserialize_with = "de_positive3")]
+        half_extents: Vec3,
+        /// Rotation as XYZ Euler angles in degrees.
+        #[serde(default, deserialize_with = "de_finite3")]
+        rotation: Vec3,
+        /// Prescribed radius.
+        #[serde(deserialize_with = "de_radius")]
+        radius: f64,
+    },
+    /// Box with rounded edges.
+    RoundedBox {
+        /// Centre.
+        #[serde(deserialize_with = "de_finite3")]
+        center: Vec3,
+        /// Half extents of the outer box (> 0).
+        #[serde(deserialize_with = "de_positive3")]
+        half_extents: Vec3,
+        /// Rounding radius (≤ the smallest half extent).
+        #[serde(deserialize_with = "de_positive")]
+        rounding: f64,
+        /// Rotation as XYZ Euler angles in degrees.
+        #[serde(default, deserialize_with = "de_finite3")]
+        rotation: Vec3,
+        /// Prescribed radius.
+        #[serde(deserialize_with = "de_radius")]
+        radius: f64,
+    },
+    /// Solid torus.
+    Torus {
+        /// Centre.
+        #[serde(deserialize_with = "de_finite3")]
+        center: Vec3,
+        /// Axis of symmetry.
+        #[serde(deserialize_with = "de_direction")]
+        axis: Vec3,
+        /// Radius of the tube's centre line.
+        #[serde(deserialize_with = "de_positive")]
+        major: f64,
+        /// Tube radius.
+        #[serde(deserialize_with = "de_positive")]
+        minor: f64,
+        /// Prescribed radius.
+        #[serde(deserialize_with = "de_radius")]
+        radius: f64,
+    },
+    /// Capped solid cylinder.
+    Cylinder {
+        /// Centre.
+        #[serde(deserialize_with = "de_finite3")]
+        center: Vec3,
+        /// Axis.
+        #[serde(deserialize_with = "de_direction")]
+        axis: Vec3,
+        /// Radius of the solid cylinder.
+        #[serde(deserialize_with = "de_positive")]
+        cylinder_radius: f64,
+        /// Half height.
+        #[serde(deserialize_with = "de_positive")]
+        half_height: f64,
+        /// Prescribed radius.
+        #[serde(deserialize_with = "de_radius")]
+        radius: f64,
+    },
+}
+
+/// Surface material of a group.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    /// Base colour, linear RGB in `[0, 1]`.
+    #[serde(deserialize_with = "de_color")]
+    pub color: Vec3,
+    /// Opacity in `[0, 1]`; below 1 the group is rendered transparent.
+    #[serde(default = "one", deserialize_with = "de_unit")]
+    pub opacity: f64,
+    /// Index of refraction (≥ 1).
+    #[serde(default = "default_ior", deserialize_with = "de_ior")]
+    pub ior: f64,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            color: [0.80, 0.55, 0.45],
+            opacity: 1.0,
+            ior: 1.5,
+        }
+    }
+}
+
+/// Blend tree over groups.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Blend {
+    /// A group's field (index into `groups`).
+    Group(u32),
+    /// Sum (smooth union).
+    Sum(Vec<Blend>),
+    /// Maximum (sharp union).
+    Max(Vec<Blend>),
+    /// Minimum (intersection).
+    Min(Vec<Blend>),
+    /// First minus second: `min(f₁, 2c − f₂)`.
+    Difference(Box<Blend>, Box<Blend>),
+    /// Ricci p-blend `(Σ fᵢ^p)^(1/p)`, `p ≥ 1` (p = 1 is the sum, p → ∞ the max).
+    Ricci {
+        /// Exponent.
+        #[serde(deserialize_with = "de_ricci")]
+        p: f64,
+        /// Operands.
+        of: Vec<Blend>,
+    },
+}
+
+/// Pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Camera {
+    /// Eye position.
+    #[serde(deserialize_with = "de_finite3")]
+    pub position: Vec3,
+    /// Point looked at.
+    #[serde(deserialize_with = "de_finite3")]
+    pub target: Vec3,
+    /// Up direction.
+    #[serde(default = "default_up", deserialize_with = "de_direction")]
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in `(0, 180)`.
+    #[serde(default = "default_fov", deserialize_with = "de_fov")]
+    pub fov_degrees: f64,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            position: [0.0, 0.0, 6.0],
+            target: [0.0; 3],
+            up: default_up(),
+            fov_degrees: default_fov(),
+        }
+    }
+}
+
+/// A light source.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Light {
+    /// Light from a direction (towards the light).
+    Directional {
+        /// Direction towards the light.
+        #[serde(deserialize_with = "de_direction")]
+        direction: Vec3,
+        /// Colour in `[0, 1]`.
+        #[serde(deserialize_with = "de_color")]
+        color: Vec3,
+        /// Intensity (≥ 0).
+        #[serde(deserialize_with = "de_nonnegative")]
+        intensity: f64,
+    },
+    /// Point light.
+    Point {
+        /// Position.
+        #[serde(deserialize_with = "de_finite3")]
+        position: Vec3,
+        /// Colour in `[0, 1]`.
+        #[serde(deserialize_with = "de_color")]
+        color: Vec3,
+        /// Intensity (≥ 0).
+        #[serde(deserialize_with = "de_nonnegative")]
+        intensity: f64,
+    },
+}
+
+fn default_isovalue() -> f64 {
+    1.0
+}
+fn one() -> f64 {
+    1.0
+}
+fn default_ior() -> f64 {
+    1.5
+}
+fn default_up() -> Vec3 {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    40.0
+}
+/// A key light and a dimmer fill light.
+fn default_lights() -> Vec<Light> {
+    vec![
+        Light::Directional {
+            direction: [0.5, 0.8, 0.6],
+            color: [1.0, 1.0, 1.0],
+            intensity: 1.0,
+        },
+        Light::Directional {
+            direction: [-0.6, 0.2, -0.4],
+            color: [0.6, 0.7, 1.0],
+            intensity: 0.35,
+        },
+    ]
+}
+
+fn distance(a: Vec3, b: Vec3) -> f64 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+fn checked<'de, D: Deserializer<'de>>(
+    d: D,
+    ok: impl Fn(f64) -> bool,
+    what: &str,
+) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if ok(v) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("{what}, got {v}")))
+    }
+}
+
+fn checked3<'de, D: Deserializer<'de>>(
+    d: D,
+    ok: impl Fn(f64) -> bool,
+    what: &str,
+) -> Result<Vec3, D::Error> {
+    let v = Vec3::deserialize(d)?;
+    if v.iter().all(|&x| ok(x)) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "{what}, got ({}, {}, {})",
+            v[0], v[1], v[2]
+        )))
+    }
+}
+
+fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    let v = u32::deserialize(d)?;
+    if v == SCENE_VERSION {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "scene version {v} is not supported: this build reads version {SCENE_VERSION}"
+        )))
+    }
+}
+fn de_finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, f64::is_finite, "expected a finite number")
+}
+fn de_positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| v.is_finite() && v > 0.0, "expected a finite number > 0")
+}
+fn de_nonnegative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| v.is_finite() && v >= 0.0, "expected a finite number ≥ 0")
+}
+fn de_radius<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| v.is_finite() && v > 0.0, "radius must be finite and > 0")
+}
+fn de_unit<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| (0.0..=1.0).contains(&v), "expected a number in [0, 1]")
+}
+fn de_ior<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| v.is_finite() && v >= 1.0, "index of refraction must be finite and ≥ 1")
+}
+fn de_ricci<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| v.is_finite() && v >= 1.0, "Ricci exponent p must be finite and ≥ 1")
+}
+fn de_fov<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    checked(d, |v| v > 0.0 && v < 180.0, "field of view must be in (0, 180) degrees")
+}
+fn de_finite3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    checked3(d, f64::is_finite, "expected three finite numbers")
+}
+fn de_positive3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    checked3(d, |v| v.is_finite() && v > 0.0, "expected three finite numbers > 0")
+}
+fn de_color<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    checked3(d, |v| (0.0..=1.0).contains(&v), "colour components must be in [0, 1]")
+}
+fn de_direction<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    let v = de_finite3(d)?;
+    if v.iter().any(|&x| x != 0.0) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom("a direction must not be (0, 0, 0)"))
+    }
+}
+
+impl Scene {
+    /// Parses and validates a scene; `file` names the source in error messages.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] with the position, item and value of the first problem.
+    pub fn from_ron(text: &str, file: &str) -> Result<Self, SceneError> {
+        let scene: Self = ron::Options::default().from_str(text).map_err(|e| {
+            SceneError::Invalid {
+                file: file.to_owned(),
+                line: e.span.start.line,
+                column: e.span.start.col,
+                message: e.code.to_string(),
+            }
+        })?;
+        scene.validate_blend().map_err(|message| {
+            let (line, column) = position_of(text, "blend");
+            SceneError::Invalid {
+                file: file.to_owned(),
+                line,
+                column,
+                message,
+            }
+        })?;
+        Ok(scene)
+    }
+
+    /// Reads and validates a scene file.
+    ///
+    /// # Errors
+    /// [`SceneError::Read`] when the file cannot be read, [`SceneError::Invalid`] otherwise.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            file: file.clone(),
+            source,
+        })?;
+        Self::from_ron(&text, &file)
+    }
+
+    /// The scene as RON text.
+    #[must_use]
+    pub fn to_ron(&self) -> String {
+        let config = ron::ser::PrettyConfig::new()
+            .depth_limit(6)
+            .indentor("  ".to_owned())
+            .separate_tuple_members(false);
+        let mut text = ron::ser::to_string_pretty(self, config)
+            .unwrap_or_else(|e| format!("// serialisation failed: {e}"));
+        text.push('\n');
+        text
+    }
+
+    /// Writes the scene atomically: a temporary file next to the target, flushed to disk, then
+    /// renamed over it. A crash leaves either the old or the new file, never a partial one.
+    ///
+    /// # Errors
+    /// [`SceneError::Write`] when the file cannot be written or renamed.
+    pub fn save(&self, path: &Path) -> Result<(), SceneError> {
+        let file = path.display().to_string();
+        let fail = |source| SceneError::Write {
+            file: file.clone(),
+            source,
+        };
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path
+            .file_name()
+            .map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
+        let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        let result = (|| {
+            let mut f = std::fs::File::create(&temp)?;
+            f.write_all(self.to_ron().as_bytes())?;
+            f.sync_all()?;
+            std::fs::rename(&temp, path)
+        })();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&temp);
+        }
+        result.map_err(fail)
+    }
+
+    /// Checks the blend tree: group indices in range, operators with operands.
+    fn validate_blend(&self) -> Result<(), String> {
+        fn walk(b: &Blend, groups: usize, path: &mut String) -> Result<(), String> {
+            match b {
+                Blend::Group(i) => {
+                    if *i as usize >= groups {
+                        return Err(format!(
+                            "blend {path}: Group({i}) does not exist (the scene has {groups} groups)"
+                        ));
+                    }
+                }
+                Blend::Sum(v) | Blend::Max(v) | Blend::Min(v) | Blend::Ricci { of: v, .. } => {
+                    if v.is_empty() {
+                        return Err(format!("blend {path}: an operator needs at least one operand"));
+                    }
+                    for (i, c) in v.iter().enumerate() {
+                        let len = path.len();
+                        let _ = write!(path, "[{i}]");
+                        walk(c, groups, path)?;
+                        path.truncate(len);
+                    }
+                }
+                Blend::Difference(a, b) => {
+                    for (i, c) in [a, b].into_iter().enumerate() {
+                        let len = path.len();
+                        let _ = write!(path, "[{i}]");
+                        walk(c, groups, path)?;
+                        path.truncate(len);
+                    }
+                }
+            }
+            Ok(())
+        }
+        if self.groups.is_empty() {
+            return Err("the scene has no groups".to_owned());
+        }
+        match &self.blend {
+            Some(b) => walk(b, self.groups.len(), &mut "root".to_owned()),
+            None => Ok(()),
+        }
+    }
+
+    /// Number of skeleton vertices, segments, blobs and shapes.
+    #[must_use]
+    pub fn counts(&self) -> SceneCounts {
+        let mut c = SceneCounts {
+            groups: self.groups.len(),
+            ..SceneCounts::default()
+        };
+        for g in &self.groups {
+            c.skeletons += g.skeletons.len();
+            c.vertices += g.skeletons.iter().map(|s| s.vertices.len()).sum::<usize>();
+            c.segments += g.skeletons.iter().map(|s| s.edges.len()).sum::<usize>();
+            c.blobs += g.blobs.len();
+            c.shapes += g.shapes.len();
+        }
+        c
+    }
+}
+
+/// Item counts of a scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneCounts {
+    /// Groups.
+    pub groups: usize,
+    /// Skeletons.
+    pub skeletons: usize,
+    /// Skeleton vertices.
+    pub vertices: usize,
+    /// Skeleton segments.
+    pub segments: usize,
+    /// Point blobs.
+    pub blobs: usize,
+    /// Distance-based shapes.
+    pub shapes: usize,
+}
+
+/// 1-based line and column of the first occurrence of `key` followed by `:`, or of the end
+/// of the text.
+fn position_of(text: &str, key: &str) -> (usize, usize) {
+    for (i, line) in text.lines().enumerate() {
+        if let Some(col) = line.find(key)
+            && line[col + key.len()..].trim_start().starts_with(':')
+        {
+            return (i + 1, col + 1);
+        }
+    }
+    (text.lines().count().max(1), 1)
+}

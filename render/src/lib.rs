@@ -1,0 +1,1 @@
+//! skeletrace-render: the wgpu backend (built in the GPU issue).

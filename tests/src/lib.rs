@@ -1,0 +1,1 @@
+//! Cross-crate tests of skeletrace; the tests themselves live in `tests/tests/`.
