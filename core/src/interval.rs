@@ -319,6 +319,22 @@ impl Jet {
         Self { value: r, d1, d2 }
     }
 
+    /// Jet of `√f` valid where `√f ≥ floor > 0`: `f` is clamped below at `floor²`. Use it only
+    /// where the result feeds `max(√f − floor′, 0)` with `floor′ ≥ floor`, which is 0 wherever the
+    /// clamp changed anything, so the enclosure stays valid and the derivative stays finite.
+    #[must_use]
+    pub fn sqrt_above(self, floor: f64) -> Self {
+        let f2 = floor * floor;
+        Self {
+            value: Interval {
+                lo: self.value.lo.max(f2),
+                hi: self.value.hi.max(f2),
+            },
+            ..self
+        }
+        .sqrt()
+    }
+
     /// Jet of `f^q` for `f ≥ 0`.
     #[must_use]
     pub fn powf(self, q: f64) -> Self {
@@ -363,7 +379,8 @@ impl Jet {
     /// Jet of `max(f, 0)²`, a C¹ function of `f` (distance to a solid, squared).
     #[must_use]
     pub fn positive_part_squared(self) -> Self {
-        if self.value.lo >= 0.0 {
+        // `lo == 0` may come from a clamp (see `sqrt_above`): treat it as straddling 0.
+        if self.value.lo > 0.0 {
             self.square()
         } else if self.value.hi <= 0.0 {
             Self::ZERO

@@ -227,14 +227,23 @@ impl ShapePrimitive {
             (coord(i) - Jet::constant(e)).positive_part_squared()
                 + (Jet::constant(-e) - coord(i)).positive_part_squared()
         };
+        // Distance to the local y axis: 1-Lipschitz along any line (|ρ′| ≤ |u_xz|) and convex
+        // (ρ″ ≥ 0), which keeps its jet finite where the ray passes through the axis.
+        let radial_sq = Jet::quadratic(
+            u.x * u.x + u.z * u.z,
+            2.0 * (o.x * u.x + o.z * u.z),
+            o.x * o.x + o.z * o.z,
+            span,
+        );
         let radial = || {
-            Jet::quadratic(
-                u.x * u.x + u.z * u.z,
-                2.0 * (o.x * u.x + o.z * u.z),
-                o.x * o.x + o.z * o.z,
-                span,
-            )
-            .sqrt()
+            let lateral = u.x.hypot(u.z);
+            let mut rho = radial_sq.sqrt();
+            rho.d1 = rho
+                .d1
+                .intersect(Interval::new(-lateral, lateral))
+                .unwrap_or(Interval::new(-lateral, lateral));
+            rho.d2.lo = rho.d2.lo.max(0.0);
+            rho
         };
         match self.solid {
             Solid::Plane { normal, offset } => {
@@ -251,18 +260,18 @@ impl ShapePrimitive {
                 let inner = (0..3)
                     .map(|i| slab_excess_sq(i, half_extents[i] - rounding))
                     .fold(Jet::ZERO, |a, b| a + b);
-                (inner.sqrt() - Jet::constant(rounding)).positive_part_squared()
+                (inner.sqrt_above(rounding) - Jet::constant(rounding)).positive_part_squared()
             }
             Solid::Torus { major, minor } => {
                 let a = radial() - Jet::constant(major);
-                let tube = (a.square() + coord(1).square()).sqrt();
+                let tube = (a.square() + coord(1).square()).sqrt_above(minor);
                 (tube - Jet::constant(minor)).positive_part_squared()
             }
             Solid::Cylinder {
                 radius,
                 half_height,
             } => {
-                (radial() - Jet::constant(radius)).positive_part_squared()
+                (radial_sq.sqrt_above(radius) - Jet::constant(radius)).positive_part_squared()
                     + slab_excess_sq(1, half_height)
             }
         }

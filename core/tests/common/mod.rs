@@ -1,0 +1,165 @@
+//! Random scenes of one primitive type and kernel for the accuracy and bound tests.
+#![allow(dead_code, missing_docs)]
+
+use skeletrace_core::kernel::{Kernel, KernelProfile};
+use skeletrace_core::rng::SplitMix64;
+use skeletrace_core::scene::{
+    Blend, Blob, Camera, Group, Material, Scene, Shape, Skeleton, SkeletonField, Vertex,
+};
+
+/// Primitive types exercised by the tests.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Point,
+    DistanceSegment,
+    ScalisSegment,
+    Plane,
+    Box,
+    RoundedBox,
+    Torus,
+    Cylinder,
+}
+
+pub const KINDS: [Kind; 8] = [
+    Kind::Point,
+    Kind::DistanceSegment,
+    Kind::ScalisSegment,
+    Kind::Plane,
+    Kind::Box,
+    Kind::RoundedBox,
+    Kind::Torus,
+    Kind::Cylinder,
+];
+
+pub const KERNELS: [Kernel; 5] = [
+    Kernel::CompactPolynomial {
+        degree: 6,
+        scale: 2.0,
+    },
+    Kernel::CompactPolynomial {
+        degree: 4,
+        scale: 3.0,
+    },
+    Kernel::CompactPolynomial {
+        degree: 2,
+        scale: 1.5,
+    },
+    Kernel::Cauchy {
+        degree: 3,
+        scale: 1.0,
+    },
+    Kernel::Gaussian { scale: 1.0 },
+];
+
+pub fn point(rng: &mut SplitMix64, scale: f64) -> [f64; 3] {
+    [
+        rng.range(-scale, scale),
+        rng.range(-scale, scale),
+        rng.range(-scale, scale),
+    ]
+}
+
+/// A segment whose radius ratio goes up to 10 within the kernel's slope limit.
+pub fn segment(rng: &mut SplitMix64, kernel: Kernel) -> [Vertex; 2] {
+    let support = KernelProfile::new(kernel).support_radius();
+    let r0 = rng.range(0.05, 0.5);
+    let ratio = (10.0_f64).powf(rng.unit());
+    let r1 = r0 * ratio;
+    let min_length = (r1 - r0) * support * 1.05;
+    let length = min_length.max(0.2) * rng.range(1.0, 3.0);
+    let a = point(rng, 0.5);
+    let d = rng.direction();
+    let b = [a[0] + length * d[0], a[1] + length * d[1], a[2] + length * d[2]];
+    let (ra, rb) = if rng.unit() < 0.5 { (r0, r1) } else { (r1, r0) };
+    [
+        Vertex {
+            position: a,
+            radius: ra,
+        },
+        Vertex {
+            position: b,
+            radius: rb,
+        },
+    ]
+}
+
+pub fn group(kernel: Kernel) -> Group {
+    Group {
+        name: String::new(),
+        kernel,
+        material: Material::default(),
+        skeletons: Vec::new(),
+        blobs: Vec::new(),
+        shapes: Vec::new(),
+    }
+}
+
+/// Adds one random primitive of `kind` to `g`.
+pub fn add_primitive(g: &mut Group, kind: Kind, rng: &mut SplitMix64) {
+    let kernel = g.kernel;
+    let radius = rng.range(0.1, 0.6);
+    let center = point(rng, 0.5);
+    let rotation = [
+        rng.range(-180.0, 180.0),
+        rng.range(-180.0, 180.0),
+        rng.range(-180.0, 180.0),
+    ];
+    let half = [rng.range(0.1, 1.0), rng.range(0.1, 1.0), rng.range(0.1, 1.0)];
+    match kind {
+        Kind::Point => g.blobs.push(Blob { center, radius }),
+        Kind::DistanceSegment | Kind::ScalisSegment => g.skeletons.push(Skeleton {
+            name: String::new(),
+            field: if kind == Kind::ScalisSegment {
+                SkeletonField::Scalis
+            } else {
+                SkeletonField::Distance
+            },
+            end_correctors: false,
+            vertices: segment(rng, kernel).to_vec(),
+            edges: vec![[0, 1]],
+        }),
+        Kind::Plane => g.shapes.push(Shape::Plane {
+            normal: rng.direction(),
+            offset: rng.range(-0.5, 0.5),
+            radius,
+        }),
+        Kind::Box => g.shapes.push(Shape::Box {
+            center,
+            half_extents: half,
+            rotation,
+            radius,
+        }),
+        Kind::RoundedBox => g.shapes.push(Shape::RoundedBox {
+            center,
+            half_extents: half,
+            rounding: rng.range(0.0, 1.0) * half.iter().copied().fold(f64::INFINITY, f64::min),
+            rotation,
+            radius,
+        }),
+        Kind::Torus => g.shapes.push(Shape::Torus {
+            center,
+            axis: rng.direction(),
+            major: rng.range(0.4, 1.2),
+            minor: rng.range(0.05, 0.4),
+            radius,
+        }),
+        Kind::Cylinder => g.shapes.push(Shape::Cylinder {
+            center,
+            axis: rng.direction(),
+            cylinder_radius: rng.range(0.1, 0.6),
+            half_height: rng.range(0.1, 1.0),
+            radius,
+        }),
+    }
+}
+
+pub fn scene(groups: Vec<Group>, blend: Option<Blend>) -> Scene {
+    Scene {
+        version: 1,
+        isovalue: 1.0,
+        groups,
+        blend,
+        camera: Camera::default(),
+        lights: Vec::new(),
+    }
+}

@@ -1,0 +1,178 @@
+//! Every ray bound of the field engine holds on random samples: value, first derivative and
+//! the second-derivative (Taylor remainder) enclosures of `FieldProgram::ray_jet`, for every
+//! primitive type and kernel, and composed through every blend operator.
+
+mod common;
+
+use common::{KERNELS, KINDS, Kind, add_primitive, group, scene};
+use glam::DVec3;
+use rayon::prelude::*;
+use skeletrace_core::kernel::Kernel;
+use skeletrace_core::rng::SplitMix64;
+use skeletrace_core::scene::Blend;
+use skeletrace_core::{FieldProgram, Interval, Ray};
+
+const SAMPLES_PER_COMBINATION: usize = 100_000;
+
+/// A random ray aimed near the origin and a random interval on it.
+fn random_query(rng: &mut SplitMix64) -> (Ray, Interval) {
+    let target = DVec3::from_array(common::point(rng, 0.6));
+    let dir = DVec3::from_array(rng.direction());
+    let distance = 4.0;
+    let ray = Ray::new(target - distance * dir, dir);
+    let width = 10f64.powf(rng.range(-3.0, 0.6));
+    let t0 = distance + rng.range(-1.2, 1.2) - 0.5 * width;
+    (ray, Interval::new(t0, t0 + width))
+}
+
+/// Checks one query; returns a description of the first violation.
+fn check(program: &FieldProgram, ray: &Ray, span: Interval, rng: &mut SplitMix64, tol: f64) -> Result<(), String> {
+    let jet = program.ray_jet(ray, span);
+    let mut ts = vec![span.lo, span.hi];
+    ts.extend((0..4).map(|_| rng.range(span.lo, span.hi)));
+    let samples: Vec<(f64, f64, f64)> = ts
+        .iter()
+        .map(|&t| {
+            let (f, d) = program.along_ray(ray, t);
+            (t, f, d)
+        })
+        .collect();
+    let slack = |x: f64| tol * (1.0 + x.abs());
+    for &(t, f, d) in &samples {
+        if f < jet.value.lo - slack(f) || f > jet.value.hi + slack(f) {
+            return Err(format!("value {f} at t = {t} outside {:?}", jet.value));
+        }
+        if d < jet.d1.lo - slack(d) || d > jet.d1.hi + slack(d) {
+            return Err(format!("f′ = {d} at t = {t} outside {:?}", jet.d1));
+        }
+    }
+    for &(ta, fa, da) in &samples {
+        for &(tb, fb, _) in &samples {
+            let h = tb - ta;
+            if h == 0.0 {
+                continue;
+            }
+            let remainder = fb - fa - da * h;
+            let (lo, hi) = (0.5 * jet.d2.lo * h * h, 0.5 * jet.d2.hi * h * h);
+            let s = tol * (1.0 + fa.abs() + fb.abs() + (da * h).abs());
+            if remainder < lo - s || remainder > hi + s {
+                return Err(format!(
+                    "Taylor remainder {remainder} from t = {ta} to {tb} outside ½·{:?}·h²",
+                    jet.d2
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_combination(kind: Kind, kernel: Kernel) {
+    let violations: Vec<String> = (0..SAMPLES_PER_COMBINATION / 100)
+        .into_par_iter()
+        .flat_map_iter(|batch| {
+            let mut rng = SplitMix64::new(batch as u64 * 7919 + kind as u64 * 31);
+            let mut g = group(kernel);
+            add_primitive(&mut g, kind, &mut rng);
+            let program = FieldProgram::new(&scene(vec![g], None));
+            (0..100).filter_map(move |_| {
+                let (ray, span) = random_query(&mut rng);
+                check(&program, &ray, span, &mut rng, 1e-8)
+                    .err()
+                    .map(|e| format!("{kind:?} {kernel:?} ray {ray:?} span {span:?}: {e}"))
+            })
+        })
+        .collect();
+    assert!(
+        violations.is_empty(),
+        "{} violations, first: {}",
+        violations.len(),
+        violations[0]
+    );
+}
+
+macro_rules! bound_tests {
+    ($($name:ident: $kind:expr;)*) => {$(
+        #[test]
+        fn $name() {
+            for kernel in KERNELS {
+                check_combination($kind, kernel);
+            }
+        }
+    )*};
+}
+
+bound_tests! {
+    point_blob_bounds_hold: Kind::Point;
+    distance_segment_bounds_hold: Kind::DistanceSegment;
+    scalis_segment_bounds_hold: Kind::ScalisSegment;
+    plane_bounds_hold: Kind::Plane;
+    box_bounds_hold: Kind::Box;
+    rounded_box_bounds_hold: Kind::RoundedBox;
+    torus_bounds_hold: Kind::Torus;
+    cylinder_bounds_hold: Kind::Cylinder;
+}
+
+#[test]
+fn bounds_hold_through_every_blend_operator() {
+    let operators = |a: Blend, b: Blend| {
+        vec![
+            Blend::Sum(vec![a.clone(), b.clone()]),
+            Blend::Max(vec![a.clone(), b.clone()]),
+            Blend::Min(vec![a.clone(), b.clone()]),
+            Blend::Difference(Box::new(a.clone()), Box::new(b.clone())),
+            Blend::Ricci {
+                p: 2.5,
+                of: vec![a, b],
+            },
+        ]
+    };
+    for (i, blend) in operators(Blend::Group(0), Blend::Group(1)).into_iter().enumerate() {
+        let failures: Vec<String> = (0..200)
+            .into_par_iter()
+            .flat_map_iter(|batch| {
+                let mut rng = SplitMix64::new(batch as u64 + 1000 * i as u64);
+                let mut groups = vec![group(KERNELS[0]), group(KERNELS[3])];
+                for g in &mut groups {
+                    for _ in 0..3 {
+                        let kind = KINDS[rng.below(KINDS.len())];
+                        add_primitive(g, kind, &mut rng);
+                    }
+                }
+                let program = FieldProgram::new(&scene(groups, Some(blend.clone())));
+                (0..100).filter_map(move |_| {
+                    let (ray, span) = random_query(&mut rng);
+                    check(&program, &ray, span, &mut rng, 1e-8).err()
+                })
+            })
+            .collect();
+        assert!(failures.is_empty(), "{blend:?}: {} violations, first: {}", failures.len(), failures[0]);
+    }
+}
+
+#[test]
+fn samples_exercise_finite_nontrivial_bounds() {
+    for kind in KINDS {
+        for kernel in KERNELS {
+            let mut rng = SplitMix64::new(99);
+            let (mut nonzero, mut finite_d1, mut finite_d2, mut total) = (0, 0, 0, 0);
+            for _ in 0..50 {
+                let mut g = group(kernel);
+                add_primitive(&mut g, kind, &mut rng);
+                let program = FieldProgram::new(&scene(vec![g], None));
+                for _ in 0..20 {
+                    let (ray, span) = random_query(&mut rng);
+                    let jet = program.ray_jet(&ray, span);
+                    total += 1;
+                    if jet.value.hi > 0.0 {
+                        nonzero += 1;
+                        finite_d1 += usize::from(jet.d1.magnitude().is_finite());
+                        finite_d2 += usize::from(jet.d2.lo.is_finite());
+                    }
+                }
+            }
+            eprintln!("{kind:?} {kernel:?}: {nonzero}/{total} touch the support, finite f′ {finite_d1}, finite f″ lower {finite_d2}");
+            assert!(nonzero * 7 > total, "{kind:?} {kernel:?}: only {nonzero}/{total} queries touch the support");
+            assert!(finite_d1 * 10 > nonzero * 9, "{kind:?} {kernel:?}: f′ bounds unbounded too often");
+        }
+    }
+}
