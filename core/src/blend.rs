@@ -24,7 +24,11 @@ pub fn value_gradient(b: &Blend, groups: &[(f64, DVec3)], isovalue: f64) -> (f64
             let (fa, ga) = value_gradient(a, groups, isovalue);
             let (fb, gb) = value_gradient(b, groups, isovalue);
             let complement = 2.0 * isovalue - fb;
-            if fa <= complement { (fa, ga) } else { (complement, -gb) }
+            if fa <= complement {
+                (fa, ga)
+            } else {
+                (complement, -gb)
+            }
         }
         Blend::Ricci { p, of } => {
             let parts: Vec<(f64, DVec3)> = of
@@ -39,9 +43,9 @@ pub fn value_gradient(b: &Blend, groups: &[(f64, DVec3)], isovalue: f64) -> (f64
                 return (0.0, DVec3::ZERO);
             }
             let value = s.powf(1.0 / p);
-            let grad = parts
-                .iter()
-                .fold(DVec3::ZERO, |acc, (f, g)| acc + (f / value).powf(p - 1.0) * *g);
+            let grad = parts.iter().fold(DVec3::ZERO, |acc, (f, g)| {
+                acc + (f / value).powf(p - 1.0) * *g
+            });
             (value, grad)
         }
     }

@@ -129,11 +129,7 @@ pub fn quadratic_roots(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
         return None;
     }
     let q = -0.5 * (b + b.signum() * disc.sqrt());
-    let (r1, r2) = if q == 0.0 {
-        (0.0, 0.0)
-    } else {
-        (q / a, c / q)
-    };
+    let (r1, r2) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
     Some((r1.min(r2), r1.max(r2)))
 }
 
@@ -304,7 +300,9 @@ mod tests {
         };
         let mut state = 12345_u64;
         let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
         for _ in 0..200 {
@@ -317,7 +315,8 @@ mod tests {
                 let claimed = interval.is_some_and(|i| i.contains(t));
                 if claimed != inside(p) {
                     // Allow disagreement only within sampling resolution of the boundary.
-                    let near = interval.is_some_and(|i| (t - i.lo).abs() < 2e-3 || (t - i.hi).abs() < 2e-3);
+                    let near = interval
+                        .is_some_and(|i| (t - i.lo).abs() < 2e-3 || (t - i.hi).abs() < 2e-3);
                     assert!(near, "t = {t}, claimed {claimed}, interval {interval:?}");
                 }
             }

@@ -86,10 +86,9 @@ impl FieldProgram {
             }
             kernels.push(k);
         }
-        let blend = scene
-            .blend
-            .clone()
-            .unwrap_or_else(|| Blend::Sum((0..scene.groups.len() as u32).map(Blend::Group).collect()));
+        let blend = scene.blend.clone().unwrap_or_else(|| {
+            Blend::Sum((0..scene.groups.len() as u32).map(Blend::Group).collect())
+        });
         let mut boxes = Vec::with_capacity(primitives.len());
         let mut unbounded = Vec::new();
         for (i, p) in primitives.iter().enumerate() {
@@ -246,7 +245,11 @@ fn skeleton_primitives(
     let position = |i: u32| v3(skeleton.vertices[i as usize].position);
     let radius = |i: u32| skeleton.vertices[i as usize].radius;
     let cone = |a: DVec3, ra: f64, b: DVec3, rb: f64| {
-        let (start, r0, end, r1) = if ra <= rb { (a, ra, b, rb) } else { (b, rb, a, ra) };
+        let (start, r0, end, r1) = if ra <= rb {
+            (a, ra, b, rb)
+        } else {
+            (b, rb, a, ra)
+        };
         let length = (end - start).length();
         SphereCone {
             start,

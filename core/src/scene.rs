@@ -124,7 +124,10 @@ impl TryFrom<GroupFile> for Group {
         let support = KernelProfile::new(g.kernel).support_radius();
         for (si, skeleton) in g.skeletons.iter().enumerate() {
             for (ei, &[a, b]) in skeleton.edges.iter().enumerate() {
-                let (va, vb) = (&skeleton.vertices[a as usize], &skeleton.vertices[b as usize]);
+                let (va, vb) = (
+                    &skeleton.vertices[a as usize],
+                    &skeleton.vertices[b as usize],
+                );
                 let length = distance(va.position, vb.position);
                 let slope = (va.radius - vb.radius).abs() / length;
                 if slope * support >= 1.0 {
@@ -221,7 +224,10 @@ impl TryFrom<SkeletonFile> for Skeleton {
                     ));
                 }
             }
-            let length = distance(s.vertices[a as usize].position, s.vertices[b as usize].position);
+            let length = distance(
+                s.vertices[a as usize].position,
+                s.vertices[b as usize].position,
+            );
             if length <= 1e-9 {
                 return Err(format!(
                     "skeleton '{}', edge {i} ({a}, {b}): zero-length segment (length {length:e})",
@@ -466,20 +472,8 @@ fn default_up() -> Vec3 {
 fn default_fov() -> f64 {
     40.0
 }
-/// A key light and a dimmer fill light.
 fn default_lights() -> Vec<Light> {
-    vec![
-        Light::Directional {
-            direction: [0.5, 0.8, 0.6],
-            color: [1.0, 1.0, 1.0],
-            intensity: 1.0,
-        },
-        Light::Directional {
-            direction: [-0.6, 0.2, -0.4],
-            color: [0.6, 0.7, 1.0],
-            intensity: 0.35,
-        },
-    ]
+    Scene::default_lights()
 }
 
 fn distance(a: Vec3, b: Vec3) -> f64 {
@@ -530,34 +524,70 @@ fn de_finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     checked(d, f64::is_finite, "expected a finite number")
 }
 fn de_positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| v.is_finite() && v > 0.0, "expected a finite number > 0")
+    checked(
+        d,
+        |v| v.is_finite() && v > 0.0,
+        "expected a finite number > 0",
+    )
 }
 fn de_nonnegative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| v.is_finite() && v >= 0.0, "expected a finite number ≥ 0")
+    checked(
+        d,
+        |v| v.is_finite() && v >= 0.0,
+        "expected a finite number ≥ 0",
+    )
 }
 fn de_radius<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| v.is_finite() && v > 0.0, "radius must be finite and > 0")
+    checked(
+        d,
+        |v| v.is_finite() && v > 0.0,
+        "radius must be finite and > 0",
+    )
 }
 fn de_unit<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| (0.0..=1.0).contains(&v), "expected a number in [0, 1]")
+    checked(
+        d,
+        |v| (0.0..=1.0).contains(&v),
+        "expected a number in [0, 1]",
+    )
 }
 fn de_ior<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| v.is_finite() && v >= 1.0, "index of refraction must be finite and ≥ 1")
+    checked(
+        d,
+        |v| v.is_finite() && v >= 1.0,
+        "index of refraction must be finite and ≥ 1",
+    )
 }
 fn de_ricci<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| v.is_finite() && v >= 1.0, "Ricci exponent p must be finite and ≥ 1")
+    checked(
+        d,
+        |v| v.is_finite() && v >= 1.0,
+        "Ricci exponent p must be finite and ≥ 1",
+    )
 }
 fn de_fov<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    checked(d, |v| v > 0.0 && v < 180.0, "field of view must be in (0, 180) degrees")
+    checked(
+        d,
+        |v| v > 0.0 && v < 180.0,
+        "field of view must be in (0, 180) degrees",
+    )
 }
 fn de_finite3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
     checked3(d, f64::is_finite, "expected three finite numbers")
 }
 fn de_positive3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
-    checked3(d, |v| v.is_finite() && v > 0.0, "expected three finite numbers > 0")
+    checked3(
+        d,
+        |v| v.is_finite() && v > 0.0,
+        "expected three finite numbers > 0",
+    )
 }
 fn de_color<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
-    checked3(d, |v| (0.0..=1.0).contains(&v), "colour components must be in [0, 1]")
+    checked3(
+        d,
+        |v| (0.0..=1.0).contains(&v),
+        "colour components must be in [0, 1]",
+    )
 }
 fn de_direction<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
     let v = de_finite3(d)?;
@@ -574,14 +604,15 @@ impl Scene {
     /// # Errors
     /// [`SceneError::Invalid`] with the position, item and value of the first problem.
     pub fn from_ron(text: &str, file: &str) -> Result<Self, SceneError> {
-        let scene: Self = ron::Options::default().from_str(text).map_err(|e| {
-            SceneError::Invalid {
-                file: file.to_owned(),
-                line: e.span.start.line,
-                column: e.span.start.col,
-                message: e.code.to_string(),
-            }
-        })?;
+        let scene: Self =
+            ron::Options::default()
+                .from_str(text)
+                .map_err(|e| SceneError::Invalid {
+                    file: file.to_owned(),
+                    line: e.span.start.line,
+                    column: e.span.start.col,
+                    message: e.code.to_string(),
+                })?;
         scene.validate_blend().map_err(|message| {
             let (line, column) = position_of(text, "blend");
             SceneError::Invalid {
@@ -626,6 +657,15 @@ impl Scene {
     /// # Errors
     /// [`SceneError::Write`] when the file cannot be written or renamed.
     pub fn save(&self, path: &Path) -> Result<(), SceneError> {
+        self.save_with_comment(path, "")
+    }
+
+    /// Like [`Scene::save`], with `comment` written first as `//` lines (what the file shows,
+    /// how it was made).
+    ///
+    /// # Errors
+    /// [`SceneError::Write`] when the file cannot be written or renamed.
+    pub fn save_with_comment(&self, path: &Path, comment: &str) -> Result<(), SceneError> {
         let file = path.display().to_string();
         let fail = |source| SceneError::Write {
             file: file.clone(),
@@ -641,6 +681,9 @@ impl Scene {
         let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
         let result = (|| {
             let mut f = std::fs::File::create(&temp)?;
+            for line in comment.lines() {
+                writeln!(f, "// {line}")?;
+            }
             f.write_all(self.to_ron().as_bytes())?;
             f.sync_all()?;
             std::fs::rename(&temp, path)
@@ -664,7 +707,9 @@ impl Scene {
                 }
                 Blend::Sum(v) | Blend::Max(v) | Blend::Min(v) | Blend::Ricci { of: v, .. } => {
                     if v.is_empty() {
-                        return Err(format!("blend {path}: an operator needs at least one operand"));
+                        return Err(format!(
+                            "blend {path}: an operator needs at least one operand"
+                        ));
                     }
                     for (i, c) in v.iter().enumerate() {
                         let len = path.len();
@@ -691,6 +736,23 @@ impl Scene {
             Some(b) => walk(b, self.groups.len(), &mut "root".to_owned()),
             None => Ok(()),
         }
+    }
+
+    /// A key light and a dimmer, cooler fill light.
+    #[must_use]
+    pub fn default_lights() -> Vec<Light> {
+        vec![
+            Light::Directional {
+                direction: [0.5, 0.8, 0.6],
+                color: [1.0, 1.0, 1.0],
+                intensity: 1.0,
+            },
+            Light::Directional {
+                direction: [-0.6, 0.2, -0.4],
+                color: [0.6, 0.7, 1.0],
+                intensity: 0.35,
+            },
+        ]
     }
 
     /// Number of skeleton vertices, segments, blobs and shapes.

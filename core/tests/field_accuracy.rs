@@ -79,7 +79,10 @@ fn adaptive(f: &dyn Fn(f64) -> f64, a: f64, b: f64, tol: f64, depth: u32) -> f64
 
 /// SCALIS field of one segment by adaptive quadrature, normalised independently.
 fn reference_scalis(kernel: Kernel, v: &[Vertex; 2], p: DVec3) -> f64 {
-    let (a, b) = (DVec3::from_array(v[0].position), DVec3::from_array(v[1].position));
+    let (a, b) = (
+        DVec3::from_array(v[0].position),
+        DVec3::from_array(v[1].position),
+    );
     let length = (b - a).length();
     let integrand = |s: f64| {
         let q = a + (b - a) * (s / length);
@@ -93,7 +96,10 @@ fn reference_scalis(kernel: Kernel, v: &[Vertex; 2], p: DVec3) -> f64 {
     let panels = 256;
     norm * (0..panels)
         .map(|i| {
-            let (s0, s1) = (length * f64::from(i) / f64::from(panels), length * f64::from(i + 1) / f64::from(panels));
+            let (s0, s1) = (
+                length * f64::from(i) / f64::from(panels),
+                length * f64::from(i + 1) / f64::from(panels),
+            );
             adaptive(&integrand, s0, s1, 1e-15, 0)
         })
         .sum::<f64>()
@@ -117,20 +123,31 @@ fn scalis_values_match_adaptive_quadrature_to_one_part_per_million() {
             });
             let program = FieldProgram::new(&scene(vec![g], None));
             for _ in 0..10 {
-                let (a, b) = (DVec3::from_array(seg[0].position), DVec3::from_array(seg[1].position));
+                let (a, b) = (
+                    DVec3::from_array(seg[0].position),
+                    DVec3::from_array(seg[1].position),
+                );
                 let along = a.lerp(b, rng.range(-0.3, 1.3));
-                let offset = DVec3::from_array(rng.direction()) * rng.range(0.0, 2.0) * seg[0].radius.max(seg[1].radius);
+                let offset = DVec3::from_array(rng.direction())
+                    * rng.range(0.0, 2.0)
+                    * seg[0].radius.max(seg[1].radius);
                 let p = along + offset;
                 let reference = reference_scalis(kernel, &seg, p);
                 let got = program.value(p);
                 if reference < 1e-4 {
-                    assert!((got - reference).abs() < 1e-10, "{kernel:?} at {p}: {got} vs {reference}");
+                    assert!(
+                        (got - reference).abs() < 1e-10,
+                        "{kernel:?} at {p}: {got} vs {reference}"
+                    );
                     continue;
                 }
                 let rel = (got - reference).abs() / reference;
                 worst = worst.max(rel);
                 checked += 1;
-                assert!(rel < 1e-6, "{kernel:?} segment {seg:?} at {p}: {got} vs {reference} (relative {rel:e})");
+                assert!(
+                    rel < 1e-6,
+                    "{kernel:?} segment {seg:?} at {p}: {got} vs {reference} (relative {rel:e})"
+                );
             }
         }
     }
@@ -172,7 +189,10 @@ fn gradients_match_central_differences() {
                         let g0 = program.value_gradient(p - e).1;
                         (g1 - g0).length() > 1e-2 * (1.0 + grad.length())
                     });
-                    assert!(near_kink, "{kind:?} {kernel:?} at {p}: analytic {grad}, numeric {numeric}");
+                    assert!(
+                        near_kink,
+                        "{kind:?} {kernel:?} at {p}: analytic {grad}, numeric {numeric}"
+                    );
                 }
             }
         }
@@ -189,7 +209,10 @@ fn bvh_queries_agree_with_brute_force() {
             add_primitive(g, kind, &mut rng);
         }
     }
-    let program = FieldProgram::new(&scene(groups, Some(Blend::Max(vec![Blend::Group(0), Blend::Group(1)]))));
+    let program = FieldProgram::new(&scene(
+        groups,
+        Some(Blend::Max(vec![Blend::Group(0), Blend::Group(1)])),
+    ));
     for _ in 0..2000 {
         let p = DVec3::from_array(common::point(&mut rng, 2.0));
         // Group membership: the first group's primitives come first.
@@ -208,7 +231,11 @@ fn bvh_queries_agree_with_brute_force() {
         let origin = DVec3::from_array(common::point(&mut rng, 4.0));
         let ray = Ray::new(origin, DVec3::from_array(rng.direction()));
         let span = Interval::new(0.0, 8.0);
-        let listed: Vec<u32> = program.ray_supports(&ray, span).iter().map(|s| s.primitive).collect();
+        let listed: Vec<u32> = program
+            .ray_supports(&ray, span)
+            .iter()
+            .map(|s| s.primitive)
+            .collect();
         let mut brute: Vec<u32> = (0..program.primitives().len() as u32)
             .filter(|&i| {
                 program.primitives()[i as usize]
@@ -222,7 +249,10 @@ fn bvh_queries_agree_with_brute_force() {
         brute.sort_unstable();
         assert_eq!(sorted, brute);
         let spans = program.ray_supports(&ray, span);
-        assert!(spans.windows(2).all(|w| w[0].span.lo <= w[1].span.lo), "sorted by entry");
+        assert!(
+            spans.windows(2).all(|w| w[0].span.lo <= w[1].span.lo),
+            "sorted by entry"
+        );
     }
 }
 
@@ -230,7 +260,10 @@ fn bvh_queries_agree_with_brute_force() {
 fn isolated_primitives_put_the_surface_at_the_prescribed_radius() {
     for kernel in KERNELS {
         let mut g = group(kernel);
-        g.blobs.push(skeletrace_core::scene::Blob { center: [0.0; 3], radius: 0.7 });
+        g.blobs.push(skeletrace_core::scene::Blob {
+            center: [0.0; 3],
+            radius: 0.7,
+        });
         let program = FieldProgram::new(&scene(vec![g], None));
         assert!((program.value(DVec3::new(0.7, 0.0, 0.0)) - 1.0).abs() < 1e-12);
         // A long SCALIS segment: the surface sits at the radius around its middle.
@@ -240,8 +273,14 @@ fn isolated_primitives_put_the_surface_at_the_prescribed_radius() {
             field: SkeletonField::Scalis,
             end_correctors: true,
             vertices: vec![
-                Vertex { position: [-40.0, 0.0, 0.0], radius: 0.5 },
-                Vertex { position: [40.0, 0.0, 0.0], radius: 0.5 },
+                Vertex {
+                    position: [-40.0, 0.0, 0.0],
+                    radius: 0.5,
+                },
+                Vertex {
+                    position: [40.0, 0.0, 0.0],
+                    radius: 0.5,
+                },
             ],
             edges: vec![[0, 1]],
         });
@@ -250,6 +289,9 @@ fn isolated_primitives_put_the_surface_at_the_prescribed_radius() {
         assert!((mid - 1.0).abs() < 1e-6, "{kernel:?}: {mid}");
         // End-point corrector: the surface passes at one radius past the free end.
         let tip = program.value(DVec3::new(40.5, 0.0, 0.0));
-        assert!((tip - 1.0).abs() < 1e-6, "{kernel:?}: field {tip} one radius past the end");
+        assert!(
+            (tip - 1.0).abs() < 1e-6,
+            "{kernel:?}: field {tip} one radius past the end"
+        );
     }
 }

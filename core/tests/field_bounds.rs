@@ -26,7 +26,13 @@ fn random_query(rng: &mut SplitMix64) -> (Ray, Interval) {
 }
 
 /// Checks one query; returns a description of the first violation.
-fn check(program: &FieldProgram, ray: &Ray, span: Interval, rng: &mut SplitMix64, tol: f64) -> Result<(), String> {
+fn check(
+    program: &FieldProgram,
+    ray: &Ray,
+    span: Interval,
+    rng: &mut SplitMix64,
+    tol: f64,
+) -> Result<(), String> {
     let jet = program.ray_jet(ray, span);
     let mut ts = vec![span.lo, span.hi];
     ts.extend((0..4).map(|_| rng.range(span.lo, span.hi)));
@@ -126,7 +132,10 @@ fn bounds_hold_through_every_blend_operator() {
             },
         ]
     };
-    for (i, blend) in operators(Blend::Group(0), Blend::Group(1)).into_iter().enumerate() {
+    for (i, blend) in operators(Blend::Group(0), Blend::Group(1))
+        .into_iter()
+        .enumerate()
+    {
         let failures: Vec<String> = (0..200)
             .into_par_iter()
             .flat_map_iter(|batch| {
@@ -145,7 +154,12 @@ fn bounds_hold_through_every_blend_operator() {
                 })
             })
             .collect();
-        assert!(failures.is_empty(), "{blend:?}: {} violations, first: {}", failures.len(), failures[0]);
+        assert!(
+            failures.is_empty(),
+            "{blend:?}: {} violations, first: {}",
+            failures.len(),
+            failures[0]
+        );
     }
 }
 
@@ -170,9 +184,17 @@ fn samples_exercise_finite_nontrivial_bounds() {
                     }
                 }
             }
-            eprintln!("{kind:?} {kernel:?}: {nonzero}/{total} touch the support, finite f′ {finite_d1}, finite f″ lower {finite_d2}");
-            assert!(nonzero * 7 > total, "{kind:?} {kernel:?}: only {nonzero}/{total} queries touch the support");
-            assert!(finite_d1 * 10 > nonzero * 9, "{kind:?} {kernel:?}: f′ bounds unbounded too often");
+            eprintln!(
+                "{kind:?} {kernel:?}: {nonzero}/{total} touch the support, finite f′ {finite_d1}, finite f″ lower {finite_d2}"
+            );
+            assert!(
+                nonzero * 7 > total,
+                "{kind:?} {kernel:?}: only {nonzero}/{total} queries touch the support"
+            );
+            assert!(
+                finite_d1 * 10 > nonzero * 9,
+                "{kind:?} {kernel:?}: f′ bounds unbounded too often"
+            );
         }
     }
 }

@@ -54,12 +54,7 @@ impl ScalisSegment {
     /// Integrates `g(x, p − q, τ)·ds/τ`-shaped integrands over the clipped range; `g` receives
     /// the squared homothetic distance, the offset `p − q(s)`, `τ(s)` and the measure
     /// `ds/τ(s)` of the node.
-    fn integrate(
-        &self,
-        p: DVec3,
-        k: &KernelProfile,
-        mut g: impl FnMut(f64, DVec3, f64, f64),
-    ) {
+    fn integrate(&self, p: DVec3, k: &KernelProfile, mut g: impl FnMut(f64, DVec3, f64, f64)) {
         let Some((l1, l2)) = self.clipped_range(p, k) else {
             return;
         };
@@ -80,7 +75,12 @@ impl ScalisSegment {
                     let s = mid + 0.5 * h * xi;
                     let tau = c.radius + c.slope * s;
                     let offset = p - (c.start + s * c.axis);
-                    g(offset.length_squared() / (tau * tau), offset, tau, 0.5 * h * wi / tau);
+                    g(
+                        offset.length_squared() / (tau * tau),
+                        offset,
+                        tau,
+                        0.5 * h * wi / tau,
+                    );
                 }
             }
         } else {
@@ -93,7 +93,12 @@ impl ScalisSegment {
                     let tau = (mid + 0.5 * h * xi).exp();
                     let s = (tau - c.radius) / c.slope;
                     let offset = p - (c.start + s * c.axis);
-                    g(offset.length_squared() / (tau * tau), offset, tau, 0.5 * h * wi / c.slope);
+                    g(
+                        offset.length_squared() / (tau * tau),
+                        offset,
+                        tau,
+                        0.5 * h * wi / c.slope,
+                    );
                 }
             }
         }

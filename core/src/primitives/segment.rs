@@ -100,8 +100,7 @@ impl DistanceSegment {
 
         let cap = |center: DVec3, tau: f64| {
             let wc = ray.origin - center;
-            Jet::quadratic(1.0, 2.0 * wc.dot(u), wc.length_squared(), span)
-                .scale(1.0 / (tau * tau))
+            Jet::quadratic(1.0, 2.0 * wc.dot(u), wc.length_squared(), span).scale(1.0 / (tau * tau))
         };
         let mut x: Option<Jet> = None;
         let mut add = |j: Jet| x = Some(x.map_or(j, |h| h.hull(j)));

@@ -129,7 +129,10 @@ impl ShapePrimitive {
                 } else {
                     DVec3::ZERO
                 };
-                (gr * gr + gy * gy, 2.0 * (gr * radial + DVec3::new(0.0, gy, 0.0)))
+                (
+                    gr * gr + gy * gy,
+                    2.0 * (gr * radial + DVec3::new(0.0, gy, 0.0)),
+                )
             }
         };
         (d2, self.frame * grad)
@@ -166,7 +169,11 @@ impl ShapePrimitive {
             Solid::Cylinder {
                 radius,
                 half_height,
-            } => Some(DVec3::new(radius + reach, half_height + reach, radius + reach)),
+            } => Some(DVec3::new(
+                radius + reach,
+                half_height + reach,
+                radius + reach,
+            )),
         }
     }
 
@@ -246,10 +253,12 @@ impl ShapePrimitive {
             rho
         };
         match self.solid {
-            Solid::Plane { normal, offset } => {
-                Jet::affine(normal.dot(ray.origin) - offset, normal.dot(ray.direction), span)
-                    .square()
-            }
+            Solid::Plane { normal, offset } => Jet::affine(
+                normal.dot(ray.origin) - offset,
+                normal.dot(ray.direction),
+                span,
+            )
+            .square(),
             Solid::Box { half_extents } => (0..3)
                 .map(|i| slab_excess_sq(i, half_extents[i]))
                 .fold(Jet::ZERO, |a, b| a + b),
@@ -277,4 +286,3 @@ impl ShapePrimitive {
         }
     }
 }
-

@@ -69,7 +69,11 @@ pub fn segment(rng: &mut SplitMix64, kernel: Kernel) -> [Vertex; 2] {
     let length = min_length.max(0.2) * rng.range(1.0, 3.0);
     let a = point(rng, 0.5);
     let d = rng.direction();
-    let b = [a[0] + length * d[0], a[1] + length * d[1], a[2] + length * d[2]];
+    let b = [
+        a[0] + length * d[0],
+        a[1] + length * d[1],
+        a[2] + length * d[2],
+    ];
     let (ra, rb) = if rng.unit() < 0.5 { (r0, r1) } else { (r1, r0) };
     [
         Vertex {
@@ -104,7 +108,11 @@ pub fn add_primitive(g: &mut Group, kind: Kind, rng: &mut SplitMix64) {
         rng.range(-180.0, 180.0),
         rng.range(-180.0, 180.0),
     ];
-    let half = [rng.range(0.1, 1.0), rng.range(0.1, 1.0), rng.range(0.1, 1.0)];
+    let half = [
+        rng.range(0.1, 1.0),
+        rng.range(0.1, 1.0),
+        rng.range(0.1, 1.0),
+    ];
     match kind {
         Kind::Point => g.blobs.push(Blob { center, radius }),
         Kind::DistanceSegment | Kind::ScalisSegment => g.skeletons.push(Skeleton {

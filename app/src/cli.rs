@@ -1,0 +1,113 @@
+//! Command-line definitions (clap). The contract is DESIGN.md's "Command line" section.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use skeletrace_core::generate::GeneratorKind;
+use skeletrace_core::scene::SkeletonField;
+
+/// Skeleton-based implicit surfaces: model, ray trace, compare root finders.
+#[derive(Parser, Debug)]
+#[command(name = "skeletrace", version, about)]
+pub struct Cli {
+    /// Scene to open in the editor (an embedded default scene when omitted).
+    pub scene: Option<PathBuf>,
+    /// Headless command.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// Headless commands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Generate a scene (deterministic per seed).
+    Generate(GenerateArgs),
+    /// Validate a scene and print its counts, kernels and bounding box.
+    Info {
+        /// Scene file (.ron).
+        scene: PathBuf,
+    },
+}
+
+/// Arguments of `generate`.
+#[derive(Args, Debug)]
+pub struct GenerateArgs {
+    /// What to generate.
+    pub kind: Kind,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Size: tree depth, segments (random-skeleton), Voronoi cells (foam), lattice cells per
+    /// side (truss), blobs or atoms.
+    #[arg(long)]
+    pub size: Option<usize>,
+    /// Number of blob groups blended by max (blobs).
+    #[arg(long)]
+    pub groups: Option<usize>,
+    /// Radii along skeletons (random-skeleton, foam).
+    #[arg(long, value_enum, default_value_t = Radii::Constant)]
+    pub radii: Radii,
+    /// Field type of skeleton segments.
+    #[arg(long, value_enum, default_value_t = Field::Scalis)]
+    pub field: Field,
+    /// Output scene file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Generator kinds.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Kind {
+    /// Branching skeleton, radii shrinking towards the tips.
+    Tree,
+    /// Random walk with branches.
+    RandomSkeleton,
+    /// Edges of a Voronoi diagram.
+    Foam,
+    /// Lattice truss.
+    Truss,
+    /// Random point blobs, max of sums.
+    Blobs,
+    /// Gaussian atoms.
+    Molecule,
+}
+
+impl From<Kind> for GeneratorKind {
+    fn from(k: Kind) -> Self {
+        match k {
+            Kind::Tree => Self::Tree,
+            Kind::RandomSkeleton => Self::RandomSkeleton,
+            Kind::Foam => Self::Foam,
+            Kind::Truss => Self::Truss,
+            Kind::Blobs => Self::Blobs,
+            Kind::Molecule => Self::Molecule,
+        }
+    }
+}
+
+/// Radius modes.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Radii {
+    /// One radius everywhere.
+    Constant,
+    /// Random radii per vertex.
+    Varying,
+}
+
+/// Skeleton field types.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Field {
+    /// SCALIS integral (scalis eq. 8).
+    Scalis,
+    /// Homothetic distance (scalis eq. 7).
+    Distance,
+}
+
+impl From<Field> for SkeletonField {
+    fn from(f: Field) -> Self {
+        match f {
+            Field::Scalis => Self::Scalis,
+            Field::Distance => Self::Distance,
+        }
+    }
+}
