@@ -13,7 +13,7 @@
 //! forward differentiation; the blend tree composes them. Rounding is not directed: bounds
 //! are exact up to a few ulps, which the tests absorb in a relative tolerance.
 
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A closed interval `[lo, hi]` of reals, possibly unbounded.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -302,12 +302,6 @@ impl Jet {
         }
     }
 
-    /// Jet of `f/g`.
-    #[must_use]
-    pub fn div(self, g: Self) -> Self {
-        self * g.recip()
-    }
-
     /// Jet of `√f` (on the non-negative part of `f`).
     #[must_use]
     pub fn sqrt(self) -> Self {
@@ -420,6 +414,15 @@ impl Sub for Jet {
     }
 }
 
+/// Jet of `f/g`, as `f · (1/g)`.
+impl Div for Jet {
+    type Output = Self;
+    #[allow(clippy::suspicious_arithmetic_impl)]
+    fn div(self, g: Self) -> Self {
+        self * g.recip()
+    }
+}
+
 impl Neg for Jet {
     type Output = Self;
     fn neg(self) -> Self {
@@ -465,7 +468,7 @@ mod tests {
         let span = Interval::new(0.5, 1.5);
         let f = Jet::quadratic(1.0, 0.0, 1.0, span)
             .sqrt()
-            .div(Jet::affine(2.0, 1.0, span));
+            / Jet::affine(2.0, 1.0, span);
         for i in 0..=100 {
             let t = 0.5 + f64::from(i) / 100.0;
             let g = |t: f64| (1.0 + t * t).sqrt() / (2.0 + t);

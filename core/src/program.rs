@@ -38,6 +38,8 @@ pub struct FieldProgram {
     groups_of: Vec<u32>,
     kernels: Vec<KernelProfile>,
     blend: Blend,
+    /// The blend is a plain sum of every group: point values skip the per-group slots.
+    blend_is_total_sum: bool,
     bvh: Bvh,
     unbounded: Vec<u32>,
 }
@@ -97,8 +99,10 @@ impl FieldProgram {
                 None => unbounded.push(i as u32),
             }
         }
+        let blend_is_total_sum = is_total_sum(&blend, scene.groups.len());
         Self {
             isovalue: c,
+            blend_is_total_sum,
             bvh: Bvh::build(&boxes),
             primitives,
             groups_of,
@@ -156,7 +160,7 @@ impl FieldProgram {
     /// Field value at `p`.
     #[must_use]
     pub fn value(&self, p: DVec3) -> f64 {
-        if let Blend::Group(_) = self.blend {
+        if self.blend_is_total_sum {
             let mut sum = 0.0;
             self.for_each_near(p, |i| {
                 sum += self.primitives[i as usize].value(p, self.kernel_of(i));
@@ -231,6 +235,21 @@ impl FieldProgram {
         out.sort_by(|a, b| a.span.lo.total_cmp(&b.span.lo));
         out
     }
+}
+
+/// Whether `blend` adds every group exactly once and nothing else.
+fn is_total_sum(blend: &Blend, groups: usize) -> bool {
+    let mut seen = vec![false; groups];
+    let mut mark = |i: &u32| !std::mem::replace(&mut seen[*i as usize], true);
+    let all_distinct = match blend {
+        Blend::Group(i) => mark(i),
+        Blend::Sum(children) => children.iter().all(|c| match c {
+            Blend::Group(i) => mark(i),
+            _ => false,
+        }),
+        _ => false,
+    };
+    all_distinct && seen.iter().all(|&s| s)
 }
 
 /// Primitives of one skeleton: a segment per edge and, for SCALIS skeletons with end-point

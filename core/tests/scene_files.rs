@@ -21,13 +21,25 @@ fn assets() -> Vec<PathBuf> {
 #[test]
 fn every_asset_loads_and_round_trips_exactly() {
     let files = assets();
-    assert!(files.len() >= 8, "expected one asset per generator plus hand-made ones: {files:?}");
+    assert!(
+        files.len() >= 8,
+        "expected one asset per generator plus hand-made ones: {files:?}"
+    );
     for path in files {
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let text = scene.to_ron();
         let again = Scene::from_ron(&text, "round trip").unwrap_or_else(|e| panic!("{e}"));
-        assert!(again == scene, "{} changes when saved and loaded", path.display());
-        assert_eq!(again.to_ron(), text, "{} text is not stable", path.display());
+        assert!(
+            again == scene,
+            "{} changes when saved and loaded",
+            path.display()
+        );
+        assert_eq!(
+            again.to_ron(),
+            text,
+            "{} text is not stable",
+            path.display()
+        );
     }
 }
 
@@ -42,11 +54,22 @@ fn saving_is_atomic_and_reports_the_file_on_failure() {
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
         .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name()).collect())
         .unwrap_or_default();
-    assert_eq!(leftovers.len(), 1, "temporary files left behind: {leftovers:?}");
+    assert_eq!(
+        leftovers.len(),
+        1,
+        "temporary files left behind: {leftovers:?}"
+    );
     assert!(Scene::load(&path).is_ok_and(|s| s == scene));
     let missing_dir = dir.join("no such folder").join("scene.ron");
-    let err = scene.save(&missing_dir).err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(err.contains("no such folder") && err.contains("cannot save"), "{err}");
+    let err = scene
+        .save(&missing_dir)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        err.contains("no such folder") && err.contains("cannot save"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -84,12 +107,32 @@ const BROKEN: &[(&str, &str, usize, &[&str])] = &[
     ("radius: 0.4", "radius: 0.0", 11, &["radius", "got 0"]),
     ("(1.0, 0.0, 0.0)", "(NaN, 0.0, 0.0)", 11, &["finite", "NaN"]),
     ("(1.0, 0.0, 0.0)", "(inf, 0.0, 0.0)", 11, &["finite", "inf"]),
-    ("edges: [(0, 1)]", "edges: [(0, 7)]", 14, &["arm", "edge 0", "vertex index 7", "2 vertices"]),
-    ("(1.0, 0.0, 0.0), radius", "(0.0, 0.0, 0.0), radius", 14, &["arm", "zero-length"]),
+    (
+        "edges: [(0, 1)]",
+        "edges: [(0, 7)]",
+        14,
+        &["arm", "edge 0", "vertex index 7", "2 vertices"],
+    ),
+    (
+        "(1.0, 0.0, 0.0), radius",
+        "(0.0, 0.0, 0.0), radius",
+        14,
+        &["arm", "zero-length"],
+    ),
     ("scale: 2.0", "scale: 1.0", 5, &["σ = 1", "> 1"]),
     ("degree: 6", "degree: 5", 5, &["degree 5", "even"]),
-    ("radius: 0.5", "radius: 0.95", 16, &["arm", "edge 0", "slope", "0.55"]),
-    ("version: 1", "version: 7", 2, &["version 7", "reads version 1"]),
+    (
+        "radius: 0.5",
+        "radius: 0.95",
+        16,
+        &["arm", "edge 0", "slope", "0.55"],
+    ),
+    (
+        "version: 1",
+        "version: 7",
+        2,
+        &["version 7", "reads version 1"],
+    ),
     ("edges: [(0, 1)],", "edges: [(0, 1)],, ", 13, &[]),
 ];
 
@@ -115,9 +158,19 @@ fn broken_scenes_get_one_clear_message_with_position_item_and_value() {
 
 #[test]
 fn blend_references_are_checked() {
-    let text = VALID.replacen("\n)\n", "\n  blend: Some(Max([Group(0), Group(3)])),\n)\n", 1);
-    let message = Scene::from_ron(&text, "b.ron").err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(message.contains("Group(3)") && message.contains("1 groups"), "{message}");
+    let text = VALID.replacen(
+        "\n)\n",
+        "\n  blend: Some(Max([Group(0), Group(3)])),\n)\n",
+        1,
+    );
+    let message = Scene::from_ron(&text, "b.ron")
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        message.contains("Group(3)") && message.contains("1 groups"),
+        "{message}"
+    );
     assert!(message.starts_with("b.ron:18:"), "{message}");
 }
 
@@ -150,8 +203,25 @@ fn mutated_valid_scenes_never_panic_the_loader() {
         .chain([VALID.to_owned()])
         .collect();
     let tokens = [
-        "NaN", "-1.0", "0", "1e308", "-inf", "(", ")", "[", "]", ",", ":", "\"", "99999999999",
-        "Group(0)", "Max([", "radius", "degree: 3", "scale: 0.5", "Cauchy(degree: 0, scale: 1.0)",
+        "NaN",
+        "-1.0",
+        "0",
+        "1e308",
+        "-inf",
+        "(",
+        ")",
+        "[",
+        "]",
+        ",",
+        ":",
+        "\"",
+        "99999999999",
+        "Group(0)",
+        "Max([",
+        "radius",
+        "degree: 3",
+        "scale: 0.5",
+        "Cauchy(degree: 0, scale: 1.0)",
     ];
     let mut rng = SplitMix64::new(2);
     let mut accepted = 0;

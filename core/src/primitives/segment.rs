@@ -94,7 +94,7 @@ impl DistanceSegment {
         );
         let (y0, y1) = (c.radius + d * a0, d * a1);
         let y = Jet::affine(y0, y1, span);
-        let s_star = if d > 0.0 { a + b2.div(y).scale(d) } else { a };
+        let s_star = if d > 0.0 { a + (b2 / y).scale(d) } else { a };
         let s_range = s_star.value;
         let y_may_vanish = y.value.lo <= 0.0;
 
@@ -117,7 +117,7 @@ impl DistanceSegment {
                 y0 * y0 + d * d * (w0.length_squared() - a0 * a0).max(0.0),
                 span,
             );
-            add(b2.div(denominator));
+            add(b2 / denominator);
         }
         let x = x.unwrap_or(Jet {
             value: Interval::ENTIRE,
