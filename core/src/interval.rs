@@ -466,9 +466,7 @@ mod tests {
     fn jet_rules_enclose_sampled_derivatives() {
         // f(t) = sqrt(1 + t²) / (2 + t) on [0.5, 1.5], compared with sampled values.
         let span = Interval::new(0.5, 1.5);
-        let f = Jet::quadratic(1.0, 0.0, 1.0, span)
-            .sqrt()
-            / Jet::affine(2.0, 1.0, span);
+        let f = Jet::quadratic(1.0, 0.0, 1.0, span).sqrt() / Jet::affine(2.0, 1.0, span);
         for i in 0..=100 {
             let t = 0.5 + f64::from(i) / 100.0;
             let g = |t: f64| (1.0 + t * t).sqrt() / (2.0 + t);
