@@ -178,8 +178,10 @@ pub fn framing_camera(scene: &Scene) -> Camera {
     }
     let center = bounds.center();
     let fov = 40.0_f64;
+    // The support box is wider than the surface (by σ radii): frame 80 % of the distance at
+    // which its bounding sphere would just fit, which keeps the surface in view.
     let radius = 0.5 * bounds.diagonal();
-    let distance = radius / (0.5 * fov.to_radians()).sin();
+    let distance = 0.8 * radius / (0.5 * fov.to_radians()).sin();
     let eye = center + DVec3::new(0.45, 0.35, 0.82).normalize() * distance;
     Camera {
         position: eye.to_array(),
