@@ -122,6 +122,14 @@ impl Bvh {
         self.traverse(|b| b.contains(p), visit);
     }
 
+    /// Calls `visit` with every item whose box overlaps `region`.
+    pub fn for_each_overlapping(&self, region: &Aabb, visit: impl FnMut(u32)) {
+        self.traverse(
+            |b| b.min.cmple(region.max).all() && region.min.cmple(b.max).all(),
+            visit,
+        );
+    }
+
     /// Calls `visit` with every item whose box meets the ray on `span`.
     pub fn for_each_on_ray(&self, ray: &Ray, span: Interval, visit: impl FnMut(u32)) {
         self.traverse(|b| b.ray_interval(ray, span).is_some(), visit);

@@ -352,6 +352,23 @@ impl KernelProfile {
         }
     }
 
+    /// `max_r |d/dr K(r²)|`, the largest slope of the kernel as a function of the normalised
+    /// distance (MATH.md §1: `K′` of the compact kernel). The extremum of `2r·K′(r²)` sits at
+    /// `x = σ²/(i − 1)` (compact), `σ²/(i + 1)` (Cauchy) or `σ²/2` (Gaussian), or at the clip
+    /// boundary when that comes first.
+    #[must_use]
+    pub fn max_slope(&self) -> f64 {
+        let s2 = 1.0 / self.inv_sigma2;
+        let critical = match self.family {
+            Family::Compact { m } => s2 / f64::from(2 * m - 1),
+            Family::Cauchy { n } => s2 / (2.0 * n + 1.0),
+            Family::Gaussian => 0.5 * s2,
+        };
+        let x = critical.min(self.support_sq);
+        let (_, k1, _) = self.value_d2_inside(x);
+        2.0 * x.sqrt() * k1.abs()
+    }
+
     /// Normalisation of a point primitive: the field equals the isovalue at the prescribed
     /// radius (MATH.md §2).
     #[must_use]
@@ -415,6 +432,34 @@ mod tests {
         .scalis_normalisation(1.0);
         assert!((n6 - 1.496_834_0).abs() < 1e-7, "{n6}");
         assert!((n4 - 0.962_250_4).abs() < 1e-7, "{n4}");
+    }
+
+    #[test]
+    fn max_slope_matches_the_closed_form_and_dense_sampling() {
+        let compact = KernelProfile::new(Kernel::default());
+        assert!((compact.max_slope() - 0.858_65).abs() < 1e-5);
+        for kernel in [
+            Kernel::default(),
+            Kernel::CompactPolynomial {
+                degree: 2,
+                scale: 1.5,
+            },
+            Kernel::Cauchy {
+                degree: 3,
+                scale: 1.0,
+            },
+            Kernel::Gaussian { scale: 0.7 },
+        ] {
+            let p = KernelProfile::new(kernel);
+            let sampled = (1..100_000)
+                .map(|i| {
+                    let r = p.support_radius() * f64::from(i) / 100_000.0;
+                    2.0 * r * p.value_d1(r * r).1.abs()
+                })
+                .fold(0.0, f64::max);
+            assert!(sampled <= p.max_slope() * (1.0 + 1e-12), "{kernel:?}");
+            assert!(sampled >= p.max_slope() * 0.999, "{kernel:?}");
+        }
     }
 
     #[test]

@@ -12,7 +12,7 @@ use crate::blend;
 use crate::bvh::Bvh;
 use crate::geometry::{Aabb, Ray, SphereCone};
 use crate::interval::{Interval, Jet};
-use crate::kernel::KernelProfile;
+use crate::kernel::{Kernel, KernelProfile};
 use crate::primitives::{
     DistanceSegment, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
 };
@@ -37,6 +37,7 @@ pub struct FieldProgram {
     primitives: Vec<Primitive>,
     groups_of: Vec<u32>,
     kernels: Vec<KernelProfile>,
+    kernel_specs: Vec<Kernel>,
     blend: Blend,
     /// The blend is a plain sum of every group: point values skip the per-group slots.
     blend_is_total_sum: bool,
@@ -63,6 +64,7 @@ impl FieldProgram {
         let mut primitives = Vec::new();
         let mut groups_of = Vec::new();
         let mut kernels = Vec::with_capacity(scene.groups.len());
+        let kernel_specs = scene.groups.iter().map(|g| g.kernel).collect();
         for (gi, group) in scene.groups.iter().enumerate() {
             let k = KernelProfile::new(group.kernel);
             let gi = gi as u32;
@@ -107,6 +109,7 @@ impl FieldProgram {
             primitives,
             groups_of,
             kernels,
+            kernel_specs,
             blend,
             unbounded,
         }
@@ -196,15 +199,113 @@ impl FieldProgram {
     #[must_use]
     pub fn ray_jet(&self, ray: &Ray, span: Interval) -> Jet {
         self.with_group_slots(Jet::ZERO, |slots| {
-            let mut add = |i: u32| {
-                let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
-                let slot = &mut slots[self.groups_of[i as usize] as usize];
-                *slot = *slot + jet;
-            };
-            self.bvh.for_each_on_ray(ray, span, &mut add);
-            self.unbounded.iter().copied().for_each(add);
+            self.accumulate_group_jets(ray, span, slots);
             blend::jet(&self.blend, slots, self.isovalue)
         })
+    }
+
+    /// Jets of every group's field (the sums of their primitives) over `span`.
+    #[must_use]
+    pub fn ray_group_jets(&self, ray: &Ray, span: Interval) -> Vec<Jet> {
+        let mut slots = vec![Jet::ZERO; self.kernels.len()];
+        self.accumulate_group_jets(ray, span, &mut slots);
+        slots
+    }
+
+    fn accumulate_group_jets(&self, ray: &Ray, span: Interval, slots: &mut [Jet]) {
+        let mut add = |i: u32| {
+            let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+            let slot = &mut slots[self.groups_of[i as usize] as usize];
+            *slot = *slot + jet;
+        };
+        self.bvh.for_each_on_ray(ray, span, &mut add);
+        self.unbounded.iter().copied().for_each(add);
+    }
+
+    /// Every group's `(f(t), f′(t))` along the ray.
+    #[must_use]
+    pub fn group_values_along_ray(&self, ray: &Ray, t: f64) -> Vec<(f64, f64)> {
+        let p = ray.at(t);
+        let mut slots = vec![(0.0, 0.0); self.kernels.len()];
+        self.for_each_near(p, |i| {
+            let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
+            let slot = &mut slots[self.groups_of[i as usize] as usize];
+            slot.0 += v;
+            slot.1 += g.dot(ray.direction);
+        });
+        slots
+    }
+
+    /// The blend tree over groups (a sum of all groups when the scene gives none).
+    #[must_use]
+    pub fn blend(&self) -> &Blend {
+        &self.blend
+    }
+
+    /// Number of groups.
+    #[must_use]
+    pub fn group_count(&self) -> usize {
+        self.kernels.len()
+    }
+
+    /// Kernel profile of group `g`.
+    #[must_use]
+    pub fn group_kernel(&self, g: usize) -> &KernelProfile {
+        &self.kernels[g]
+    }
+
+    /// The kernel of group `g` as the scene states it.
+    #[must_use]
+    pub fn group_kernel_spec(&self, g: usize) -> Kernel {
+        self.kernel_specs[g]
+    }
+
+    /// The primitives of group `g`.
+    pub fn group_primitives(&self, g: usize) -> impl Iterator<Item = &Primitive> {
+        self.primitives
+            .iter()
+            .zip(&self.groups_of)
+            .filter(move |(_, gi)| **gi as usize == g)
+            .map(|(p, _)| p)
+    }
+
+    /// A global Lipschitz bound of the blended field (sphere tracing, Hart 1996): every blend
+    /// operator's gradient is bounded by the sum of its operands' gradients, and at any point
+    /// only primitives whose support boxes overlap each other contribute, so the largest sum
+    /// over a primitive and the primitives overlapping it bounds `|∇f|` everywhere.
+    #[must_use]
+    pub fn global_lipschitz(&self) -> f64 {
+        let lipschitz: Vec<f64> = self
+            .primitives
+            .iter()
+            .enumerate()
+            .map(|(i, p)| p.lipschitz(self.kernel_of(i as u32)))
+            .collect();
+        let unbounded: f64 = self.unbounded.iter().map(|&i| lipschitz[i as usize]).sum();
+        let mut worst = unbounded;
+        for (i, p) in self.primitives.iter().enumerate() {
+            if let Some(b) = p.support_aabb(self.kernel_of(i as u32)) {
+                let mut sum = unbounded;
+                self.bvh
+                    .for_each_overlapping(&b, |j| sum += lipschitz[j as usize]);
+                worst = worst.max(sum);
+            }
+        }
+        worst
+    }
+
+    /// The parts of `span` inside at least one support, as disjoint sorted intervals: outside
+    /// them the field is 0, below any positive isovalue.
+    #[must_use]
+    pub fn ray_support_unions(&self, ray: &Ray, span: Interval) -> Vec<Interval> {
+        let mut out: Vec<Interval> = Vec::new();
+        for s in self.ray_supports(ray, span) {
+            match out.last_mut() {
+                Some(last) if s.span.lo <= last.hi => last.hi = last.hi.max(s.span.hi),
+                _ => out.push(s.span),
+            }
+        }
+        out
     }
 
     /// Local directional Lipschitz bound on `span`: `max |f′|` (segment tracing; forward

@@ -54,6 +54,21 @@ impl Primitive {
         }
     }
 
+    /// Global Lipschitz bound `max |∇f|` of the primitive: the kernel's largest slope over the
+    /// smallest radius it is scaled by; for a SCALIS segment `N·K′·L/(τ₀τ₁)` (MATH.md §3).
+    #[must_use]
+    pub fn lipschitz(&self, k: &KernelProfile) -> f64 {
+        let slope = k.max_slope();
+        match self {
+            Self::Point(x) => x.norm * slope / x.radius,
+            Self::Distance(x) => x.norm * slope / x.cone.radius,
+            Self::Scalis(x) => {
+                x.norm * slope * x.cone.length / (x.cone.radius * x.cone.end_radius())
+            }
+            Self::Shape(x) => x.norm * slope / x.radius,
+        }
+    }
+
     /// Bounding box of the support; `None` when unbounded (planes).
     #[must_use]
     pub fn support_aabb(&self, k: &KernelProfile) -> Option<Aabb> {

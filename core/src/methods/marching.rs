@@ -1,0 +1,83 @@
+//! The ray-marching loop shared by the methods that step on forward inclusion functions
+//! (forward-inclusion 2023, algorithm 1): at `t`, a bound valid on `[t, t + h]` gives the first
+//! point where the field could reach the isovalue — the first root of the upper bound when
+//! outside, of the lower bound when inside. The march advances to it (or to `t + h` when there
+//! is none), and the next interval is `k` times the step just taken. A crossing is reported when
+//! the step falls below `epsilon`.
+
+use crate::geometry::{Ray, quadratic_roots};
+use crate::inclusion::{ForwardInclusion, Offset};
+use crate::interval::Interval;
+use crate::program::FieldProgram;
+
+use super::{Crossing, Trace, TraceMode, TraceSettings};
+
+/// First `s ∈ [0, limit]` where `start + offset(s)` reaches `target`, if any.
+pub(crate) fn first_reach(start: f64, offset: Offset, target: f64, limit: f64) -> Option<f64> {
+    let roots = quadratic_roots(offset.b, offset.a, start - target)?;
+    [roots.0, roots.1]
+        .into_iter()
+        .filter(|s| (0.0..=limit).contains(s))
+        .reduce(f64::min)
+}
+
+/// Marches over `part` with `bound(t, f(t), f′(t), h)`, appending to `trace`.
+pub(crate) fn march(
+    program: &FieldProgram,
+    ray: &Ray,
+    part: Interval,
+    settings: &TraceSettings,
+    mode: TraceMode,
+    trace: &mut Trace,
+    bound: impl Fn(f64, f64, f64, f64) -> ForwardInclusion,
+) {
+    let c = program.isovalue();
+    let mut t = part.lo;
+    let mut h = settings.initial_interval;
+    while t < part.hi && trace.steps < settings.max_steps {
+        trace.steps += 1;
+        trace.evaluations += 1;
+        let (f, d) = program.along_ray(ray, t);
+        let inside = f >= c;
+        let h_now = h.max(settings.min_step).min(part.hi - t);
+        let inclusion = bound(t, f, d, h_now);
+        let limit = inclusion.length.min(part.hi - t);
+        let offset = if inside {
+            inclusion.lower
+        } else {
+            inclusion.upper
+        };
+        match first_reach(f, offset, c, limit) {
+            Some(s) if s < settings.epsilon => {
+                trace.crossings.push(Crossing {
+                    t: t + s,
+                    entering: !inside,
+                });
+                if mode == TraceMode::Opaque {
+                    return;
+                }
+                t += s + settings.min_step;
+                h = settings.initial_interval;
+            }
+            Some(s) => {
+                t += s;
+                h = settings.growth * s;
+            }
+            None => {
+                t += limit;
+                h = settings.growth * limit;
+            }
+        }
+    }
+}
+
+/// A symmetric linear bound `f(t) ± λ·s` on `[0, length]` (sphere and segment tracing as forward
+/// inclusions, forward-inclusion eq. 10–11).
+pub(crate) fn symmetric(start: f64, lambda: f64, length: f64) -> ForwardInclusion {
+    ForwardInclusion {
+        start,
+        lower: Offset { a: -lambda, b: 0.0 },
+        upper: Offset { a: lambda, b: 0.0 },
+        length,
+    }
+}

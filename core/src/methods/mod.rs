@@ -1,0 +1,210 @@
+//! Root-finding methods along rays: one [`Method`] trait, one file per method, one shared test
+//! suite (`tests/methods.rs`). Every method traces a ray through the parts of its interval that
+//! lie inside some primitive support (the CPU analogue of the scalis 2021 A-buffer; outside them
+//! the field is 0 and no crossing can happen), counts its loop iterations as *steps* (as the
+//! papers count them) and its point evaluations of the field, and reports crossings in order.
+//!
+//! Opaque mode stops at the first crossing; transparent mode reports all crossings (entries and
+//! exits), as the forward-inclusion paper's transparency tables need.
+
+mod field_inversion;
+mod linear_mixed;
+mod linear_taylor;
+mod marching;
+mod quadratic_mixed;
+mod quadratic_taylor;
+mod reference;
+mod segment;
+mod sphere;
+mod sphere_accelerated;
+mod sphere_enhanced;
+
+use crate::geometry::Ray;
+use crate::interval::Interval;
+use crate::program::FieldProgram;
+
+pub use field_inversion::FieldInversion;
+pub use linear_mixed::LinearMixed;
+pub use linear_taylor::LinearTaylor;
+pub use quadratic_mixed::QuadraticMixed;
+pub use quadratic_taylor::QuadraticTaylor;
+pub use reference::Reference;
+pub use segment::SegmentTracing;
+pub use sphere::SphereTracing;
+pub use sphere_accelerated::AcceleratedSphereTracing;
+pub use sphere_enhanced::EnhancedSphereTracing;
+
+/// Settings shared by every method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceSettings {
+    /// Convergence threshold on the ray parameter: a crossing is reported once the next safe
+    /// step is shorter than this.
+    pub epsilon: f64,
+    /// Step taken past a crossing before marching on (transparent mode), and the shortest
+    /// interval a bound is computed on.
+    pub min_step: f64,
+    /// Maximum loop iterations per ray.
+    pub max_steps: u32,
+    /// Next interval length = `growth` × last safe step (forward-inclusion §4.3: k = 2).
+    pub growth: f64,
+    /// First interval length of each support span.
+    pub initial_interval: f64,
+}
+
+impl TraceSettings {
+    /// Defaults scaled to the scene: `epsilon` is 2·10⁻⁵ of the support box diagonal (well below
+    /// the 10⁻⁴ depth accuracy the statistics check), 2048 steps at most, k = 2.
+    #[must_use]
+    pub fn for_program(program: &FieldProgram) -> Self {
+        let b = program.support_bounds();
+        let diagonal = if b.is_empty() { 1.0 } else { b.diagonal() };
+        Self {
+            epsilon: 2e-5 * diagonal,
+            min_step: 1e-4 * diagonal,
+            max_steps: 2048,
+            growth: 2.0,
+            initial_interval: 0.05 * diagonal,
+        }
+    }
+}
+
+/// Which crossings to report.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TraceMode {
+    /// The first crossing only.
+    Opaque,
+    /// Every crossing, in order.
+    Transparent,
+}
+
+/// A point where the field crosses the isovalue.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossing {
+    /// Ray parameter.
+    pub t: f64,
+    /// `true` when the ray enters the volume (`f` rises through `c`).
+    pub entering: bool,
+}
+
+/// The outcome of tracing one ray.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trace {
+    /// Crossings found, in order.
+    pub crossings: Vec<Crossing>,
+    /// Loop iterations.
+    pub steps: u32,
+    /// Point evaluations of the field (value and gradient count as one).
+    pub evaluations: u32,
+}
+
+impl Trace {
+    /// The first crossing, if any.
+    #[must_use]
+    pub fn first(&self) -> Option<Crossing> {
+        self.crossings.first().copied()
+    }
+}
+
+/// A root-finding method.
+pub trait Method: Sync {
+    /// Command-line name (DESIGN.md).
+    fn name(&self) -> &'static str;
+
+    /// Whether the method is guaranteed never to miss a crossing.
+    fn is_conservative(&self) -> bool;
+
+    /// `Err` with a reason when the method cannot trace this scene (wrong kernel, wrong
+    /// primitive types).
+    ///
+    /// # Errors
+    /// A message saying what the method needs.
+    fn supports(&self, program: &FieldProgram) -> Result<(), String> {
+        let _ = program;
+        Ok(())
+    }
+
+    /// Prepares per-scene data (global Lipschitz constants and the like).
+    fn prepare<'a>(
+        &self,
+        program: &'a FieldProgram,
+        settings: TraceSettings,
+    ) -> Box<dyn RayTracer + 'a>;
+}
+
+/// A method bound to one scene, ready to trace rays from any thread.
+pub trait RayTracer: Sync {
+    /// Traces `ray` over `span`.
+    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace;
+}
+
+/// Every method, in the order of DESIGN.md's table.
+#[must_use]
+pub fn all() -> Vec<Box<dyn Method>> {
+    vec![
+        Box::new(SphereTracing),
+        Box::new(EnhancedSphereTracing),
+        Box::new(AcceleratedSphereTracing),
+        Box::new(SegmentTracing),
+        Box::new(LinearTaylor),
+        Box::new(QuadraticTaylor),
+        Box::new(LinearMixed),
+        Box::new(QuadraticMixed),
+        Box::new(FieldInversion),
+        Box::new(Reference),
+    ]
+}
+
+/// Names of the methods of DESIGN.md that this build does not implement yet.
+pub const NOT_YET_IMPLEMENTED: [&str; 7] = [
+    "sphere-normalized",
+    "bottom-up-linear",
+    "bottom-up-linear-bisection",
+    "bottom-up-quadratic",
+    "affine",
+    "scalis-quadratic",
+    "sherstyuk",
+];
+
+/// The method called `name`.
+///
+/// # Errors
+/// A message listing the known names.
+pub fn by_name(name: &str) -> Result<Box<dyn Method>, String> {
+    if let Some(m) = all().into_iter().find(|m| m.name() == name) {
+        return Ok(m);
+    }
+    let known: Vec<&str> = all().iter().map(|m| m.name()).collect();
+    if NOT_YET_IMPLEMENTED.contains(&name) {
+        return Err(format!(
+            "method '{name}' is not implemented in this build yet; available: {}",
+            known.join(", ")
+        ));
+    }
+    Err(format!(
+        "unknown method '{name}'; available: {}",
+        known.join(", ")
+    ))
+}
+
+/// Calls `trace_span` on each part of `span` inside some support, collecting crossings and
+/// counts; stops after the first crossing in opaque mode or when the step budget is spent.
+pub(crate) fn trace_supports(
+    program: &FieldProgram,
+    ray: &Ray,
+    span: Interval,
+    mode: TraceMode,
+    max_steps: u32,
+    mut trace_span: impl FnMut(Interval, &mut Trace),
+) -> Trace {
+    let mut trace = Trace::default();
+    for part in program.ray_support_unions(ray, span) {
+        trace_span(part, &mut trace);
+        if (mode == TraceMode::Opaque && !trace.crossings.is_empty()) || trace.steps >= max_steps {
+            break;
+        }
+    }
+    if mode == TraceMode::Opaque {
+        trace.crossings.truncate(1);
+    }
+    trace
+}

@@ -1,0 +1,104 @@
+//! The reference root finder (MATH.md §7): interval bisection with the field engine's value
+//! enclosures. An interval whose enclosure of `f` lies entirely on one side of the isovalue holds
+//! no crossing and is dropped; others are split, left half first, down to a width of 10⁻⁷ of the
+//! scene diagonal, where a sign change between the end points locates a crossing (refined by
+//! bisection on the sign change). Every true crossing is found, except pairs closer together than
+//! that width. Slow; it is the ground truth of the statistics and the tests.
+
+use crate::geometry::Ray;
+use crate::interval::Interval;
+use crate::program::FieldProgram;
+
+use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+
+/// `reference`.
+pub struct Reference;
+
+struct Prepared<'a> {
+    program: &'a FieldProgram,
+    settings: TraceSettings,
+    resolution: f64,
+}
+
+impl Method for Reference {
+    fn name(&self) -> &'static str {
+        "reference"
+    }
+
+    fn is_conservative(&self) -> bool {
+        true
+    }
+
+    fn prepare<'a>(
+        &self,
+        program: &'a FieldProgram,
+        settings: TraceSettings,
+    ) -> Box<dyn RayTracer + 'a> {
+        let b = program.support_bounds();
+        let diagonal = if b.is_empty() { 1.0 } else { b.diagonal() };
+        Box::new(Prepared {
+            program,
+            settings: TraceSettings {
+                max_steps: u32::MAX,
+                ..settings
+            },
+            resolution: 1e-7 * diagonal,
+        })
+    }
+}
+
+impl Prepared<'_> {
+    fn below(&self, ray: &Ray, t: f64, trace: &mut Trace) -> bool {
+        trace.evaluations += 1;
+        self.program.along_ray(ray, t).0 < self.program.isovalue()
+    }
+}
+
+impl RayTracer for Prepared<'_> {
+    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        let c = self.program.isovalue();
+        trace_supports(
+            self.program,
+            ray,
+            span,
+            mode,
+            self.settings.max_steps,
+            |part, trace| {
+                let mut stack = vec![part];
+                while let Some(i) = stack.pop() {
+                    trace.steps += 1;
+                    let value = self.program.ray_jet(ray, i).value;
+                    if value.hi < c || value.lo > c {
+                        continue;
+                    }
+                    if i.width() > self.resolution {
+                        let mid = 0.5 * (i.lo + i.hi);
+                        stack.push(Interval::new(mid, i.hi));
+                        stack.push(Interval::new(i.lo, mid));
+                        continue;
+                    }
+                    let (mut lo, mut hi) = (i.lo, i.hi);
+                    let below_lo = self.below(ray, lo, trace);
+                    if below_lo == self.below(ray, hi, trace) {
+                        continue;
+                    }
+                    for _ in 0..20 {
+                        let mid = 0.5 * (lo + hi);
+                        if self.below(ray, mid, trace) == below_lo {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    trace.crossings.push(Crossing {
+                        t: 0.5 * (lo + hi),
+                        entering: below_lo,
+                    });
+                    if mode == TraceMode::Opaque {
+                        return;
+                    }
+                }
+            },
+        )
+    }
+}
