@@ -27,6 +27,27 @@ pub enum Command {
         /// Scene file (.ron).
         scene: PathBuf,
     },
+    /// Ray statistics of the root-finding methods against the reference tracer.
+    Stats(StatsArgs),
+}
+
+/// Arguments of `stats`.
+#[derive(Args, Debug)]
+pub struct StatsArgs {
+    /// Scene file (.ron).
+    pub scene: PathBuf,
+    /// `all` or a comma-separated list of method names.
+    #[arg(long, default_value = "all")]
+    pub methods: String,
+    /// Number of rays (a sixth per axis direction).
+    #[arg(long, default_value_t = 6000)]
+    pub rays: usize,
+    /// Seed of the ray origins.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print the DESIGN.md JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `generate`.

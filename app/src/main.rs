@@ -5,12 +5,14 @@
 
 mod cli;
 
+use std::io::IsTerminal;
 use std::path::Path;
 use std::process::ExitCode;
 
 use clap::Parser;
 use skeletrace_core::generate::{GenerateOptions, GeneratorKind, generate};
-use skeletrace_core::{FieldProgram, Scene};
+use skeletrace_core::methods::{self, Method};
+use skeletrace_core::{FieldProgram, Scene, stats};
 
 use cli::{Cli, Command};
 
@@ -22,6 +24,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Generate(args)) => run_generate(&args),
+        Some(Command::Stats(args)) => run_stats(&args),
         Some(Command::Info { scene }) => {
             load(Some(&scene)).map(|s| print_info(&scene.display().to_string(), &s))
         }
@@ -85,6 +88,61 @@ fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {
         c.blobs,
         args.seed
     );
+    Ok(())
+}
+
+/// The methods named by `list` (`all`: every method that applies to the scene, the others
+/// reported on standard error).
+fn chosen_methods(list: &str, program: &FieldProgram) -> Result<Vec<Box<dyn Method>>, String> {
+    if list == "all" {
+        let mut out = Vec::new();
+        for m in methods::all() {
+            match m.supports(program) {
+                Ok(()) => out.push(m),
+                Err(why) => eprintln!("skeletrace: skipping {}: {why}", m.name()),
+            }
+        }
+        return Ok(out);
+    }
+    list.split(',')
+        .map(|name| {
+            let m = methods::by_name(name.trim())?;
+            m.supports(program).map_err(|why| {
+                format!("method '{}' does not apply to this scene: {why}", m.name())
+            })?;
+            Ok(m)
+        })
+        .collect()
+}
+
+fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
+    let scene = load(Some(&args.scene))?;
+    let program = FieldProgram::new(&scene);
+    let chosen = chosen_methods(&args.methods, &program)?;
+    let terminal = std::io::stderr().is_terminal();
+    let progress = |name: &str, fraction: f64| {
+        if terminal {
+            eprint!("\r{name:<28} {:>3.0} %", 100.0 * fraction);
+        }
+    };
+    let name = args.scene.display().to_string();
+    let stats = stats::run(
+        &program,
+        &name,
+        &chosen,
+        args.rays.max(6),
+        args.seed,
+        &progress,
+    );
+    if terminal {
+        eprint!("\r{:40}\r", "");
+    }
+    if args.json {
+        print!("{}", stats.to_json());
+    } else {
+        println!("{name}: {} rays per method", stats.rays);
+        print!("{}", stats.to_table());
+    }
     Ok(())
 }
 

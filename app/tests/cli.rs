@@ -129,3 +129,44 @@ fn no_argument_uses_the_embedded_default_scene() {
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(text(&o.stdout).contains("embedded creature.ron"));
 }
+
+#[test]
+fn stats_json_follows_the_design_schema() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
+    let o = skeletrace(&[
+        "stats",
+        scene.to_str().unwrap_or_default(),
+        "--methods",
+        "segment,quadratic-taylor",
+        "--rays",
+        "600",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    for key in [
+        "\"scene\"",
+        "\"rays\": 600",
+        "\"name\": \"segment\"",
+        "\"name\": \"quadratic-taylor\"",
+        "\"hits\"",
+        "\"missed\": 0",
+        "\"spurious\": 0",
+        "\"avg_steps\"",
+        "\"median_steps\"",
+        "\"p95_steps\"",
+        "\"max_steps\"",
+        "\"ns_per_ray\"",
+        "\"max_depth_error\"",
+    ] {
+        assert!(out.contains(key), "{key} missing from {out}");
+    }
+    let bad = skeletrace(&[
+        "stats",
+        scene.to_str().unwrap_or_default(),
+        "--methods",
+        "warp-drive",
+    ]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("unknown method 'warp-drive'"));
+}

@@ -113,3 +113,15 @@ fn fold(v: &[Blend], groups: &[Jet], isovalue: f64, op: impl Fn(Jet, Jet) -> Jet
     let first = it.next().unwrap_or(Jet::ZERO);
     it.fold(first, op)
 }
+
+/// Lipschitz bound of `b` from the groups' bounds: sums add, the other operators are bounded by
+/// their largest operand (Ricci by the sum, its weights being at most 1).
+#[must_use]
+pub fn lipschitz(b: &Blend, groups: &[f64]) -> f64 {
+    match b {
+        Blend::Group(i) => groups[*i as usize],
+        Blend::Sum(v) | Blend::Ricci { of: v, .. } => v.iter().map(|c| lipschitz(c, groups)).sum(),
+        Blend::Max(v) | Blend::Min(v) => v.iter().map(|c| lipschitz(c, groups)).fold(0.0, f64::max),
+        Blend::Difference(a, c) => lipschitz(a, groups).max(lipschitz(c, groups)),
+    }
+}

@@ -18,6 +18,7 @@ pub mod program;
 pub mod quadrature;
 pub mod rng;
 pub mod scene;
+pub mod stats;
 
 pub use geometry::{Aabb, Ray};
 pub use interval::{Interval, Jet};

@@ -315,6 +315,24 @@ impl FieldProgram {
         self.ray_jet(ray, span).d1.magnitude()
     }
 
+    /// Segment tracing's local Lipschitz bound on `span` (Galin et al. 2020; MATH.md §5): the sum
+    /// of the primitives' own bounds `max |fᵢ′|` within a group (the bound of a sum is the sum of
+    /// the bounds), combined through the blend tree (sum and Ricci: sum; max, min, difference:
+    /// the largest). Looser than [`FieldProgram::directional_lipschitz`], which bounds the
+    /// derivative of the sum itself.
+    #[must_use]
+    pub fn summed_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
+        self.with_group_slots(0.0, |slots| {
+            let mut add = |i: u32| {
+                let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+                slots[self.groups_of[i as usize] as usize] += jet.d1.magnitude();
+            };
+            self.bvh.for_each_on_ray(ray, span, &mut add);
+            self.unbounded.iter().copied().for_each(add);
+            blend::lipschitz(&self.blend, slots)
+        })
+    }
+
     /// The supports the ray crosses on `span`, sorted by entry.
     #[must_use]
     pub fn ray_supports(&self, ray: &Ray, span: Interval) -> Vec<SupportSpan> {

@@ -3,7 +3,8 @@
 //! point where the field could reach the isovalue — the first root of the upper bound when
 //! outside, of the lower bound when inside. The march advances to it (or to `t + h` when there
 //! is none), and the next interval is `k` times the step just taken. A crossing is reported when
-//! the step falls below `epsilon`.
+//! the step falls below `epsilon` and the field is on the other side of the isovalue `min_step`
+//! further on (otherwise the march goes on: the bound came close to `c`, the field did not).
 
 use crate::geometry::{Ray, quadratic_roots};
 use crate::inclusion::{ForwardInclusion, Offset};
@@ -49,6 +50,14 @@ pub(crate) fn march(
         };
         match first_reach(f, offset, c, limit) {
             Some(s) if s < settings.epsilon => {
+                // Confirm: the field must be on the other side of c just past the root.
+                trace.evaluations += 1;
+                let beyond = t + s + settings.min_step;
+                if (program.along_ray(ray, beyond).0 >= c) == inside {
+                    t += s.max(f64::EPSILON * t.abs());
+                    h = settings.min_step;
+                    continue;
+                }
                 trace.crossings.push(Crossing {
                     t: t + s,
                     entering: !inside,
@@ -56,7 +65,7 @@ pub(crate) fn march(
                 if mode == TraceMode::Opaque {
                     return;
                 }
-                t += s + settings.min_step;
+                t = beyond;
                 h = settings.initial_interval;
             }
             Some(s) => {

@@ -1,7 +1,8 @@
 //! The reference root finder (MATH.md §7): interval bisection with the field engine's value
-//! enclosures. An interval whose enclosure of `f` lies entirely on one side of the isovalue holds
-//! no crossing and is dropped; others are split, left half first, down to a width of 10⁻⁷ of the
-//! scene diagonal, where a sign change between the end points locates a crossing (refined by
+//! enclosures. An interval `[a, b]` holds no crossing, and is dropped, when the enclosure of `f`
+//! lies on one side of the isovalue or when `|f(m) − c| > λ(b − a)/2` with `m` the midpoint and
+//! `λ` the local Lipschitz bound (the test of MATH.md §7, which tightens as intervals shrink).
+//! Others are split, left half first, down to a width of 10⁻⁷ of the scene diagonal, where a sign change between the end points locates a crossing (refined by
 //! bisection on the sign change). Every true crossing is found, except pairs closer together than
 //! that width. Slow; it is the ground truth of the statistics and the tests.
 
@@ -67,12 +68,15 @@ impl RayTracer for Prepared<'_> {
                 let mut stack = vec![part];
                 while let Some(i) = stack.pop() {
                     trace.steps += 1;
-                    let value = self.program.ray_jet(ray, i).value;
-                    if value.hi < c || value.lo > c {
+                    let jet = self.program.ray_jet(ray, i);
+                    let mid = 0.5 * (i.lo + i.hi);
+                    trace.evaluations += 1;
+                    let f_mid = self.program.along_ray(ray, mid).0;
+                    let reach = 0.5 * i.width() * jet.d1.magnitude();
+                    if jet.value.hi < c || jet.value.lo > c || (f_mid - c).abs() > reach {
                         continue;
                     }
                     if i.width() > self.resolution {
-                        let mid = 0.5 * (i.lo + i.hi);
                         stack.push(Interval::new(mid, i.hi));
                         stack.push(Interval::new(i.lo, mid));
                         continue;

@@ -1,6 +1,7 @@
-//! Segment tracing (Galin et al. 2020; forward-inclusion eq. 11): sphere tracing with the local
-//! directional Lipschitz bound `λ = max |f′|` on the next ray interval `[t, t + h]`, taken from
-//! the field engine's enclosure of `f′`; `h` grows as `k ×` the last step.
+//! Segment tracing (Galin et al. 2020; forward-inclusion eq. 11): sphere tracing with a local
+//! directional Lipschitz bound on the next ray interval `[t, t + h]`, computed as segment tracing
+//! does — the sum of the primitives' own bounds ([`FieldProgram::summed_lipschitz`]); `h` grows
+//! as `k ×` the last step.
 
 use crate::geometry::Ray;
 use crate::interval::Interval;

@@ -1,6 +1,7 @@
 //! Sphere tracing with a global Lipschitz bound (numerical ray tracing notes 2014 §6; Hart 1996):
 //! from `t`, no crossing lies closer than `|f(t) − c| / L`, so the ray advances by that much; a
-//! crossing is reported when the step falls below `epsilon`. `L` is
+//! crossing is reported when the step falls below `epsilon` and the field is on the other side of
+//! the isovalue `min_step` further on. `L` is
 //! [`FieldProgram::global_lipschitz`]: the largest sum of primitive Lipschitz constants over
 //! overlapping supports.
 

@@ -2,7 +2,8 @@
 //! last two unbounding radii, `dt = r₁ + β·r₁·(d + r₁ − r₀)/(d − r₁ + r₀)` with `β = 0.95` and `d`
 //! the previous step. The step is accepted when the sphere at the new point overlaps the current
 //! one (`dt ≤ r₁ + r(t + dt)`), so nothing is skipped; otherwise the plain step `r₁` is taken.
-//! The first step of every span is a plain one.
+//! The first step of every span is a plain one. A crossing is reported when `r₁ < epsilon` and
+//! the field is on the other side of the isovalue `min_step` further on.
 
 use crate::geometry::Ray;
 use crate::interval::Interval;
@@ -65,6 +66,13 @@ impl RayTracer for Prepared<'_> {
                 trace.steps += 1;
                 let (r1, inside) = current;
                 if r1 < s.epsilon {
+                    // Confirm the crossing on the other side, as the marching methods do.
+                    if self.radius(ray, t + s.min_step, trace).1 == inside {
+                        t += r1.max(f64::EPSILON * t.abs());
+                        history = None;
+                        current = self.radius(ray, t, trace);
+                        continue;
+                    }
                     trace.crossings.push(Crossing {
                         t,
                         entering: !inside,

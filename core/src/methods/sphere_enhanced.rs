@@ -3,7 +3,8 @@
 //! sphere radius. When the spheres at the old and new points do not overlap
 //! (`r + r_prev < step`), the over-relaxed step may have skipped a crossing: the march goes back
 //! to the previous point and continues with `ω = 1` (plain sphere tracing), so no crossing is
-//! missed. A crossing is reported when `r < epsilon`.
+//! missed. A crossing is reported when `r < epsilon` and the field is on the other side of the
+//! isovalue `min_step` further on.
 
 use crate::geometry::Ray;
 use crate::interval::Interval;
@@ -71,6 +72,16 @@ impl RayTracer for Prepared<'_> {
                 }
                 side = Some(inside);
                 if radius < s.epsilon {
+                    // Confirm the crossing on the other side, as the marching methods do.
+                    trace.evaluations += 1;
+                    let beyond = self.program.along_ray(ray, t + s.min_step).0 >= c;
+                    if beyond == inside {
+                        t += radius.max(f64::EPSILON * t.abs());
+                        omega = 1.0;
+                        step = radius;
+                        previous_radius = radius;
+                        continue;
+                    }
                     trace.crossings.push(Crossing {
                         t,
                         entering: !inside,
