@@ -8,16 +8,11 @@ use crate::inclusion::{self, ForwardInclusion};
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::marching::march;
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::marching::Marcher;
+use super::{Method, RayTracer, TraceSettings};
 
 /// `linear-mixed`.
 pub struct LinearMixed;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-}
 
 impl Method for LinearMixed {
     fn name(&self) -> &'static str {
@@ -33,27 +28,20 @@ impl Method for LinearMixed {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared { program, settings })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let s = &self.settings;
-        let p = self.program;
-        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
-            march(p, ray, part, s, mode, trace, |t, f, _, h| {
+        Box::new(Marcher {
+            program,
+            settings,
+            bound: |p: &FieldProgram, ray: &Ray, t: f64, f: f64, _: f64, h: f64| {
                 let span = Interval::new(t, t + h);
-                let jets = p.ray_group_jets(ray, span);
                 let groups: Vec<ForwardInclusion> = p
                     .group_values_along_ray(ray, t)
                     .iter()
-                    .zip(&jets)
+                    .zip(&p.ray_group_jets(ray, span))
                     .map(|(&(g, _), jet)| ForwardInclusion::linear(g, jet, h))
                     .collect();
                 inclusion::blend(p.blend(), &groups, p.isovalue())
                     .unwrap_or_else(|| ForwardInclusion::linear(f, &p.ray_jet(ray, span), h))
-            });
+            },
         })
     }
 }

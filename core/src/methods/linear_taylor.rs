@@ -7,16 +7,11 @@ use crate::inclusion::ForwardInclusion;
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::marching::march;
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::marching::Marcher;
+use super::{Method, RayTracer, TraceSettings};
 
 /// `linear-taylor`.
 pub struct LinearTaylor;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-}
 
 impl Method for LinearTaylor {
     fn name(&self) -> &'static str {
@@ -32,18 +27,12 @@ impl Method for LinearTaylor {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared { program, settings })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
-            march(self.program, ray, part, s, mode, trace, |t, f, _, h| {
-                let jet = self.program.ray_jet(ray, Interval::new(t, t + h));
-                ForwardInclusion::linear(f, &jet, h)
-            });
+        Box::new(Marcher {
+            program,
+            settings,
+            bound: |p: &FieldProgram, ray: &Ray, t, f, _, h| {
+                ForwardInclusion::linear(f, &p.ray_jet(ray, Interval::new(t, t + h)), h)
+            },
         })
     }
 }

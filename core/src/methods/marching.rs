@@ -11,7 +11,7 @@ use crate::inclusion::{ForwardInclusion, Offset};
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::{Crossing, Trace, TraceMode, TraceSettings};
+use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
 /// First `s ∈ [0, limit]` where `start + offset(s)` reaches `target`, if any.
 pub(crate) fn first_reach(start: f64, offset: Offset, target: f64, limit: f64) -> Option<f64> {
@@ -88,5 +88,28 @@ pub(crate) fn symmetric(start: f64, lambda: f64, length: f64) -> ForwardInclusio
         lower: Offset { a: -lambda, b: 0.0 },
         upper: Offset { a: lambda, b: 0.0 },
         length,
+    }
+}
+
+/// A marching method bound to a scene: `bound(program, ray, t, f(t), f′(t), h)` gives the forward
+/// inclusion on `[t, t + h]`. Every inclusion-based method is this with its own bound.
+pub(crate) struct Marcher<'a, B> {
+    pub(crate) program: &'a FieldProgram,
+    pub(crate) settings: TraceSettings,
+    pub(crate) bound: B,
+}
+
+impl<B> RayTracer for Marcher<'_, B>
+where
+    B: Fn(&FieldProgram, &Ray, f64, f64, f64, f64) -> ForwardInclusion + Sync,
+{
+    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        let s = &self.settings;
+        let p = self.program;
+        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
+            march(p, ray, part, s, mode, trace, |t, f, d, h| {
+                (self.bound)(p, ray, t, f, d, h)
+            });
+        })
     }
 }

@@ -8,16 +8,11 @@ use crate::inclusion::ForwardInclusion;
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::marching::march;
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::marching::Marcher;
+use super::{Method, RayTracer, TraceSettings};
 
 /// `quadratic-taylor`.
 pub struct QuadraticTaylor;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-}
 
 impl Method for QuadraticTaylor {
     fn name(&self) -> &'static str {
@@ -33,18 +28,12 @@ impl Method for QuadraticTaylor {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared { program, settings })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
-            march(self.program, ray, part, s, mode, trace, |t, f, d, h| {
-                let jet = self.program.ray_jet(ray, Interval::new(t, t + h));
-                ForwardInclusion::quadratic(f, d, &jet, h)
-            });
+        Box::new(Marcher {
+            program,
+            settings,
+            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
+                ForwardInclusion::quadratic(f, d, &p.ray_jet(ray, Interval::new(t, t + h)), h)
+            },
         })
     }
 }

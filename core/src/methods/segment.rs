@@ -7,16 +7,11 @@ use crate::geometry::Ray;
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::marching::{march, symmetric};
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::marching::{Marcher, symmetric};
+use super::{Method, RayTracer, TraceSettings};
 
 /// `segment`.
 pub struct SegmentTracing;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-}
 
 impl Method for SegmentTracing {
     fn name(&self) -> &'static str {
@@ -32,20 +27,12 @@ impl Method for SegmentTracing {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared { program, settings })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
-            march(self.program, ray, part, s, mode, trace, |t, f, _, h| {
-                let lambda = self
-                    .program
-                    .directional_lipschitz(ray, Interval::new(t, t + h));
-                symmetric(f, lambda, h)
-            });
+        Box::new(Marcher {
+            program,
+            settings,
+            bound: |p: &FieldProgram, ray: &Ray, t, f, _, h| {
+                symmetric(f, p.summed_lipschitz(ray, Interval::new(t, t + h)), h)
+            },
         })
     }
 }

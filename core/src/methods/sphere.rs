@@ -6,20 +6,13 @@
 //! overlapping supports.
 
 use crate::geometry::Ray;
-use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::marching::{march, symmetric};
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::marching::{Marcher, symmetric};
+use super::{Method, RayTracer, TraceSettings};
 
 /// `sphere`.
 pub struct SphereTracing;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-    lipschitz: f64,
-}
 
 impl Method for SphereTracing {
     fn name(&self) -> &'static str {
@@ -35,21 +28,13 @@ impl Method for SphereTracing {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared {
+        let lipschitz = program.global_lipschitz();
+        Box::new(Marcher {
             program,
             settings,
-            lipschitz: program.global_lipschitz(),
-        })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
-            march(self.program, ray, part, s, mode, trace, |_, f, _, _| {
-                symmetric(f, self.lipschitz, f64::INFINITY)
-            });
+            bound: move |_: &FieldProgram, _: &Ray, _, f, _, _| {
+                symmetric(f, lipschitz, f64::INFINITY)
+            },
         })
     }
 }
