@@ -3,8 +3,9 @@
 //! with the reference tracer on every asset (no missed crossing for the conservative methods),
 //! no NaN, and step counts within the budget.
 
-use std::path::Path;
+mod common;
 
+use common::assets;
 use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::kernel::Kernel;
@@ -154,16 +155,6 @@ fn check_two_blobs_and_transparency(method: &dyn Method) {
         }
         assert!(got.crossings.windows(2).all(|p| p[0].t < p[1].t));
     }
-}
-
-fn assets() -> Vec<std::path::PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
-    let mut files: Vec<_> = std::fs::read_dir(dir)
-        .map(|d| d.flatten().map(|e| e.path()).collect())
-        .unwrap_or_default();
-    files.retain(|p| p.extension().is_some_and(|e| e == "ron"));
-    files.sort();
-    files
 }
 
 /// Rays aimed at random primitives of every asset; the reference is traced once per ray and

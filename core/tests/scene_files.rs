@@ -2,21 +2,14 @@
 //! input gets one message with its position, item and value, and no input makes the loader
 //! panic (random bytes and randomly mutated valid scenes).
 
-use std::path::{Path, PathBuf};
+mod common;
 
+use std::path::Path;
+
+use common::assets;
 use glam::DVec3;
 use skeletrace_core::rng::SplitMix64;
 use skeletrace_core::{FieldProgram, Scene, SceneError};
-
-fn assets() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
-        .unwrap_or_default();
-    files.retain(|p| p.extension().is_some_and(|e| e == "ron"));
-    files.sort();
-    files
-}
 
 #[test]
 fn every_asset_loads_and_round_trips_exactly() {

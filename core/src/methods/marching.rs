@@ -7,8 +7,8 @@
 //! further on (otherwise the march goes on: the bound came close to `c`, the field did not).
 
 use crate::geometry::{Ray, quadratic_roots};
-use crate::inclusion::{ForwardInclusion, Offset};
-use crate::interval::Interval;
+use crate::inclusion::{self, ForwardInclusion, Offset};
+use crate::interval::{Interval, Jet};
 use crate::program::FieldProgram;
 
 use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
@@ -112,4 +112,24 @@ where
             });
         })
     }
+}
+
+/// The mixed inclusion of forward-inclusion 2023 §7.2: `leaf(f_g(t), f_g′(t), jet_g, h)` for each
+/// group, composed bottom-up through the blend tree; where the blend has no forward-inclusion
+/// rule (Ricci), `leaf` applied to the whole field.
+pub(crate) fn mixed_inclusion(
+    p: &FieldProgram,
+    ray: &Ray,
+    (t, f, d, h): (f64, f64, f64, f64),
+    leaf: impl Fn(f64, f64, &Jet, f64) -> ForwardInclusion,
+) -> ForwardInclusion {
+    let span = Interval::new(t, t + h);
+    let groups: Vec<ForwardInclusion> = p
+        .group_values_along_ray(ray, t)
+        .iter()
+        .zip(&p.ray_group_jets(ray, span))
+        .map(|(&(g, dg), jet)| leaf(g, dg, jet, h))
+        .collect();
+    inclusion::blend(p.blend(), &groups, p.isovalue())
+        .unwrap_or_else(|| leaf(f, d, &p.ray_jet(ray, span), h))
 }

@@ -4,11 +4,10 @@
 //! forward-inclusion rule (Ricci) use the whole-field quadratic Taylor bound.
 
 use crate::geometry::Ray;
-use crate::inclusion::{self, ForwardInclusion};
-use crate::interval::Interval;
+use crate::inclusion::ForwardInclusion;
 use crate::program::FieldProgram;
 
-use super::marching::Marcher;
+use super::marching::{Marcher, mixed_inclusion};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `quadratic-mixed`.
@@ -31,16 +30,8 @@ impl Method for QuadraticMixed {
         Box::new(Marcher {
             program,
             settings,
-            bound: |p: &FieldProgram, ray: &Ray, t: f64, f: f64, d: f64, h: f64| {
-                let span = Interval::new(t, t + h);
-                let groups: Vec<ForwardInclusion> = p
-                    .group_values_along_ray(ray, t)
-                    .iter()
-                    .zip(&p.ray_group_jets(ray, span))
-                    .map(|(&(g, dg), jet)| ForwardInclusion::quadratic(g, dg, jet, h))
-                    .collect();
-                inclusion::blend(p.blend(), &groups, p.isovalue())
-                    .unwrap_or_else(|| ForwardInclusion::quadratic(f, d, &p.ray_jet(ray, span), h))
+            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
+                mixed_inclusion(p, ray, (t, f, d, h), ForwardInclusion::quadratic)
             },
         })
     }

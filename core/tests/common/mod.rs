@@ -171,3 +171,14 @@ pub fn scene(groups: Vec<Group>, blend: Option<Blend>) -> Scene {
         lights: Vec::new(),
     }
 }
+
+/// The `.ron` files of `assets/scenes/`, sorted.
+pub fn assets() -> Vec<std::path::PathBuf> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    files.retain(|p| p.extension().is_some_and(|e| e == "ron"));
+    files.sort();
+    files
+}
