@@ -77,6 +77,45 @@ impl ForwardInclusion {
         }
     }
 
+    /// The zero function on `[0, length]`.
+    #[must_use]
+    pub fn zero(length: f64) -> Self {
+        let flat = Offset { a: 0.0, b: 0.0 };
+        Self {
+            start: 0.0,
+            lower: flat,
+            upper: flat,
+            length,
+        }
+    }
+
+    /// The tightest linear inclusion containing this one (§5.2): a convex side is bounded by its
+    /// tangent at the start (lower) or its chord (upper), a concave side the other way round.
+    #[must_use]
+    pub fn linearized(self) -> Self {
+        let h = self.length;
+        let chord = |o: Offset| o.a + o.b * h;
+        Self {
+            lower: Offset {
+                a: if self.lower.b >= 0.0 {
+                    self.lower.a
+                } else {
+                    chord(self.lower)
+                },
+                b: 0.0,
+            },
+            upper: Offset {
+                a: if self.upper.b <= 0.0 {
+                    self.upper.a
+                } else {
+                    chord(self.upper)
+                },
+                b: 0.0,
+            },
+            ..self
+        }
+    }
+
     /// Value of the lower bound at `s`.
     #[must_use]
     pub fn lower_at(&self, s: f64) -> f64 {
@@ -89,7 +128,9 @@ impl ForwardInclusion {
         self.start + self.upper.at(s)
     }
 
-    fn add(self, o: Self) -> Self {
+    /// Sum of two inclusions (forward-inclusion eq. 16), on the shorter of their intervals.
+    #[must_use]
+    pub fn add(self, o: Self) -> Self {
         Self {
             start: self.start + o.start,
             lower: Offset {

@@ -369,6 +369,59 @@ impl KernelProfile {
         2.0 * x.sqrt() * k1.abs()
     }
 
+    /// `(K(x), g)` with `g` a subgradient of the kernel at `x`, on the whole real line: for
+    /// `x < 0` the tangent at 0 continues the kernel. Every profile is decreasing and convex in
+    /// `x` (clipping is a maximum with 0 of a convex function), and so is this extension: the
+    /// bottom-up inclusions (forward-inclusion 2023 §5.2, appendix B) rely on exactly that.
+    #[must_use]
+    pub fn convex_extension(&self, x: f64) -> (f64, f64) {
+        if x < 0.0 {
+            let (k0, d0) = self.value_d1(0.0);
+            return (k0 + d0 * x, d0);
+        }
+        self.value_d1(x)
+    }
+
+    /// `(m, 1/σ²)` when the kernel is the compact polynomial `(1 − x/σ²)^m`.
+    #[must_use]
+    pub fn compact_power(&self) -> Option<(i32, f64)> {
+        match self.family {
+            Family::Compact { m } => Some((m, self.inv_sigma2)),
+            _ => None,
+        }
+    }
+
+    /// Field normalisation of scalis 2021 §4 (MATH.md §4): `(g(f), g′(f))`, the squared
+    /// homothetic distance at which an infinite constant-radius SCALIS segment has the value
+    /// `f`, for isovalue `c`. `g(c) = 1`; capped at the squared support radius, where `f = 0`
+    /// (there `g′` is reported as 0). Compact kernels: the line field is the compact kernel of
+    /// degree `i + 1`; Cauchy: degree `i − 1` (a degree-1 Cauchy kernel has no finite line
+    /// integral and uses the Gaussian-like logarithm below); Gaussian: a Gaussian again.
+    #[must_use]
+    pub fn field_normalisation(&self, f: f64, isovalue: f64) -> (f64, f64) {
+        let cap = self.support_sq;
+        if f <= 0.0 {
+            return (cap, 0.0);
+        }
+        let s2 = 1.0 / self.inv_sigma2;
+        let ratio = f / isovalue;
+        let (g, d) = match self.family {
+            Family::Compact { m } => {
+                let e = 2.0 / f64::from(2 * m + 1);
+                let q = 1.0 - 1.0 / s2;
+                let p = ratio.powf(e);
+                (s2 * (1.0 - q * p), -s2 * q * e * p / f)
+            }
+            Family::Cauchy { n } if n > 0.5 => {
+                let e = 1.0 / (n - 0.5);
+                let p = ratio.powf(-e);
+                ((1.0 + s2) * p - s2, -(1.0 + s2) * e * p / f)
+            }
+            Family::Cauchy { .. } | Family::Gaussian => (1.0 - s2 * ratio.ln(), -s2 / f),
+        };
+        if g >= cap { (cap, 0.0) } else { (g, d) }
+    }
+
     /// Normalisation of a point primitive: the field equals the isovalue at the prescribed
     /// radius (MATH.md §2).
     #[must_use]

@@ -5,7 +5,9 @@
 //! [`program::FieldProgram`] is compiled from it after each edit and queried by the tracers;
 //! [`interval::Jet`]s are per-query enclosures along rays.
 
+pub mod affine;
 pub mod blend;
+pub mod bottom_up;
 pub mod bvh;
 pub mod generate;
 pub mod geometry;

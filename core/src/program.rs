@@ -333,6 +333,35 @@ impl FieldProgram {
         })
     }
 
+    /// Calls `visit(group, primitive, kernel, support ∩ span)` for every primitive whose support
+    /// the ray crosses on `span` (in no particular order).
+    pub fn for_each_primitive_on_ray(
+        &self,
+        ray: &Ray,
+        span: Interval,
+        mut visit: impl FnMut(usize, &Primitive, &KernelProfile, Interval),
+    ) {
+        let mut add = |i: u32| {
+            let p = &self.primitives[i as usize];
+            let k = self.kernel_of(i);
+            if let Some(s) = p.support_interval(ray, k).and_then(|s| s.intersect(span)) {
+                visit(self.groups_of[i as usize] as usize, p, k, s);
+            }
+        };
+        self.bvh.for_each_on_ray(ray, span, &mut add);
+        self.unbounded.iter().copied().for_each(add);
+    }
+
+    /// The kernel shared by every group, if they all use the same one.
+    #[must_use]
+    pub fn common_kernel(&self) -> Option<Kernel> {
+        let first = *self.kernel_specs.first()?;
+        self.kernel_specs
+            .iter()
+            .all(|k| *k == first)
+            .then_some(first)
+    }
+
     /// The supports the ray crosses on `span`, sorted by entry.
     #[must_use]
     pub fn ray_supports(&self, ray: &Ray, span: Interval) -> Vec<SupportSpan> {

@@ -7,6 +7,8 @@ mod common;
 use common::{KERNELS, KINDS, Kind, add_primitive, group, scene};
 use glam::DVec3;
 use rayon::prelude::*;
+use skeletrace_core::affine::field_form;
+use skeletrace_core::bottom_up::{Degree, field_inclusion};
 use skeletrace_core::kernel::Kernel;
 use skeletrace_core::rng::SplitMix64;
 use skeletrace_core::scene::Blend;
@@ -194,6 +196,94 @@ fn samples_exercise_finite_nontrivial_bounds() {
             assert!(
                 finite_d1 * 10 > nonzero * 9,
                 "{kind:?} {kernel:?}: f′ bounds unbounded too often"
+            );
+        }
+    }
+}
+
+/// Checks the bottom-up forward inclusions (both degrees) and the affine form on one query.
+fn check_bottom_up_and_affine(
+    program: &FieldProgram,
+    ray: &Ray,
+    span: Interval,
+    rng: &mut SplitMix64,
+) -> Result<(), String> {
+    let (f0, d0) = program.along_ray(ray, span.lo);
+    for degree in [Degree::Linear, Degree::Quadratic] {
+        let inc = field_inclusion(program, ray, (span.lo, f0, d0, span.width()), degree);
+        if (inc.start - f0).abs() > 1e-9 * (1.0 + f0.abs()) {
+            return Err(format!("{degree:?}: start {} ≠ f = {f0}", inc.start));
+        }
+        for _ in 0..6 {
+            let s = rng.range(0.0, inc.length);
+            let f = program.along_ray(ray, span.lo + s).0;
+            let slack = 1e-9 * (1.0 + f.abs());
+            if f < inc.lower_at(s) - slack || f > inc.upper_at(s) + slack {
+                return Err(format!(
+                    "{degree:?}: f = {f} at s = {s} outside [{}, {}] (h = {})",
+                    inc.lower_at(s),
+                    inc.upper_at(s),
+                    inc.length
+                ));
+            }
+        }
+    }
+    if let Some(form) = field_form(program, ray, span) {
+        let range = form.range();
+        for _ in 0..6 {
+            let t = rng.range(span.lo, span.hi);
+            let f = program.along_ray(ray, t).0;
+            if !Interval::new(range.lo - 1e-9, range.hi + 1e-9).contains(f) {
+                return Err(format!("affine: f = {f} at t = {t} outside {range:?}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn bottom_up_inclusions_and_affine_forms_hold() {
+    let operators = [
+        None,
+        Some(Blend::Max(vec![Blend::Group(0), Blend::Group(1)])),
+        Some(Blend::Min(vec![Blend::Group(0), Blend::Group(1)])),
+        Some(Blend::Difference(
+            Box::new(Blend::Group(0)),
+            Box::new(Blend::Group(1)),
+        )),
+    ];
+    for kernel in KERNELS {
+        for (i, blend) in operators.iter().enumerate() {
+            let failures: Vec<String> = (0..100)
+                .into_par_iter()
+                .flat_map_iter(|batch| {
+                    let mut rng = SplitMix64::new(batch as u64 + 7 * i as u64);
+                    let mut groups = vec![group(kernel), group(kernel)];
+                    for g in &mut groups {
+                        for _ in 0..4 {
+                            // Mostly blobs (the bottom-up rule), some other primitives.
+                            let kind = if rng.below(4) == 0 {
+                                KINDS[rng.below(KINDS.len())]
+                            } else {
+                                Kind::Point
+                            };
+                            add_primitive(g, kind, &mut rng);
+                        }
+                    }
+                    let program = FieldProgram::new(&scene(groups, blend.clone()));
+                    (0..100).filter_map(move |_| {
+                        let (ray, span) = random_query(&mut rng);
+                        check_bottom_up_and_affine(&program, &ray, span, &mut rng)
+                            .err()
+                            .map(|e| format!("{kernel:?} {blend:?} {ray:?} {span:?}: {e}"))
+                    })
+                })
+                .collect();
+            assert!(
+                failures.is_empty(),
+                "{} violations, first: {}",
+                failures.len(),
+                failures[0]
             );
         }
     }

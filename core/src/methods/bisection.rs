@@ -1,0 +1,53 @@
+//! Interval bisection with pruning, the root finder of the self-validated baselines
+//! (forward-inclusion 2023 Table 1: revised affine arithmetic and bottom-up linear bisection):
+//! an interval whose enclosure of `f` excludes the isovalue is dropped, others are split, left
+//! half first, until they are shorter than `epsilon`; there a sign change between the end points
+//! is a crossing. One step is one enclosure computed.
+
+use crate::geometry::Ray;
+use crate::interval::Interval;
+use crate::program::FieldProgram;
+
+use super::{Crossing, Trace, TraceMode, TraceSettings};
+
+/// Bisects `part`; `enclosure(interval, trace)` returns a range of `f` over the interval, or
+/// `None` when it cannot bound it (the interval is then split).
+pub(crate) fn bisect(
+    program: &FieldProgram,
+    ray: &Ray,
+    part: Interval,
+    settings: &TraceSettings,
+    mode: TraceMode,
+    trace: &mut Trace,
+    enclosure: impl Fn(Interval, &mut Trace) -> Option<Interval>,
+) {
+    let c = program.isovalue();
+    let mut stack = vec![part];
+    while let Some(i) = stack.pop() {
+        if trace.steps >= settings.max_steps {
+            return;
+        }
+        trace.steps += 1;
+        if enclosure(i, trace).is_some_and(|r| !r.contains(c)) {
+            continue;
+        }
+        if i.width() > settings.epsilon {
+            let mid = 0.5 * (i.lo + i.hi);
+            stack.push(Interval::new(mid, i.hi));
+            stack.push(Interval::new(i.lo, mid));
+            continue;
+        }
+        trace.evaluations += 2;
+        let below_lo = program.along_ray(ray, i.lo).0 < c;
+        if below_lo == (program.along_ray(ray, i.hi).0 < c) {
+            continue;
+        }
+        trace.crossings.push(Crossing {
+            t: 0.5 * (i.lo + i.hi),
+            entering: below_lo,
+        });
+        if mode == TraceMode::Opaque {
+            return;
+        }
+    }
+}

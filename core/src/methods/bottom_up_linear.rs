@@ -1,0 +1,36 @@
+//! Bottom-up linear tracing (forward-inclusion 2023 §5.2): Algorithm 1 marching on linear
+//! inclusions built bottom-up from the field's arithmetic ([`crate::bottom_up`]).
+
+use crate::bottom_up::{Degree, field_inclusion};
+use crate::geometry::Ray;
+use crate::program::FieldProgram;
+
+use super::marching::Marcher;
+use super::{Method, RayTracer, TraceSettings};
+
+/// `bottom-up-linear`.
+pub struct BottomUpLinear;
+
+impl Method for BottomUpLinear {
+    fn name(&self) -> &'static str {
+        "bottom-up-linear"
+    }
+
+    fn is_conservative(&self) -> bool {
+        true
+    }
+
+    fn prepare<'a>(
+        &self,
+        program: &'a FieldProgram,
+        settings: TraceSettings,
+    ) -> Box<dyn RayTracer + 'a> {
+        Box::new(Marcher {
+            program,
+            settings,
+            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
+                field_inclusion(p, ray, (t, f, d, h), Degree::Linear)
+            },
+        })
+    }
+}

@@ -1,0 +1,55 @@
+//! Bottom-up linear inclusions with bisection (forward-inclusion 2023 §7.1, Table 1): the linear
+//! bottom-up inclusion of [`crate::bottom_up`] built at the start of each interval encloses `f`
+//! over it; intervals that cannot hold the isovalue are pruned, the others bisected.
+
+use crate::bottom_up::{Degree, field_inclusion};
+use crate::program::FieldProgram;
+
+use super::bisection::bisect;
+use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use crate::geometry::Ray;
+use crate::interval::Interval;
+
+/// `bottom-up-linear-bisection`.
+pub struct BottomUpLinearBisection;
+
+struct Prepared<'a> {
+    program: &'a FieldProgram,
+    settings: TraceSettings,
+}
+
+impl Method for BottomUpLinearBisection {
+    fn name(&self) -> &'static str {
+        "bottom-up-linear-bisection"
+    }
+
+    fn is_conservative(&self) -> bool {
+        true
+    }
+
+    fn prepare<'a>(
+        &self,
+        program: &'a FieldProgram,
+        settings: TraceSettings,
+    ) -> Box<dyn RayTracer + 'a> {
+        Box::new(Prepared { program, settings })
+    }
+}
+
+impl RayTracer for Prepared<'_> {
+    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        let (p, s) = (self.program, &self.settings);
+        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
+            bisect(p, ray, part, s, mode, trace, |i, trace| {
+                trace.evaluations += 1;
+                let (f, d) = p.along_ray(ray, i.lo);
+                let inc = field_inclusion(p, ray, (i.lo, f, d, i.width()), Degree::Linear);
+                // A shortened validity interval does not cover `i`: no enclosure.
+                (inc.length >= i.width()).then(|| {
+                    Interval::new(inc.start, inc.upper_at(inc.length))
+                        .include(inc.lower_at(inc.length))
+                })
+            });
+        })
+    }
+}

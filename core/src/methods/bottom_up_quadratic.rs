@@ -1,0 +1,36 @@
+//! Bottom-up quadratic tracing (forward-inclusion 2023 §6.2, appendix B, C): Algorithm 1 marching
+//! on quadratic inclusions built bottom-up from the field's arithmetic ([`crate::bottom_up`]).
+
+use crate::bottom_up::{Degree, field_inclusion};
+use crate::geometry::Ray;
+use crate::program::FieldProgram;
+
+use super::marching::Marcher;
+use super::{Method, RayTracer, TraceSettings};
+
+/// `bottom-up-linear`.
+pub struct BottomUpQuadratic;
+
+impl Method for BottomUpQuadratic {
+    fn name(&self) -> &'static str {
+        "bottom-up-quadratic"
+    }
+
+    fn is_conservative(&self) -> bool {
+        true
+    }
+
+    fn prepare<'a>(
+        &self,
+        program: &'a FieldProgram,
+        settings: TraceSettings,
+    ) -> Box<dyn RayTracer + 'a> {
+        Box::new(Marcher {
+            program,
+            settings,
+            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
+                field_inclusion(p, ray, (t, f, d, h), Degree::Quadratic)
+            },
+        })
+    }
+}
