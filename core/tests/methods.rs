@@ -11,11 +11,17 @@ use rayon::prelude::*;
 use skeletrace_core::kernel::Kernel;
 use skeletrace_core::methods::{self, Method, TraceMode, TraceSettings};
 use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::{Blob, Camera, Group, Material, Scene};
+use skeletrace_core::scene::{
+    Blob, Camera, Group, Material, Scene, Skeleton, SkeletonField, Vertex,
+};
 use skeletrace_core::{FieldProgram, Interval, Ray};
 
 fn blobs(kernel: Kernel, centers: &[[f64; 3]], radius: f64) -> FieldProgram {
-    FieldProgram::new(&Scene {
+    FieldProgram::new(&blobs_scene(kernel, centers, radius))
+}
+
+fn blobs_scene(kernel: Kernel, centers: &[[f64; 3]], radius: f64) -> Scene {
+    Scene {
         version: 1,
         isovalue: 1.0,
         groups: vec![Group {
@@ -32,22 +38,50 @@ fn blobs(kernel: Kernel, centers: &[[f64; 3]], radius: f64) -> FieldProgram {
         blend: None,
         camera: Camera::default(),
         lights: Vec::new(),
-    })
-}
-
-/// A kernel the method supports (field inversion needs Gaussians).
-fn kernel_for(method: &dyn Method) -> Kernel {
-    let compact = Kernel::default();
-    if method.supports(&blobs(compact, &[[0.0; 3]], 1.0)).is_ok() {
-        compact
-    } else {
-        Kernel::Gaussian { scale: 1.0 }
     }
 }
 
+/// SCALIS segments of radius `radius` through each centre, along y, long enough that the
+/// rays of the analytic cases (all within |y| < 0.6) see an infinite cylinder: a cross-section
+/// is the same circle as a blob's.
+fn scalis_rods(centers: &[[f64; 3]], radius: f64) -> FieldProgram {
+    let rods = centers
+        .iter()
+        .map(|&[x, y, z]| Skeleton {
+            name: String::new(),
+            field: SkeletonField::Scalis,
+            end_correctors: true,
+            vertices: [-5.0, 5.0]
+                .map(|dy| Vertex {
+                    position: [x, y + dy, z],
+                    radius,
+                })
+                .to_vec(),
+            edges: vec![[0, 1]],
+        })
+        .collect();
+    let mut scene = blobs_scene(Kernel::default(), &[], radius);
+    scene.groups[0].skeletons = rods;
+    FieldProgram::new(&scene)
+}
+
+/// A program the method supports whose surface, seen by the test rays, is that of blobs of
+/// `radius` at `centers`: compact blobs, Gaussian blobs (field inversion) or SCALIS rods
+/// (the SCALIS-only methods).
+fn fixture(method: &dyn Method, centers: &[[f64; 3]], radius: f64) -> FieldProgram {
+    let compact = blobs(Kernel::default(), centers, radius);
+    if method.supports(&compact).is_ok() {
+        return compact;
+    }
+    let gaussian = blobs(Kernel::Gaussian { scale: 1.0 }, centers, radius);
+    if method.supports(&gaussian).is_ok() {
+        return gaussian;
+    }
+    scalis_rods(centers, radius)
+}
+
 fn check_analytic_cases(method: &dyn Method) {
-    let kernel = kernel_for(method);
-    let program = blobs(kernel, &[[0.0; 3]], 1.0);
+    let program = fixture(method, &[[0.0; 3]], 1.0);
     assert!(method.supports(&program).is_ok());
     let settings = TraceSettings::for_program(&program);
     let tracer = method.prepare(&program, settings);
@@ -113,8 +147,7 @@ fn check_analytic_cases(method: &dyn Method) {
 }
 
 fn check_two_blobs_and_transparency(method: &dyn Method) {
-    let kernel = kernel_for(method);
-    let program = blobs(kernel, &[[-0.6, 0.0, 0.0], [0.6, 0.0, 0.0]], 0.5);
+    let program = fixture(method, &[[-0.6, 0.0, 0.0], [0.6, 0.0, 0.0]], 0.5);
     let settings = TraceSettings::for_program(&program);
     let tracer = method.prepare(&program, settings);
     let reference = methods::by_name("reference")
@@ -255,6 +288,12 @@ method_suite! {
     quadratic_mixed => "quadratic-mixed";
     field_inversion => "field-inversion";
     reference => "reference";
+    sphere_normalized => "sphere-normalized";
+    bottom_up_linear => "bottom-up-linear";
+    bottom_up_linear_bisection => "bottom-up-linear-bisection";
+    bottom_up_quadratic => "bottom-up-quadratic";
+    affine => "affine";
+    scalis_quadratic => "scalis-quadratic";
 }
 
 #[test]

@@ -35,11 +35,26 @@ pub(crate) fn march(
     let c = program.isovalue();
     let mut t = part.lo;
     let mut h = settings.initial_interval;
+    // The previous sample and its side, to catch a step that landed on or past a crossing.
+    let mut previous: Option<(f64, bool)> = None;
     while t < part.hi && trace.steps < settings.max_steps {
         trace.steps += 1;
         trace.evaluations += 1;
         let (f, d) = program.along_ray(ray, t);
         let inside = f >= c;
+        if let Some((t_prev, was_inside)) = previous
+            && was_inside != inside
+        {
+            let at = bisect_sign_change(program, ray, (t_prev, t), was_inside, settings, trace);
+            trace.crossings.push(Crossing {
+                t: at,
+                entering: inside,
+            });
+            if mode == TraceMode::Opaque {
+                return;
+            }
+        }
+        previous = Some((t, inside));
         let h_now = h.max(settings.min_step).min(part.hi - t);
         let inclusion = bound(t, f, d, h_now);
         let limit = inclusion.length.min(part.hi - t);
@@ -67,6 +82,7 @@ pub(crate) fn march(
                 }
                 t = beyond;
                 h = settings.initial_interval;
+                previous = None;
             }
             Some(s) => {
                 t += s;
@@ -78,6 +94,29 @@ pub(crate) fn march(
             }
         }
     }
+}
+
+/// The crossing between `lo` (on side `lo_inside`) and `hi` (on the other side), to within
+/// `epsilon`, by bisection: where a step landed exactly on the surface (or, for the methods
+/// without a guarantee, stepped over it).
+fn bisect_sign_change(
+    program: &FieldProgram,
+    ray: &Ray,
+    (mut lo, mut hi): (f64, f64),
+    lo_inside: bool,
+    settings: &TraceSettings,
+    trace: &mut Trace,
+) -> f64 {
+    while hi - lo > settings.epsilon {
+        let mid = 0.5 * (lo + hi);
+        trace.evaluations += 1;
+        if (program.along_ray(ray, mid).0 >= program.isovalue()) == lo_inside {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
 }
 
 /// A symmetric linear bound `f(t) ± λ·s` on `[0, length]` (sphere and segment tracing as forward

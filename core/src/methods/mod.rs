@@ -16,13 +16,16 @@ mod field_inversion;
 mod linear_mixed;
 mod linear_taylor;
 mod marching;
+mod normalised;
 mod quadratic_mixed;
 mod quadratic_taylor;
 mod reference;
+mod scalis_quadratic;
 mod segment;
 mod sphere;
 mod sphere_accelerated;
 mod sphere_enhanced;
+mod sphere_normalized;
 
 use crate::geometry::Ray;
 use crate::interval::Interval;
@@ -38,10 +41,12 @@ pub use linear_taylor::LinearTaylor;
 pub use quadratic_mixed::QuadraticMixed;
 pub use quadratic_taylor::QuadraticTaylor;
 pub use reference::Reference;
+pub use scalis_quadratic::ScalisQuadratic;
 pub use segment::SegmentTracing;
 pub use sphere::SphereTracing;
 pub use sphere_accelerated::AcceleratedSphereTracing;
 pub use sphere_enhanced::EnhancedSphereTracing;
+pub use sphere_normalized::NormalizedSphereTracing;
 
 /// Settings shared by every method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,6 +158,7 @@ pub fn all() -> Vec<Box<dyn Method>> {
         Box::new(SphereTracing),
         Box::new(EnhancedSphereTracing),
         Box::new(AcceleratedSphereTracing),
+        Box::new(NormalizedSphereTracing),
         Box::new(SegmentTracing),
         Box::new(LinearTaylor),
         Box::new(QuadraticTaylor),
@@ -163,12 +169,13 @@ pub fn all() -> Vec<Box<dyn Method>> {
         Box::new(QuadraticMixed),
         Box::new(AffineArithmetic),
         Box::new(FieldInversion),
+        Box::new(ScalisQuadratic),
         Box::new(Reference),
     ]
 }
 
 /// Names of the methods of DESIGN.md that this build does not implement yet.
-pub const NOT_YET_IMPLEMENTED: [&str; 3] = ["sphere-normalized", "scalis-quadratic", "sherstyuk"];
+pub const NOT_YET_IMPLEMENTED: [&str; 1] = ["sherstyuk"];
 
 /// The method called `name`.
 ///
