@@ -294,6 +294,7 @@ method_suite! {
     bottom_up_quadratic => "bottom-up-quadratic";
     affine => "affine";
     scalis_quadratic => "scalis-quadratic";
+    sherstyuk => "sherstyuk";
 }
 
 #[test]
@@ -316,10 +317,30 @@ fn global_lipschitz_bounds_sampled_gradients_on_every_asset() {
 }
 
 #[test]
-fn every_design_method_is_implemented_or_refused_with_a_clear_message() {
-    for name in methods::NOT_YET_IMPLEMENTED {
-        let err = methods::by_name(name).err().unwrap_or_default();
-        assert!(err.contains("not implemented"), "{err}");
+fn every_design_method_is_implemented_and_unknown_names_are_refused() {
+    let design = [
+        "sphere",
+        "sphere-enhanced",
+        "sphere-accelerated",
+        "sphere-normalized",
+        "segment",
+        "linear-taylor",
+        "quadratic-taylor",
+        "bottom-up-linear",
+        "bottom-up-linear-bisection",
+        "bottom-up-quadratic",
+        "linear-mixed",
+        "quadratic-mixed",
+        "affine",
+        "field-inversion",
+        "scalis-quadratic",
+        "sherstyuk",
+        "reference",
+    ];
+    let names: Vec<&str> = methods::all().iter().map(|m| m.name()).collect();
+    assert_eq!(names.len(), design.len());
+    for name in design {
+        assert!(methods::by_name(name).is_ok(), "{name}");
     }
     assert!(
         methods::by_name("nonsense")

@@ -22,6 +22,7 @@ mod quadratic_taylor;
 mod reference;
 mod scalis_quadratic;
 mod segment;
+mod sherstyuk;
 mod sphere;
 mod sphere_accelerated;
 mod sphere_enhanced;
@@ -43,6 +44,7 @@ pub use quadratic_taylor::QuadraticTaylor;
 pub use reference::Reference;
 pub use scalis_quadratic::ScalisQuadratic;
 pub use segment::SegmentTracing;
+pub use sherstyuk::Sherstyuk;
 pub use sphere::SphereTracing;
 pub use sphere_accelerated::AcceleratedSphereTracing;
 pub use sphere_enhanced::EnhancedSphereTracing;
@@ -170,12 +172,10 @@ pub fn all() -> Vec<Box<dyn Method>> {
         Box::new(AffineArithmetic),
         Box::new(FieldInversion),
         Box::new(ScalisQuadratic),
+        Box::new(Sherstyuk),
         Box::new(Reference),
     ]
 }
-
-/// Names of the methods of DESIGN.md that this build does not implement yet.
-pub const NOT_YET_IMPLEMENTED: [&str; 1] = ["sherstyuk"];
 
 /// The method called `name`.
 ///
@@ -186,12 +186,6 @@ pub fn by_name(name: &str) -> Result<Box<dyn Method>, String> {
         return Ok(m);
     }
     let known: Vec<&str> = all().iter().map(|m| m.name()).collect();
-    if NOT_YET_IMPLEMENTED.contains(&name) {
-        return Err(format!(
-            "method '{name}' is not implemented in this build yet; available: {}",
-            known.join(", ")
-        ));
-    }
     Err(format!(
         "unknown method '{name}'; available: {}",
         known.join(", ")
