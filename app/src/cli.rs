@@ -29,6 +29,57 @@ pub enum Command {
     },
     /// Ray statistics of the root-finding methods against the reference tracer.
     Stats(StatsArgs),
+    /// Render a scene to PNG: shaded, or step-count heat maps of one or several methods.
+    Render(RenderArgs),
+}
+
+/// What a render shows.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// Blinn–Phong shading.
+    Shaded,
+    /// Step-count heat map with a colour bar.
+    Steps,
+}
+
+/// Where rays are traced.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    /// The CPU tracer of skeletrace-core.
+    Cpu,
+    /// The wgpu backend.
+    Gpu,
+}
+
+/// Arguments of `render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (.ron).
+    pub scene: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Method of a single render.
+    #[arg(long, conflicts_with = "compare")]
+    pub method: Option<String>,
+    /// Comma-separated methods, one panel each (`all`: every method that applies).
+    #[arg(long)]
+    pub compare: Option<String>,
+    /// Shaded or step counts (default: shaded for one method, steps for --compare).
+    #[arg(long, value_enum)]
+    pub view: Option<View>,
+    /// Size of each panel, `WxH`.
+    #[arg(long, default_value = "512x512")]
+    pub size: String,
+    /// Tracing backend.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    pub backend: Backend,
+    /// Top of the step-count colour scale (default: the largest count in the image).
+    #[arg(long)]
+    pub steps_max: Option<u32>,
+    /// Cast shadow rays in the shaded view.
+    #[arg(long)]
+    pub shadows: bool,
 }
 
 /// Arguments of `stats`.

@@ -4,6 +4,8 @@
 //! and the item, and exits with a non-zero status; nothing here panics on user input.
 
 mod cli;
+mod picture;
+mod render_cmd;
 
 use std::io::IsTerminal;
 use std::path::Path;
@@ -25,6 +27,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Command::Generate(args)) => run_generate(&args),
         Some(Command::Stats(args)) => run_stats(&args),
+        Some(Command::Render(args)) => {
+            load(Some(&args.scene)).and_then(|s| render_cmd::run(&args, &s))
+        }
         Some(Command::Info { scene }) => {
             load(Some(&scene)).map(|s| print_info(&scene.display().to_string(), &s))
         }

@@ -18,6 +18,7 @@ pub mod methods;
 pub mod primitives;
 pub mod program;
 pub mod quadrature;
+pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod stats;

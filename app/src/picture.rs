@@ -1,0 +1,182 @@
+//! Images the command line writes: panels of rendered frames, text labels (the public-domain
+//! 8×8 font of `font8x8`), the step-count colour bar, and atomic PNG output.
+
+use std::fs;
+use std::io::BufWriter;
+use std::path::Path;
+
+use skeletrace_core::render::{Frame, heat_colour, srgb8};
+
+/// Text scale: 8×8 glyphs drawn at 2×.
+const TEXT_SCALE: usize = 2;
+/// Height of a label strip: two lines at 2×.
+pub const LABEL_HEIGHT: usize = 2 * 8 * TEXT_SCALE + 12;
+/// Height of the colour bar strip, tick labels included.
+pub const BAR_HEIGHT: usize = 20 + 8 * TEXT_SCALE + 12;
+
+/// An sRGB RGBA8 image.
+pub struct Canvas {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    pixels: Vec<[u8; 4]>,
+}
+
+impl Canvas {
+    /// A canvas filled with `colour`.
+    #[must_use]
+    pub fn new(width: usize, height: usize, colour: [u8; 4]) -> Self {
+        Self {
+            width,
+            height,
+            pixels: vec![colour; width * height],
+        }
+    }
+
+    /// Sets a pixel, ignoring coordinates outside the canvas.
+    pub fn put(&mut self, x: usize, y: usize, colour: [u8; 4]) {
+        if x < self.width && y < self.height {
+            self.pixels[y * self.width + x] = colour;
+        }
+    }
+
+    /// Fills a rectangle.
+    pub fn fill(&mut self, x: usize, y: usize, w: usize, h: usize, colour: [u8; 4]) {
+        for yy in y..(y + h).min(self.height) {
+            for xx in x..(x + w).min(self.width) {
+                self.pixels[yy * self.width + xx] = colour;
+            }
+        }
+    }
+
+    /// Draws a frame's shaded colours with its top-left corner at `(x, y)`.
+    pub fn draw_shaded(&mut self, frame: &Frame, x: usize, y: usize) {
+        for (i, c) in frame.colour.iter().enumerate() {
+            let colour = [srgb8(c[0]), srgb8(c[1]), srgb8(c[2]), 255];
+            self.put(x + i % frame.width, y + i / frame.width, colour);
+        }
+    }
+
+    /// Draws a frame's step counts as a heat map on the scale `[0, steps_max]`.
+    pub fn draw_steps(&mut self, frame: &Frame, steps_max: u32, x: usize, y: usize) {
+        for (i, &s) in frame.steps.iter().enumerate() {
+            let colour = heat_rgba(f64::from(s) / f64::from(steps_max.max(1)));
+            self.put(x + i % frame.width, y + i / frame.width, colour);
+        }
+    }
+
+    /// Width in pixels of `text` when drawn.
+    #[must_use]
+    pub fn text_width(text: &str) -> usize {
+        text.chars().count() * 8 * TEXT_SCALE
+    }
+
+    /// Draws `text` (ASCII; other characters as `?`) with its top-left corner at `(x, y)`.
+    pub fn text(&mut self, x: usize, y: usize, text: &str, colour: [u8; 4]) {
+        self.text_scaled(x, y, text, colour, TEXT_SCALE);
+    }
+
+    fn text_scaled(&mut self, x: usize, y: usize, text: &str, colour: [u8; 4], scale: usize) {
+        for (i, ch) in text.chars().enumerate() {
+            let code = if ch.is_ascii() {
+                ch as usize
+            } else {
+                '?' as usize
+            };
+            let glyph = font8x8::legacy::BASIC_LEGACY[code];
+            for (row, bits) in glyph.iter().enumerate() {
+                for col in 0..8 {
+                    if bits >> col & 1 == 1 {
+                        let gx = x + (i * 8 + col) * scale;
+                        let gy = y + row * scale;
+                        self.fill(gx, gy, scale, scale, colour);
+                    }
+                }
+            }
+        }
+    }
+
+    /// A label strip of two left-aligned lines on a dark background, at half size where a
+    /// line would not fit `width`.
+    pub fn label(&mut self, x: usize, y: usize, width: usize, lines: [&str; 2]) {
+        self.fill(x, y, width, LABEL_HEIGHT, [24, 26, 30, 255]);
+        let fits = lines.iter().all(|l| Self::text_width(l) + 12 <= width);
+        let scale = if fits { TEXT_SCALE } else { 1 };
+        for (i, line) in lines.iter().enumerate() {
+            let colour = if i == 0 {
+                [250, 250, 250, 255]
+            } else {
+                [190, 195, 205, 255]
+            };
+            self.text_scaled(x + 6, y + 4 + i * (8 * scale + 4), line, colour, scale);
+        }
+    }
+
+    /// The colour bar of the step-count scale `[0, steps_max]` with five tick labels; counts
+    /// above the scale take its top colour (`clipped` marks the last label `≥`).
+    pub fn colour_bar(&mut self, x: usize, y: usize, width: usize, steps_max: u32, clipped: bool) {
+        self.fill(x, y, width, BAR_HEIGHT, [24, 26, 30, 255]);
+        let (bar_x, bar_w) = (x + 16, width.saturating_sub(32).max(1));
+        for i in 0..bar_w {
+            let c = heat_rgba(i as f64 / (bar_w - 1).max(1) as f64);
+            self.fill(bar_x + i, y + 6, 1, 14, c);
+        }
+        for k in 0..=4 {
+            let value = f64::from(steps_max) * f64::from(k) / 4.0;
+            let text = if k == 4 {
+                format!("{}{steps_max} steps", if clipped { ">=" } else { "" })
+            } else {
+                format!("{value:.0}")
+            };
+            let tick = bar_x + (bar_w - 1) * k as usize / 4;
+            self.fill(tick, y + 20, 1, 4, [235, 235, 235, 255]);
+            let w = Self::text_width(&text);
+            let tx = tick
+                .saturating_sub(w / 2)
+                .clamp(x + 2, (x + width).saturating_sub(w + 2));
+            self.text(tx, y + 26, &text, [235, 235, 235, 255]);
+        }
+    }
+
+    /// Writes the canvas as a PNG, atomically (temporary file, then rename).
+    ///
+    /// # Errors
+    /// A message naming the file.
+    pub fn save_png(&self, path: &Path) -> Result<(), String> {
+        let fail = |e: &dyn std::fmt::Display| format!("{}: cannot write: {e}", path.display());
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path
+            .file_name()
+            .map_or_else(|| "image.png".into(), |n| n.to_string_lossy().into_owned());
+        let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        let write = || -> Result<(), String> {
+            let file = fs::File::create(&temp).map_err(|e| fail(&e))?;
+            let mut out = BufWriter::new(file);
+            let mut encoder = png::Encoder::new(&mut out, self.width as u32, self.height as u32);
+            encoder.set_color(png::ColorType::Rgba);
+            encoder.set_depth(png::BitDepth::Eight);
+            let mut writer = encoder.write_header().map_err(|e| fail(&e))?;
+            let bytes: Vec<u8> = self.pixels.iter().flatten().copied().collect();
+            writer.write_image_data(&bytes).map_err(|e| fail(&e))?;
+            writer.finish().map_err(|e| fail(&e))?;
+            let file = out.into_inner().map_err(|e| fail(&e.error()))?;
+            file.sync_all().map_err(|e| fail(&e))
+        };
+        let result = write().and_then(|()| fs::rename(&temp, path).map_err(|e| fail(&e)));
+        if result.is_err() {
+            let _ = fs::remove_file(&temp);
+        }
+        result
+    }
+}
+
+/// Heat-map colour as RGBA8.
+fn heat_rgba(x: f64) -> [u8; 4] {
+    let [r, g, b] = heat_colour(x);
+    let byte = |v: f32| (v * 255.0 + 0.5) as u8;
+    [byte(r), byte(g), byte(b), 255]
+}

@@ -1,0 +1,149 @@
+//! `skeletrace render`: one method's shaded view or heat map, or `--compare` panels with one
+//! shared step-count scale, each labelled with its method and average/median/max steps.
+
+use std::time::Instant;
+
+use skeletrace_core::methods::TraceSettings;
+use skeletrace_core::render::{Frame, RenderOptions, Renderer};
+use skeletrace_core::{FieldProgram, Scene};
+
+use crate::cli::{Backend, RenderArgs, View};
+use crate::picture::{BAR_HEIGHT, Canvas, LABEL_HEIGHT};
+
+/// Method of a render when none is named: guaranteed, and the fastest on most scenes.
+const DEFAULT_METHOD: &str = "quadratic-taylor";
+/// Panels per row of a comparison.
+const COLUMNS: usize = 4;
+
+/// Parses `WxH`.
+///
+/// # Errors
+/// A message naming the value.
+pub fn parse_size(text: &str) -> Result<(usize, usize), String> {
+    let bad =
+        || format!("--size '{text}': expected WxH with both between 1 and 8192, e.g. 512x512");
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if (1..=8192).contains(&w) && (1..=8192).contains(&h) {
+        Ok((w, h))
+    } else {
+        Err(bad())
+    }
+}
+
+/// Runs `render`.
+///
+/// # Errors
+/// Bad arguments, a scene error, a method that does not apply, an unwritable output.
+pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
+    if args.backend == Backend::Gpu {
+        return Err(
+            "--backend gpu: the wgpu backend is not part of this build yet; use --backend cpu"
+                .to_owned(),
+        );
+    }
+    let (width, height) = parse_size(&args.size)?;
+    let program = FieldProgram::new(scene);
+    let list = args
+        .compare
+        .as_deref()
+        .or(args.method.as_deref())
+        .unwrap_or(DEFAULT_METHOD);
+    let methods = crate::chosen_methods(list, &program)?;
+    if methods.is_empty() {
+        return Err(format!("no method of '{list}' applies to this scene"));
+    }
+    let view = args.view.unwrap_or(if args.compare.is_some() {
+        View::Steps
+    } else {
+        View::Shaded
+    });
+    let settings = TraceSettings::for_program(&program);
+    let options = RenderOptions {
+        width,
+        height,
+        shadows: args.shadows,
+    };
+    let mut frames: Vec<(&'static str, Frame)> = Vec::new();
+    for method in &methods {
+        let tracer = method.prepare(&program, settings);
+        let renderer = Renderer::new(scene, &program, tracer.as_ref(), settings);
+        let start = Instant::now();
+        let frame = renderer.render(&scene.camera, options);
+        let s = frame.step_summary();
+        println!(
+            "{:<28} {:>8.1} ms   steps avg {:.2}, median {}, max {}",
+            method.name(),
+            start.elapsed().as_secs_f64() * 1e3,
+            s.average,
+            s.median,
+            s.max
+        );
+        frames.push((method.name(), frame));
+    }
+    let steps_max = args
+        .steps_max
+        .unwrap_or_else(|| shared_scale(&frames))
+        .max(1);
+    let clipped = frames.iter().any(|(_, f)| f.step_summary().max > steps_max);
+    let picture = compose(&frames, view, (steps_max, clipped), args.compare.is_some());
+    picture.save_png(&args.output)?;
+    println!(
+        "wrote {} ({}x{})",
+        args.output.display(),
+        picture.width,
+        picture.height
+    );
+    Ok(())
+}
+
+/// The shared top of the colour scale: the largest 99th percentile, over the panels, of the
+/// step counts of pixels whose ray met a support (a single outlier pixel would otherwise
+/// darken every panel; counts above it are drawn in the top colour and the bar says so).
+fn shared_scale(frames: &[(&str, Frame)]) -> u32 {
+    frames
+        .iter()
+        .map(|(_, f)| {
+            let mut worked: Vec<u32> = f.steps.iter().copied().filter(|&s| s > 0).collect();
+            worked.sort_unstable();
+            worked.get(worked.len() * 99 / 100).copied().unwrap_or(1)
+        })
+        .max()
+        .unwrap_or(1)
+}
+
+/// Lays out the panels (labelled when comparing or showing steps) and the colour bar.
+fn compose(
+    frames: &[(&str, Frame)],
+    view: View,
+    (steps_max, clipped): (u32, bool),
+    labelled: bool,
+) -> Canvas {
+    let Some((_, first)) = frames.first() else {
+        return Canvas::new(1, 1, [0, 0, 0, 255]);
+    };
+    let (w, h) = (first.width, first.height);
+    let labelled = labelled || view == View::Steps;
+    let label = if labelled { LABEL_HEIGHT } else { 0 };
+    let columns = frames.len().min(COLUMNS);
+    let rows = frames.len().div_ceil(COLUMNS);
+    let bar = if view == View::Steps { BAR_HEIGHT } else { 0 };
+    let mut canvas = Canvas::new(columns * w, rows * (h + label) + bar, [24, 26, 30, 255]);
+    for (i, (name, frame)) in frames.iter().enumerate() {
+        let (x, y) = ((i % COLUMNS) * w, (i / COLUMNS) * (h + label));
+        if labelled {
+            let s = frame.step_summary();
+            let numbers = format!("avg {:.2}  med {}  max {}", s.average, s.median, s.max);
+            canvas.label(x, y, w, [name, &numbers]);
+        }
+        match view {
+            View::Shaded => canvas.draw_shaded(frame, x, y + label),
+            View::Steps => canvas.draw_steps(frame, steps_max, x, y + label),
+        }
+    }
+    if bar > 0 {
+        canvas.colour_bar(0, rows * (h + label), columns * w, steps_max, clipped);
+    }
+    canvas
+}
