@@ -292,28 +292,38 @@ impl<'a> Renderer<'a> {
             if diffuse <= 0.0 {
                 continue;
             }
-            if shadows
-                && self.occluded(
+            let transmitted = if shadows {
+                self.transmittance(
                     p + 2.0 * self.settings.min_step * normal,
                     to_light,
                     distance,
                 )
-            {
+            } else {
+                1.0
+            };
+            if transmitted <= 0.0 {
                 continue;
             }
             let half = (to_light - view).normalize_or(normal);
             let specular = normal.dot(half).max(0.0).powf(48.0) * 0.35;
-            colour += intensity * DVec3::from_array(light_colour) * (diffuse * albedo + specular);
+            colour += transmitted
+                * intensity
+                * DVec3::from_array(light_colour)
+                * (diffuse * albedo + specular);
         }
         colour
     }
 
-    fn occluded(&self, from: DVec3, direction: DVec3, distance: f64) -> bool {
+    /// Fraction of light reaching `from` along `direction`: 0 behind an opaque group, `1 −
+    /// opacity` behind the first transparent one (no caustics).
+    fn transmittance(&self, from: DVec3, direction: DVec3, distance: f64) -> f64 {
         let ray = Ray::new(from, direction);
         let trace = self
             .tracer
             .trace(&ray, Interval::new(0.0, distance), TraceMode::Opaque);
-        !trace.crossings.is_empty()
+        trace
+            .first()
+            .map_or(1.0, |hit| 1.0 - self.material_at(&ray, hit.t).opacity)
     }
 }
 
