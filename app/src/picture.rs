@@ -5,12 +5,12 @@ use std::fs;
 use std::io::BufWriter;
 use std::path::Path;
 
-use skeletrace_core::render::{Frame, heat_colour, srgb8};
+use skeletrace_core::render::{Frame, StepSummary, heat_colour, srgb8};
 
 /// Text scale: 8×8 glyphs drawn at 2×.
 const TEXT_SCALE: usize = 2;
-/// Height of a label strip: two lines at 2×.
-pub const LABEL_HEIGHT: usize = 2 * 8 * TEXT_SCALE + 12;
+/// Panels at least this wide get their labels at 2× on two lines; narrower ones at 1× on three.
+const WIDE_PANEL: usize = 400;
 /// Height of the colour bar strip, tick labels included.
 pub const BAR_HEIGHT: usize = 20 + 8 * TEXT_SCALE + 12;
 
@@ -97,12 +97,30 @@ impl Canvas {
         }
     }
 
-    /// A label strip of two left-aligned lines on a dark background, at half size where a
-    /// line would not fit `width`.
-    pub fn label(&mut self, x: usize, y: usize, width: usize, lines: [&str; 2]) {
-        self.fill(x, y, width, LABEL_HEIGHT, [24, 26, 30, 255]);
-        let fits = lines.iter().all(|l| Self::text_width(l) + 12 <= width);
-        let scale = if fits { TEXT_SCALE } else { 1 };
+    /// Height of the label strip of a panel `width` pixels wide.
+    #[must_use]
+    pub fn label_height(width: usize) -> usize {
+        if width >= WIDE_PANEL {
+            2 * (8 * TEXT_SCALE + 4) + 4
+        } else {
+            3 * (8 + 4) + 4
+        }
+    }
+
+    /// A method's label strip: its name, then its average, median and maximum steps (two
+    /// lines at 2× on wide panels, three at 1× on narrow ones).
+    pub fn label(&mut self, x: usize, y: usize, width: usize, name: &str, s: StepSummary) {
+        self.fill(x, y, width, Self::label_height(width), [24, 26, 30, 255]);
+        let average = format!("avg {:.2}", s.average);
+        let rest = format!("med {}  max {}", s.median, s.max);
+        let (scale, lines) = if width >= WIDE_PANEL {
+            (
+                TEXT_SCALE,
+                vec![name.to_owned(), format!("{average}  {rest}")],
+            )
+        } else {
+            (1, vec![name.to_owned(), average, rest])
+        };
         for (i, line) in lines.iter().enumerate() {
             let colour = if i == 0 {
                 [250, 250, 250, 255]
@@ -113,29 +131,38 @@ impl Canvas {
         }
     }
 
-    /// The colour bar of the step-count scale `[0, steps_max]` with five tick labels; counts
-    /// above the scale take its top colour (`clipped` marks the last label `≥`).
+    /// The colour bar of the step-count scale `[0, steps_max]`, titled "steps", with tick
+    /// labels that do not overlap; counts above the scale take its top colour (`clipped` marks
+    /// the last label `>=`).
     pub fn colour_bar(&mut self, x: usize, y: usize, width: usize, steps_max: u32, clipped: bool) {
+        let white = [235, 235, 235, 255];
         self.fill(x, y, width, BAR_HEIGHT, [24, 26, 30, 255]);
-        let (bar_x, bar_w) = (x + 16, width.saturating_sub(32).max(1));
+        self.text(x + 8, y + 6, "steps", white);
+        let bar_x = x + 16 + Self::text_width("steps");
+        let bar_w = (x + width).saturating_sub(bar_x + 16).max(1);
         for i in 0..bar_w {
             let c = heat_rgba(i as f64 / (bar_w - 1).max(1) as f64);
             self.fill(bar_x + i, y + 6, 1, 14, c);
         }
-        for k in 0..=4 {
-            let value = f64::from(steps_max) * f64::from(k) / 4.0;
-            let text = if k == 4 {
-                format!("{}{steps_max} steps", if clipped { ">=" } else { "" })
+        let mut free_from = x;
+        for k in 0..=4u32 {
+            let value = (f64::from(steps_max) * f64::from(k) / 4.0).round();
+            let text = if k == 4 && clipped {
+                format!(">={steps_max}")
             } else {
                 format!("{value:.0}")
             };
             let tick = bar_x + (bar_w - 1) * k as usize / 4;
-            self.fill(tick, y + 20, 1, 4, [235, 235, 235, 255]);
+            self.fill(tick, y + 20, 1, 4, white);
             let w = Self::text_width(&text);
             let tx = tick
                 .saturating_sub(w / 2)
-                .clamp(x + 2, (x + width).saturating_sub(w + 2));
-            self.text(tx, y + 26, &text, [235, 235, 235, 255]);
+                .min((x + width).saturating_sub(w + 2))
+                .max(x + 2);
+            if tx >= free_from {
+                self.text(tx, y + 26, &text, white);
+                free_from = tx + w + 8;
+            }
         }
     }
 

@@ -8,7 +8,7 @@ use skeletrace_core::render::{Frame, RenderOptions, Renderer};
 use skeletrace_core::{FieldProgram, Scene};
 
 use crate::cli::{Backend, RenderArgs, View};
-use crate::picture::{BAR_HEIGHT, Canvas, LABEL_HEIGHT};
+use crate::picture::{BAR_HEIGHT, Canvas};
 
 /// Method of a render when none is named: guaranteed, and the fastest on most scenes.
 const DEFAULT_METHOD: &str = "quadratic-taylor";
@@ -125,7 +125,7 @@ fn compose(
     };
     let (w, h) = (first.width, first.height);
     let labelled = labelled || view == View::Steps;
-    let label = if labelled { LABEL_HEIGHT } else { 0 };
+    let label = if labelled { Canvas::label_height(w) } else { 0 };
     let columns = frames.len().min(COLUMNS);
     let rows = frames.len().div_ceil(COLUMNS);
     let bar = if view == View::Steps { BAR_HEIGHT } else { 0 };
@@ -133,9 +133,7 @@ fn compose(
     for (i, (name, frame)) in frames.iter().enumerate() {
         let (x, y) = ((i % COLUMNS) * w, (i / COLUMNS) * (h + label));
         if labelled {
-            let s = frame.step_summary();
-            let numbers = format!("avg {:.2}  med {}  max {}", s.average, s.median, s.max);
-            canvas.label(x, y, w, [name, &numbers]);
+            canvas.label(x, y, w, name, frame.step_summary());
         }
         match view {
             View::Shaded => canvas.draw_shaded(frame, x, y + label),

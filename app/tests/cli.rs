@@ -63,18 +63,31 @@ fn generate_then_info_for_every_kind_is_deterministic() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn info_works_on_every_asset() {
+/// Every scene file of assets/scenes.
+fn assets() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
-    let mut count = 0;
-    for entry in std::fs::read_dir(&dir)
+    let mut out: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{e}"))
         .flatten()
-    {
-        let path = entry.path();
-        if path.extension().is_none_or(|e| e != "ron") {
-            continue;
-        }
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    out.sort();
+    out
+}
+
+/// Width and height from a PNG header.
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(&bytes[1..4], b"PNG", "{} is not a PNG", path.display());
+    let word = |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+    (word(16), word(20))
+}
+
+#[test]
+fn info_works_on_every_asset() {
+    let mut count = 0;
+    for path in assets() {
         let o = skeletrace(&["info", path.to_str().unwrap_or_default()]);
         assert!(
             o.status.success(),
@@ -169,4 +182,97 @@ fn stats_json_follows_the_design_schema() {
     ]);
     assert!(!bad.status.success());
     assert!(text(&bad.stderr).contains("unknown method 'warp-drive'"));
+}
+
+#[test]
+fn render_compare_and_stats_json_work_on_every_asset() {
+    let dir = temp_dir("compare");
+    for scene in assets() {
+        let name = scene.file_stem().map(|s| s.to_string_lossy().into_owned());
+        let out = dir.join(format!("{}.png", name.unwrap_or_default()));
+        let o = skeletrace(&[
+            "render",
+            scene.to_str().unwrap_or_default(),
+            "-o",
+            out.to_str().unwrap_or_default(),
+            "--compare",
+            "all",
+            "--size",
+            "16x12",
+        ]);
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            scene.display(),
+            text(&o.stderr)
+        );
+        let panels = text(&o.stdout)
+            .lines()
+            .filter(|l| l.contains("steps avg"))
+            .count();
+        assert!(panels >= 10, "{}: {panels} panels", scene.display());
+        let (w, h) = png_size(&out);
+        assert_eq!(w, 4 * 16, "{}", scene.display());
+        assert!(h > 12 * panels.div_ceil(4) as u32, "{}", scene.display());
+        let json = skeletrace(&[
+            "stats",
+            scene.to_str().unwrap_or_default(),
+            "--rays",
+            "12",
+            "--json",
+        ]);
+        assert!(
+            json.status.success(),
+            "{}: {}",
+            scene.display(),
+            text(&json.stderr)
+        );
+        let body = text(&json.stdout);
+        assert!(
+            body.starts_with('{') && body.contains("\"methods\": ["),
+            "{body}"
+        );
+        assert_eq!(body.matches("\"name\"").count(), panels, "{body}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn render_writes_the_requested_size_and_refuses_bad_arguments() {
+    let dir = temp_dir("render");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/creature.ron");
+    let scene = scene.to_str().unwrap_or_default();
+    let out = dir.join("shaded.png");
+    let o = skeletrace(&[
+        "render",
+        scene,
+        "-o",
+        out.to_str().unwrap_or_default(),
+        "--size",
+        "40x30",
+        "--shadows",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert_eq!(png_size(&out), (40, 30));
+    let out = out.to_str().unwrap_or_default();
+    for (args, expected) in [
+        (vec!["--size", "40by30"], "--size '40by30'"),
+        (
+            vec!["--method", "warp-drive"],
+            "unknown method 'warp-drive'",
+        ),
+        (
+            vec!["--method", "field-inversion"],
+            "does not apply to this scene: field inversion needs",
+        ),
+    ] {
+        let mut all = vec!["render", scene, "-o", out];
+        all.extend(args);
+        let o = skeletrace(&all);
+        assert!(!o.status.success(), "{all:?} succeeded");
+        let err = text(&o.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(expected), "{err:?} lacks {expected:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

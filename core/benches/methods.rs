@@ -1,0 +1,50 @@
+//! Time per ray of every method on the `blobs` and `tree` assets (issue: "every root-finding
+//! method on the CPU"), with the statistics protocol's rays (six axis directions from the faces
+//! of the support box), single-threaded. Criterion reports time per ray as the inverse of the
+//! element throughput; `skeletrace stats` reports the same quantity with the step counts.
+
+use std::hint::black_box;
+use std::path::Path;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use skeletrace_core::methods::{self, TraceMode, TraceSettings};
+use skeletrace_core::stats::protocol_rays;
+use skeletrace_core::{FieldProgram, Scene};
+
+const RAYS: usize = 600;
+
+fn bench_scene(c: &mut Criterion, name: &str) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"));
+    let scene = match Scene::load(&path) {
+        Ok(s) => s,
+        Err(e) => panic!("{e}"),
+    };
+    let program = FieldProgram::new(&scene);
+    let settings = TraceSettings::for_program(&program);
+    let rays = protocol_rays(&program, RAYS, 1);
+    let mut group = c.benchmark_group(format!("ray/{name}"));
+    group.throughput(Throughput::Elements(RAYS as u64));
+    group.sample_size(10);
+    for method in methods::all() {
+        if method.name() == "reference" || method.supports(&program).is_err() {
+            continue;
+        }
+        let tracer = method.prepare(&program, settings);
+        group.bench_function(BenchmarkId::from_parameter(method.name()), |b| {
+            b.iter(|| {
+                for (ray, span) in &rays {
+                    black_box(tracer.trace(ray, *span, TraceMode::Opaque));
+                }
+            });
+        });
+    }
+    group.finish();
+}
+
+fn methods_per_ray(c: &mut Criterion) {
+    bench_scene(c, "blobs");
+    bench_scene(c, "tree");
+}
+
+criterion_group!(benches, methods_per_ray);
+criterion_main!(benches);
