@@ -16,6 +16,8 @@ use crate::primitives::{PointBlob, Primitive};
 use crate::program::FieldProgram;
 use crate::scene::Blend;
 
+use std::ops::{Add, Mul};
+
 /// `x₀ + x₁ε + e·[−1, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AffineForm {
@@ -55,16 +57,6 @@ impl AffineForm {
         Interval::new(self.x0 - r, self.x0 + r)
     }
 
-    /// Sum.
-    #[must_use]
-    pub fn add(self, o: Self) -> Self {
-        Self {
-            x0: self.x0 + o.x0,
-            x1: self.x1 + o.x1,
-            e: self.e + o.e,
-        }
-    }
-
     /// `k·x + c`.
     #[must_use]
     pub fn affine(self, k: f64, c: f64) -> Self {
@@ -72,19 +64,6 @@ impl AffineForm {
             x0: k * self.x0 + c,
             x1: k * self.x1,
             e: k.abs() * self.e,
-        }
-    }
-
-    /// Product (MATH.md §8).
-    #[must_use]
-    pub fn mul(self, y: Self) -> Self {
-        Self {
-            x0: self.x0 * y.x0 + 0.5 * self.x1 * y.x1,
-            x1: self.x0 * y.x1 + self.x1 * y.x0,
-            e: self.e * y.e
-                + y.e * (self.x0.abs() + self.x1.abs())
-                + self.e * (y.x0.abs() + y.x1.abs())
-                + 0.5 * (self.x1 * y.x1).abs(),
         }
     }
 
@@ -131,6 +110,34 @@ impl AffineForm {
     }
 }
 
+impl Add for AffineForm {
+    type Output = Self;
+
+    fn add(self, o: Self) -> Self {
+        Self {
+            x0: self.x0 + o.x0,
+            x1: self.x1 + o.x1,
+            e: self.e + o.e,
+        }
+    }
+}
+
+impl Mul for AffineForm {
+    type Output = Self;
+
+    /// Product (MATH.md §8).
+    fn mul(self, y: Self) -> Self {
+        Self {
+            x0: self.x0 * y.x0 + 0.5 * self.x1 * y.x1,
+            x1: self.x0 * y.x1 + self.x1 * y.x0,
+            e: self.e * y.e
+                + y.e * (self.x0.abs() + self.x1.abs())
+                + self.e * (y.x0.abs() + y.x1.abs())
+                + 0.5 * (self.x1 * y.x1).abs(),
+        }
+    }
+}
+
 /// A point blob over `[a, b]` (exact squared distance, kernel as above).
 fn point_form(blob: &PointBlob, k: &KernelProfile, ray: &Ray, span: Interval) -> AffineForm {
     let mid = 0.5 * (span.lo + span.hi);
@@ -146,7 +153,7 @@ fn point_form(blob: &PointBlob, k: &KernelProfile, ray: &Ray, span: Interval) ->
     let value = match k.compact_power() {
         Some((m, inv_sigma2)) => {
             let base = x.affine(-inv_sigma2, 1.0).positive_part();
-            (1..m).fold(base, |acc, _| acc.mul(base))
+            (1..m).fold(base, |acc, _| acc * base)
         }
         None => x.kernel(k),
     };
@@ -162,7 +169,7 @@ pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<A
             Primitive::Point(b) => point_form(b, k, ray, span),
             other => AffineForm::from_interval(other.ray_jet(ray, span, k).value),
         };
-        groups[g] = groups[g].add(form);
+        groups[g] = groups[g] + form;
     });
     blend(program.blend(), &groups, program.isovalue())
 }
@@ -175,7 +182,7 @@ fn blend(b: &Blend, groups: &[AffineForm], isovalue: f64) -> Option<AffineForm> 
     };
     match b {
         Blend::Group(i) => groups.get(*i as usize).copied(),
-        Blend::Sum(v) => fold(v, AffineForm::add),
+        Blend::Sum(v) => fold(v, |a, b| a + b),
         Blend::Max(v) => fold(v, AffineForm::max),
         Blend::Min(v) => fold(v, |a, b| a.negate().max(b.negate()).negate()),
         Blend::Difference(a, c) => {
@@ -203,7 +210,7 @@ mod tests {
             x1: 0.25,
             e: 0.05,
         };
-        let p = x.mul(y).range();
+        let p = (x * y).range();
         for i in 0..=40 {
             let eps = -1.0 + f64::from(i) / 20.0;
             for (ex, ey) in [

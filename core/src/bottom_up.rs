@@ -154,7 +154,7 @@ pub fn field_inclusion(
             (Primitive::Point(b), Degree::Quadratic) => point_quadratic(b, k, ray, t, h),
             (other, _) => primitive_taylor(other, k, ray, span, degree),
         };
-        groups[g] = groups[g].add(own);
+        groups[g] = groups[g] + own;
     });
     let blended =
         inclusion::blend(program.blend(), &groups, program.isovalue()).unwrap_or_else(|| {

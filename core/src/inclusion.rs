@@ -128,23 +128,6 @@ impl ForwardInclusion {
         self.start + self.upper.at(s)
     }
 
-    /// Sum of two inclusions (forward-inclusion eq. 16), on the shorter of their intervals.
-    #[must_use]
-    pub fn add(self, o: Self) -> Self {
-        Self {
-            start: self.start + o.start,
-            lower: Offset {
-                a: self.lower.a + o.lower.a,
-                b: self.lower.b + o.lower.b,
-            },
-            upper: Offset {
-                a: self.upper.a + o.upper.a,
-                b: self.upper.b + o.upper.b,
-            },
-            length: self.length.min(o.length),
-        }
-    }
-
     fn negate(self) -> Self {
         Self {
             start: -self.start,
@@ -189,6 +172,26 @@ impl ForwardInclusion {
     }
 }
 
+impl std::ops::Add for ForwardInclusion {
+    type Output = Self;
+
+    /// Sum of two inclusions (forward-inclusion eq. 16), on the shorter of their intervals.
+    fn add(self, o: Self) -> Self {
+        Self {
+            start: self.start + o.start,
+            lower: Offset {
+                a: self.lower.a + o.lower.a,
+                b: self.lower.b + o.lower.b,
+            },
+            upper: Offset {
+                a: self.upper.a + o.upper.a,
+                b: self.upper.b + o.upper.b,
+            },
+            length: self.length.min(o.length),
+        }
+    }
+}
+
 /// Composes group inclusions through the blend tree; `None` for operators without a forward
 /// inclusion rule here (Ricci), where callers fall back to whole-field bounds.
 #[must_use]
@@ -198,7 +201,7 @@ pub fn blend(b: &Blend, groups: &[ForwardInclusion], isovalue: f64) -> Option<Fo
         Blend::Sum(v) => {
             let mut it = v.iter().map(|c| blend(c, groups, isovalue));
             let first = it.next()??;
-            it.try_fold(first, |acc, c| Some(acc.add(c?)))
+            it.try_fold(first, |acc, c| Some(acc + c?))
         }
         Blend::Max(v) => {
             let items: Option<Vec<_>> = v.iter().map(|c| blend(c, groups, isovalue)).collect();
