@@ -133,6 +133,12 @@ impl FieldProgram {
         &self.kernels[self.groups_of[i as usize] as usize]
     }
 
+    /// Group of primitive `i`.
+    #[must_use]
+    pub fn group_of(&self, i: u32) -> usize {
+        self.groups_of[i as usize] as usize
+    }
+
     /// Union of the bounded supports (planes excluded).
     #[must_use]
     pub fn support_bounds(&self) -> Aabb {

@@ -108,6 +108,12 @@ impl PinholeCamera {
         }
     }
 
+    /// Unit forward, right and up axes.
+    #[must_use]
+    pub fn axes(&self) -> (DVec3, DVec3, DVec3) {
+        (self.forward, self.right, self.up)
+    }
+
     /// Ray through the centre of pixel `(x, y)` of a `width × height` image.
     #[must_use]
     pub fn ray(&self, x: usize, y: usize, width: usize, height: usize) -> Ray {
@@ -138,18 +144,7 @@ impl<'a> Renderer<'a> {
         tracer: &'a dyn RayTracer,
         settings: TraceSettings,
     ) -> Self {
-        let bounds = program.support_bounds();
-        let eye = DVec3::from_array(scene.camera.position);
-        let far = if bounds.is_empty() {
-            100.0
-        } else {
-            let reach = (bounds.center() - eye).length() + bounds.diagonal();
-            if program.has_unbounded_support() {
-                4.0 * reach
-            } else {
-                reach
-            }
-        };
+        let far = far_distance(program, &scene.camera);
         let lights = if scene.lights.is_empty() {
             Scene::default_lights()
         } else {
@@ -324,6 +319,23 @@ impl<'a> Renderer<'a> {
         trace
             .first()
             .map_or(1.0, |hit| 1.0 - self.material_at(&ray, hit.t).opacity)
+    }
+}
+
+/// Length of the primary rays: past the farthest support seen from the camera (four times as
+/// far when a plane reaches to infinity). The GPU backend uses the same value.
+#[must_use]
+pub fn far_distance(program: &FieldProgram, camera: &Camera) -> f64 {
+    let bounds = program.support_bounds();
+    if bounds.is_empty() {
+        return 100.0;
+    }
+    let eye = DVec3::from_array(camera.position);
+    let reach = (bounds.center() - eye).length() + bounds.diagonal();
+    if program.has_unbounded_support() {
+        4.0 * reach
+    } else {
+        reach
     }
 }
 

@@ -1,0 +1,102 @@
+// Screen-tile binning of primitive supports (the analogue of the scalis 2021 A-buffer, §7):
+// each primitive's support bounding sphere is projected to a rectangle of tiles; a first pass
+// counts the primitives per tile, the host turns counts into ranges (exclusive prefix sum), a
+// second pass writes the primitive indices. Unbounded supports (planes) go to every tile.
+
+struct Binning {
+    origin: vec4<f32>,
+    forward: vec4<f32>,  // w: tan(fov/2)
+    right: vec4<f32>,    // w: aspect
+    up: vec4<f32>,
+    tiles: vec4<u32>,    // tiles_x, tiles_y, tile size, primitive count
+    size: vec4<u32>,     // width, height
+};
+
+// Twin of `GpuPrimitive` (only the bounding sphere is read here).
+struct Primitive {
+    kind: u32,
+    group: u32,
+    pad0: u32,
+    pad1: u32,
+    a: vec4<f32>,
+    b: vec4<f32>,
+    c: vec4<f32>,
+    bound: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> binning: Binning;
+@group(0) @binding(1) var<storage, read> primitives: array<Primitive>;
+@group(0) @binding(2) var<storage, read_write> tile_counts: array<atomic<u32>>;
+@group(0) @binding(3) var<storage, read> tile_ranges: array<vec2<u32>>;
+@group(0) @binding(4) var<storage, read_write> tile_items: array<u32>;
+
+// Inclusive tile rectangle (x0, y0, x1, y1) covered by primitive i; x0 > x1 when off screen.
+fn tile_rect(i: u32) -> vec4<i32> {
+    let all_tiles = vec4<i32>(0, 0, i32(binning.tiles.x) - 1, i32(binning.tiles.y) - 1);
+    let bound = primitives[i].bound;
+    if bound.w < 0.0 {
+        return all_tiles;
+    }
+    let rel = bound.xyz - binning.origin.xyz;
+    let z = dot(rel, binning.forward.xyz);
+    let r = bound.w;
+    if z <= r * 1.0001 {
+        // The sphere reaches the eye plane: it may cover any pixel.
+        return all_tiles;
+    }
+    // Conservative extent in the image plane: the view-space box around the sphere, whose
+    // corners project to the extreme tangents x/z and y/z.
+    let x = dot(rel, binning.right.xyz);
+    let y = dot(rel, binning.up.xyz);
+    let near = z - r;
+    let far = z + r;
+    let sx = binning.forward.w * binning.right.w;
+    let sy = binning.forward.w;
+    let u0 = min((x - r) / near, (x - r) / far) / sx;
+    let u1 = max((x + r) / near, (x + r) / far) / sx;
+    let v0 = min((y - r) / near, (y - r) / far) / sy;
+    let v1 = max((y + r) / near, (y + r) / far) / sy;
+    let w = f32(binning.size.x);
+    let h = f32(binning.size.y);
+    let ts = f32(binning.tiles.z);
+    let px0 = (u0 + 1.0) * 0.5 * w - 1.0;
+    let px1 = (u1 + 1.0) * 0.5 * w + 1.0;
+    let py0 = (1.0 - v1) * 0.5 * h - 1.0;
+    let py1 = (1.0 - v0) * 0.5 * h + 1.0;
+    return vec4<i32>(
+        max(i32(floor(px0 / ts)), 0),
+        max(i32(floor(py0 / ts)), 0),
+        min(i32(floor(px1 / ts)), i32(binning.tiles.x) - 1),
+        min(i32(floor(py1 / ts)), i32(binning.tiles.y) - 1));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn count_tiles(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= binning.tiles.w {
+        return;
+    }
+    let rect = tile_rect(i);
+    for (var ty = rect.y; ty <= rect.w; ty++) {
+        for (var tx = rect.x; tx <= rect.z; tx++) {
+            atomicAdd(&tile_counts[u32(ty) * binning.tiles.x + u32(tx)], 1u);
+        }
+    }
+}
+
+// Second pass: tile_counts has been reset to 0 and is used as each tile's cursor.
+@compute @workgroup_size(64, 1, 1)
+fn fill_tiles(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= binning.tiles.w {
+        return;
+    }
+    let rect = tile_rect(i);
+    for (var ty = rect.y; ty <= rect.w; ty++) {
+        for (var tx = rect.x; tx <= rect.z; tx++) {
+            let tile = u32(ty) * binning.tiles.x + u32(tx);
+            let slot = atomicAdd(&tile_counts[tile], 1u);
+            tile_items[tile_ranges[tile].x + slot] = i;
+        }
+    }
+}

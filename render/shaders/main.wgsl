@@ -1,0 +1,85 @@
+// Entry point: one invocation per pixel. Traces the pixel's ray with the composed method,
+// writes depth and steps, and the colour of the chosen view: Blinn–Phong (core: render.rs,
+// without shadows and refraction) or the step-count heat map (Turbo polynomial, the same as
+// core::render::heat_colour). globals.heat: (top of the step scale, view: 0 shaded, 1 steps).
+
+fn background(dir: vec3<f32>) -> vec3<f32> {
+    let up = 0.5 * (dir.y + 1.0);
+    return mix(vec3<f32>(0.16, 0.17, 0.20), vec3<f32>(0.42, 0.47, 0.55), up);
+}
+
+fn turbo_channel(x: f32, c: array<f32, 6>) -> f32 {
+    return clamp(c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5])))), 0.0, 1.0);
+}
+
+fn heat_colour(x_in: f32) -> vec3<f32> {
+    let x = clamp(x_in, 0.0, 1.0);
+    return vec3<f32>(
+        turbo_channel(x, array<f32, 6>(0.13572138, 4.6153926, -42.6603226, 132.1310829, -152.9423939, 59.2863790)),
+        turbo_channel(x, array<f32, 6>(0.09140261, 2.19418839, 4.84296658, -14.1850333, 4.27729855, 2.82956604)),
+        turbo_channel(x, array<f32, 6>(0.10667330, 12.64194608, -60.5820488, 110.3627677, -89.9031098, 27.3482493)));
+}
+
+fn srgb(c: f32) -> f32 {
+    let v = clamp(c, 0.0, 1.0);
+    return select(1.055 * pow(v, 1.0 / 2.4) - 0.055, 12.92 * v, v <= 0.0031308);
+}
+
+fn pack(c: vec3<f32>) -> u32 {
+    let b = vec3<u32>(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0)) * 255.0 + 0.5);
+    return b.x | (b.y << 8u) | (b.z << 16u) | (255u << 24u);
+}
+
+fn shade(ray: Ray, t: f32) -> vec3<f32> {
+    let groups = groups_at(ray, t);
+    let field = blend_groups(groups);
+    let normal = normalize(-field.yzw);
+    var best = 0u;
+    for (var g = 1u; g < globals.counts.y; g++) {
+        if groups[g].x > groups[best].x {
+            best = g;
+        }
+    }
+    let albedo = materials[best].xyz;
+    var colour = 0.12 * albedo;
+    let p = ray.origin + t * ray.dir;
+    for (var l = 0u; l < globals.tile.y; l++) {
+        let light = lights[l];
+        var to_light = normalize(light.vector.xyz);
+        if light.vector.w > 0.5 {
+            to_light = normalize(light.vector.xyz - p);
+        }
+        let diffuse = dot(normal, to_light);
+        if diffuse <= 0.0 {
+            continue;
+        }
+        let half_vector = normalize(to_light - ray.dir);
+        let specular = pow(max(dot(normal, half_vector), 0.0), 48.0) * 0.35;
+        colour += light.colour.w * light.colour.xyz * (diffuse * albedo + specular);
+    }
+    return colour;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= globals.size.x || id.y >= globals.size.y {
+        return;
+    }
+    let ray = pixel_ray(id.x, id.y);
+    gather_supports(ray, id.x, id.y);
+    let trace = trace_ray(ray);
+    let out = id.y * globals.tile.w + globals.tile.z + id.x;
+    out_steps[out] = trace.steps;
+    out_depth[out] = select(INF, trace.t, trace.hit);
+    var colour: vec3<f32>;
+    if globals.heat.y > 0.5 {
+        colour = heat_colour(f32(trace.steps) / max(globals.heat.x, 1.0));
+    } else if trace.hit {
+        let c = shade(ray, trace.t);
+        colour = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
+    } else {
+        let c = background(ray.dir);
+        colour = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
+    }
+    out_colour[out] = pack(colour);
+}

@@ -1,0 +1,113 @@
+// Algorithm 1 of forward-inclusion 2023 (core: methods/marching.rs): march on forward
+// inclusions given by the method file's `method_bound(ray, t, f, d, h)`, next interval
+// k × last step, crossing confirmed min_step further on, a step that lands on the surface
+// caught by the sign change. Also the per-ray driver over the support parts (trace_supports).
+
+struct Inclusion {
+    start: f32,
+    lower: vec2<f32>,  // offset a·s + b·s²
+    upper: vec2<f32>,
+    length: f32,
+};
+
+struct Trace {
+    t: f32,
+    hit: bool,
+    entering: bool,
+    steps: u32,
+};
+
+// First s in [0, limit] where start + a s + b s² reaches target; −1 when none.
+fn first_reach(start: f32, offset: vec2<f32>, goal: f32, limit: f32) -> f32 {
+    let r = quadratic_roots(offset.y, offset.x, start - goal);
+    if r.x > r.y {
+        return -1.0;
+    }
+    if r.x >= 0.0 && r.x <= limit {
+        return r.x;
+    }
+    if r.y >= 0.0 && r.y <= limit {
+        return r.y;
+    }
+    return -1.0;
+}
+
+fn symmetric(start: f32, lambda: f32, length: f32) -> Inclusion {
+    return Inclusion(start, vec2<f32>(-lambda, 0.0), vec2<f32>(lambda, 0.0), length);
+}
+
+fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
+    let c = globals.up.w;
+    let eps = globals.march.x;
+    let min_step = globals.march.y;
+    var t = part.x;
+    var h = globals.march.w;
+    var has_previous = false;
+    var previous_t = 0.0;
+    var previous_inside = false;
+    while t < part.y && (*trace).steps < globals.counts.w {
+        (*trace).steps += 1u;
+        let fd = along_ray(ray, t);
+        let inside = fd.x >= c;
+        if has_previous && previous_inside != inside {
+            var lo = previous_t;
+            var hi = t;
+            while hi - lo > eps {
+                let mid = 0.5 * (lo + hi);
+                if (along_ray(ray, mid).x >= c) == previous_inside {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            (*trace).t = hi;
+            (*trace).hit = true;
+            (*trace).entering = inside;
+            return;
+        }
+        has_previous = true;
+        previous_t = t;
+        previous_inside = inside;
+        let h_now = min(max(h, min_step), part.y - t);
+        let inc = method_bound(ray, t, fd.x, fd.y, h_now);
+        let limit = min(inc.length, part.y - t);
+        let offset = select(inc.upper, inc.lower, inside);
+        let s = first_reach(fd.x, offset, c, limit);
+        if s >= 0.0 && s < eps {
+            let beyond = t + s + min_step;
+            if (along_ray(ray, beyond).x >= c) == inside {
+                t += max(s, 1.2e-7 * abs(t));
+                h = min_step;
+                continue;
+            }
+            (*trace).t = t + s;
+            (*trace).hit = true;
+            (*trace).entering = !inside;
+            return;
+        } else if s >= 0.0 {
+            t += s;
+            h = globals.march.z * s;
+        } else {
+            t += limit;
+            h = globals.march.z * limit;
+        }
+    }
+}
+
+// Opaque trace of the pixel's ray over its support parts.
+fn trace_ray(ray: Ray) -> Trace {
+    var trace = Trace(0.0, false, false, 0u);
+    var start_at = 0.0;
+    loop {
+        let part = next_part(start_at);
+        if part.x > part.y || trace.steps >= globals.counts.w {
+            break;
+        }
+        march_part(ray, part, &trace);
+        if trace.hit {
+            break;
+        }
+        start_at = part.y;
+    }
+    return trace;
+}

@@ -1,0 +1,479 @@
+// Shared prelude of every skeletrace compute shader: the scene as uploaded by
+// `scene_buffers.rs` (each struct names its Rust twin), kernels, primitives, support intervals,
+// the field restricted to a pixel's ray and the support parts of that ray. f32 throughout.
+// Mirrors skeletrace-core: kernel.rs, primitives/*.rs, geometry.rs, program.rs.
+
+// Twin of `GpuGlobals`.
+struct Globals {
+    origin: vec4<f32>,   // eye, w: far
+    forward: vec4<f32>,  // w: tan(fov/2)
+    right: vec4<f32>,    // w: aspect
+    up: vec4<f32>,       // w: isovalue
+    size: vec4<u32>,     // width, height, tiles_x, tiles_y
+    counts: vec4<u32>,   // primitives, groups, blend operator (0 sum, 1 max, 2 min), max steps
+    march: vec4<f32>,    // epsilon, min_step, growth, initial_interval
+    method: vec4<f32>,   // method parameters (global Lipschitz bound; field inversion σ, radius, N0)
+    tile: vec4<u32>,     // tile size in pixels, lights, panel x offset, output width
+    heat: vec4<f32>,     // top of the step scale, 0, 0, 0
+};
+
+// Twin of `GpuPrimitive`. kind: 0 point blob, 1 distance segment, 2 SCALIS segment, 3 plane.
+struct Primitive {
+    kind: u32,
+    group: u32,
+    pad0: u32,
+    pad1: u32,
+    a: vec4<f32>,      // point: centre, radius | segment: start (smaller radius), radius | plane: normal, offset
+    b: vec4<f32>,      // segment: axis, length | plane: radius
+    c: vec4<f32>,      // x: normalisation, y: radius slope
+    bound: vec4<f32>,  // bounding sphere of the support; w < 0: unbounded
+};
+
+// Twin of `GpuKernel`. family: 0 compact (1 − x/σ²)^m, 1 Cauchy (1 + x/σ²)^(−n), 2 Gaussian.
+struct Kernel {
+    family: u32,
+    kinked: u32,
+    pad0: u32,
+    pad1: u32,
+    exponent: f32,     // m (compact) or n (Cauchy)
+    inv_sigma2: f32,
+    support_sq: f32,
+    clip: f32,
+    clip_scale: f32,
+    pad2: f32,
+    pad3: f32,
+    pad4: f32,
+};
+
+// Twin of `GpuLight`. kind 0: directional (vector towards the light), 1: point (position).
+struct Light {
+    vector: vec4<f32>, // w: kind
+    colour: vec4<f32>, // w: intensity
+};
+
+@group(0) @binding(0) var<uniform> globals: Globals;
+@group(0) @binding(1) var<storage, read> primitives: array<Primitive>;
+@group(0) @binding(2) var<storage, read> kernels: array<Kernel>;
+@group(0) @binding(3) var<storage, read> materials: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> lights: array<Light>;
+@group(0) @binding(5) var<storage, read> tile_ranges: array<vec2<u32>>;
+@group(0) @binding(6) var<storage, read> tile_items: array<u32>;
+@group(0) @binding(7) var<storage, read_write> out_colour: array<u32>;
+@group(0) @binding(8) var<storage, read_write> out_depth: array<f32>;
+@group(0) @binding(9) var<storage, read_write> out_steps: array<u32>;
+
+const INF: f32 = 3.0e38;
+const MAX_GROUPS: u32 = 8u;
+// Supports kept per ray (sorted by entry); tiles are small enough that lists rarely exceed it.
+const RAY_SUPPORTS: u32 = 48u;
+
+struct Ray {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+};
+
+// ---- kernels (kernel.rs: KernelProfile) ----
+
+// (K, K′, K″) of the formula valid inside the support at x (clamped to [0, support]).
+fn kernel_raw(k: Kernel, x_in: f32) -> vec3<f32> {
+    let x = clamp(x_in, 0.0, k.support_sq);
+    let a = k.inv_sigma2;
+    if k.family == 0u {
+        let base = max(1.0 - x * a, 0.0);
+        let m = k.exponent;
+        var p2 = 0.0;
+        var p1 = 1.0;
+        if m >= 2.0 {
+            p2 = pow(base, m - 2.0);
+            p1 = p2 * base;
+        }
+        return vec3<f32>(p1 * base, -m * a * p1, m * (m - 1.0) * a * a * p2);
+    } else if k.family == 1u {
+        let base = 1.0 + x * a;
+        let n = k.exponent;
+        let v = pow(base, -n);
+        let v1 = v / base;
+        return vec3<f32>(v, -n * a * v1, n * (n + 1.0) * a * a * v1 / base);
+    }
+    let v = exp(-x * a);
+    return vec3<f32>(v, -a * v, a * a * v);
+}
+
+// (K, K′) at x, zero outside the support (value_d1).
+fn kernel_d1(k: Kernel, x: f32) -> vec2<f32> {
+    if x >= k.support_sq {
+        return vec2<f32>(0.0);
+    }
+    let r = kernel_raw(k, x);
+    return vec2<f32>(max((r.x - k.clip) * k.clip_scale, 0.0), r.y * k.clip_scale);
+}
+
+// (K, K′, K″) of the inside formula, clipped value (value_d2_inside).
+fn kernel_d2_inside(k: Kernel, x: f32) -> vec3<f32> {
+    let r = kernel_raw(k, x);
+    return vec3<f32>(max((r.x - k.clip) * k.clip_scale, 0.0), r.y * k.clip_scale, r.z * k.clip_scale);
+}
+
+// ---- primitives (primitives/*.rs) ----
+
+// Value and gradient of one primitive at p.
+fn primitive_value_gradient(i: u32, p: vec3<f32>) -> vec4<f32> {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    if prim.kind == 0u {
+        let inv_r2 = 1.0 / (prim.a.w * prim.a.w);
+        let d = p - prim.a.xyz;
+        let v = kernel_d1(k, dot(d, d) * inv_r2);
+        return vec4<f32>(prim.c.x * v.x, (2.0 * prim.c.x * v.y * inv_r2) * d);
+    } else if prim.kind == 1u {
+        return distance_segment(prim, k, p);
+    } else if prim.kind == 2u {
+        return scalis_segment(prim, k, p);
+    }
+    // Plane: kernel of the squared distance to the plane, over ρ².
+    let n = prim.a.xyz;
+    let s = dot(n, p) - prim.a.w;
+    let inv_r2 = 1.0 / (prim.b.x * prim.b.x);
+    let v = kernel_d1(k, s * s * inv_r2);
+    return vec4<f32>(prim.c.x * v.x, (prim.c.x * v.y * inv_r2 * 2.0 * s) * n);
+}
+
+// Homothetic-distance segment (segment.rs): closest homothetic point and the envelope gradient.
+fn distance_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
+    let w = p - prim.a.xyz;
+    let axis = prim.b.xyz;
+    let a = dot(w, axis);
+    let b2 = max(dot(w, w) - a * a, 0.0);
+    let slope = prim.c.y;
+    let y = prim.a.w + slope * a;
+    var s = prim.b.w;
+    if y > 0.0 {
+        s = clamp(a + slope * b2 / y, 0.0, prim.b.w);
+    }
+    let q = prim.a.xyz + s * axis;
+    let tau = prim.a.w + slope * s;
+    let d = p - q;
+    let inv_t2 = 1.0 / (tau * tau);
+    let v = kernel_d1(k, dot(d, d) * inv_t2);
+    return vec4<f32>(prim.c.x * v.x, (2.0 * prim.c.x * v.y * inv_t2) * d);
+}
+
+// 12-point Gauss–Legendre nodes and weights on [−1, 1] (quadrature.rs, SCALIS_ORDER).
+const GL_NODES: array<f32, 6> = array<f32, 6>(0.1252334085114689, 0.3678314989981802, 0.5873179542866175, 0.7699026741943047, 0.9041172563704749, 0.9815606342467192);
+const GL_WEIGHTS: array<f32, 6> = array<f32, 6>(0.2491470458134028, 0.2334925365383548, 0.2031674267230659, 0.1600783285433462, 0.1069393259953184, 0.0471753363865118);
+
+// SCALIS segment (scalis.rs): N ∫ K(h²) ds/τ over the part of the segment whose support ball
+// contains p, in u = ln τ (or arc length when the radius barely varies), in panels for clipped
+// kernels.
+fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
+    let start = prim.a.xyz;
+    let axis = prim.b.xyz;
+    let r0 = prim.a.w;
+    let slope = prim.c.y;
+    let len = prim.b.w;
+    let inv_r2 = 1.0 / k.support_sq;
+    let w = p - start;
+    let qa = inv_r2 - slope * slope;
+    let qb = dot(w, axis) * inv_r2 + r0 * slope;
+    let qc = dot(w, w) * inv_r2 - r0 * r0;
+    let disc = qb * qb - qa * qc;
+    if disc < 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let big = qb + sqrt(disc);
+    if big <= 0.0 || len * big < qc {
+        return vec4<f32>(0.0);
+    }
+    let l1 = max(qc / big, 0.0);
+    let l2 = min(big / qa, len);
+    if l1 >= l2 {
+        return vec4<f32>(0.0);
+    }
+    let tau1 = r0 + slope * l1;
+    var panels = 1u;
+    if k.clip > 0.0 {
+        panels = u32(clamp(ceil((l2 - l1) / (2.0 * tau1)), 1.0, 16.0));
+    }
+    var sum = 0.0;
+    var grad = vec3<f32>(0.0);
+    let arc = slope * (l2 - l1) < 0.05;
+    var lo = l1;
+    var hi = l2;
+    if !arc {
+        lo = log(tau1);
+        hi = log(r0 + slope * l2);
+    }
+    let h = (hi - lo) / f32(panels);
+    for (var panel = 0u; panel < panels; panel++) {
+        let mid = lo + (f32(panel) + 0.5) * h;
+        for (var j = 0u; j < 12u; j++) {
+            var xi = GL_NODES[j % 6u];
+            if j >= 6u {
+                xi = -xi;
+            }
+            let wi = GL_WEIGHTS[j % 6u];
+            var s: f32;
+            var tau: f32;
+            var measure: f32;
+            if arc {
+                s = mid + 0.5 * h * xi;
+                tau = r0 + slope * s;
+                measure = 0.5 * h * wi / tau;
+            } else {
+                tau = exp(mid + 0.5 * h * xi);
+                s = (tau - r0) / slope;
+                measure = 0.5 * h * wi / slope;
+            }
+            let offset = p - (start + s * axis);
+            let kv = kernel_d1(k, dot(offset, offset) / (tau * tau));
+            sum += kv.x * measure;
+            grad += (2.0 * kv.y * measure / (tau * tau)) * offset;
+        }
+    }
+    return prim.c.x * vec4<f32>(sum, grad);
+}
+
+// ---- support intervals along a ray (geometry.rs) ----
+
+fn ball_interval(ray: Ray, centre: vec3<f32>, radius: f32) -> vec2<f32> {
+    let oc = ray.origin - centre;
+    let b = dot(oc, ray.dir);
+    let c = dot(oc, oc) - radius * radius;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return vec2<f32>(INF, -INF);
+    }
+    let s = sqrt(disc);
+    return vec2<f32>(-b - s, -b + s);
+}
+
+// Real roots of a t² + b t + c, increasing; x > y when none.
+fn quadratic_roots(a: f32, b: f32, c: f32) -> vec2<f32> {
+    if a == 0.0 {
+        if b == 0.0 {
+            return vec2<f32>(INF, -INF);
+        }
+        let r = -c / b;
+        return vec2<f32>(r, r);
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return vec2<f32>(INF, -INF);
+    }
+    let q = -0.5 * (b + select(-sqrt(disc), sqrt(disc), b >= 0.0));
+    var r1 = q / a;
+    var r2 = r1;
+    if q != 0.0 {
+        r2 = c / q;
+    }
+    return vec2<f32>(min(r1, r2), max(r1, r2));
+}
+
+// Exact interval of the ray inside a sphere-cone scaled by `scale` (SphereCone::ray_interval).
+fn cone_interval(ray: Ray, prim: Primitive, scale: f32) -> vec2<f32> {
+    let start = prim.a.xyz;
+    let axis = prim.b.xyz;
+    let len = prim.b.w;
+    let r0 = prim.a.w * scale;
+    let d = prim.c.y * scale;
+    var hull = ball_interval(ray, start, r0);
+    let e1 = ball_interval(ray, start + len * axis, r0 + d * len);
+    hull = vec2<f32>(min(hull.x, e1.x), max(hull.y, e1.y));
+    let w0 = ray.origin - start;
+    let a0 = dot(w0, axis);
+    let a1 = dot(ray.dir, axis);
+    let b0 = dot(w0, w0) - a0 * a0;
+    let b1 = 2.0 * (dot(w0, ray.dir) - a0 * a1);
+    let b2 = 1.0 - a1 * a1;
+    let e = 1.0 - d * d;
+    let y0 = r0 + d * a0;
+    let roots = quadratic_roots(e * b2 - d * d * a1 * a1, e * b1 - 2.0 * d * a1 * y0, e * b0 - y0 * y0);
+    if roots.x <= roots.y {
+        for (var i = 0; i < 2; i++) {
+            let t = select(roots.y, roots.x, i == 0);
+            let a = a0 + a1 * t;
+            let s = (a + d * r0) / e;
+            if r0 + d * a > 0.0 && s >= 0.0 && s <= len {
+                hull = vec2<f32>(min(hull.x, t), max(hull.y, t));
+            }
+        }
+    }
+    return hull;
+}
+
+// Interval of the ray inside primitive i's support (empty: x > y).
+fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let reach = sqrt(k.support_sq);
+    if prim.kind == 0u {
+        return ball_interval(ray, prim.a.xyz, prim.a.w * reach);
+    } else if prim.kind == 3u {
+        let n = prim.a.xyz;
+        let s0 = dot(n, ray.origin) - prim.a.w;
+        let su = dot(n, ray.dir);
+        let r = prim.b.x * reach;
+        if su == 0.0 {
+            return select(vec2<f32>(INF, -INF), vec2<f32>(-INF, INF), abs(s0) < r);
+        }
+        let t0 = (-r - s0) / su;
+        let t1 = (r - s0) / su;
+        return vec2<f32>(min(t0, t1), max(t0, t1));
+    }
+    return cone_interval(ray, prim, reach);
+}
+
+// ---- the pixel's ray and its supports ----
+
+// The supports a ray crosses within [0, far], sorted by entry; `overflow` when the tile holds
+// more than RAY_SUPPORTS of them (the ray then uses the whole tile list and one part).
+struct RaySupports {
+    count: u32,
+    overflow: bool,
+    tile_start: u32,
+    tile_end: u32,
+    ids: array<u32, RAY_SUPPORTS>,
+    spans: array<vec2<f32>, RAY_SUPPORTS>,
+};
+
+var<private> supports: RaySupports;
+var<private> current_ray: Ray;
+
+fn pixel_ray(px: u32, py: u32) -> Ray {
+    let w = f32(globals.size.x);
+    let h = f32(globals.size.y);
+    let u = (2.0 * (f32(px) + 0.5) / w - 1.0) * globals.forward.w * globals.right.w;
+    let v = (1.0 - 2.0 * (f32(py) + 0.5) / h) * globals.forward.w;
+    let dir = normalize(globals.forward.xyz + u * globals.right.xyz + v * globals.up.xyz);
+    return Ray(globals.origin.xyz, dir);
+}
+
+fn gather_supports(ray: Ray, px: u32, py: u32) {
+    current_ray = ray;
+    let ts = globals.tile.x;
+    let tile = (py / ts) * globals.size.z + px / ts;
+    let range = tile_ranges[tile];
+    supports.count = 0u;
+    supports.overflow = false;
+    supports.tile_start = range.x;
+    supports.tile_end = range.y;
+    for (var j = range.x; j < range.y; j++) {
+        let i = tile_items[j];
+        var span = support_interval(ray, i);
+        span = vec2<f32>(max(span.x, 0.0), min(span.y, globals.origin.w));
+        if span.x > span.y {
+            continue;
+        }
+        if supports.count == RAY_SUPPORTS {
+            supports.overflow = true;
+            continue;
+        }
+        // Insertion by entry.
+        var k = supports.count;
+        while k > 0u && supports.spans[k - 1u].x > span.x {
+            supports.spans[k] = supports.spans[k - 1u];
+            supports.ids[k] = supports.ids[k - 1u];
+            k -= 1u;
+        }
+        supports.spans[k] = span;
+        supports.ids[k] = i;
+        supports.count += 1u;
+    }
+}
+
+// Blend of the group values and gradients: sum, max or min over groups (flat trees only).
+fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
+    let n = globals.counts.y;
+    let op = globals.counts.z;
+    if op == 0u {
+        var s = vec4<f32>(0.0);
+        for (var g = 0u; g < n; g++) {
+            s += values[g];
+        }
+        return s;
+    }
+    var best = values[0];
+    for (var g = 1u; g < n; g++) {
+        let v = values[g];
+        if (op == 1u && v.x > best.x) || (op == 2u && v.x < best.x) {
+            best = v;
+        }
+    }
+    return best;
+}
+
+fn add_primitive(values: ptr<function, array<vec4<f32>, MAX_GROUPS>>, i: u32, p: vec3<f32>) {
+    let g = primitives[i].group;
+    (*values)[g] += primitive_value_gradient(i, p);
+}
+
+// Every group's value and gradient at ray parameter t: only the primitives whose support
+// contains the point (the ray's sorted spans, or the whole tile list on overflow).
+fn groups_at(ray: Ray, t: f32) -> array<vec4<f32>, MAX_GROUPS> {
+    let p = ray.origin + t * ray.dir;
+    var values: array<vec4<f32>, MAX_GROUPS>;
+    if supports.overflow {
+        for (var j = supports.tile_start; j < supports.tile_end; j++) {
+            add_primitive(&values, tile_items[j], p);
+        }
+    } else {
+        for (var j = 0u; j < supports.count; j++) {
+            let s = supports.spans[j];
+            if s.x > t {
+                break;
+            }
+            if t <= s.y {
+                add_primitive(&values, supports.ids[j], p);
+            }
+        }
+    }
+    return values;
+}
+
+fn field_at(ray: Ray, t: f32) -> vec4<f32> {
+    return blend_groups(groups_at(ray, t));
+}
+
+// (f(t), f′(t)) along the ray.
+fn along_ray(ray: Ray, t: f32) -> vec2<f32> {
+    let v = field_at(ray, t);
+    return vec2<f32>(v.x, dot(v.yzw, ray.dir));
+}
+
+// The part of the ray inside the union of supports that starts at or after `start_at`: (lo, hi),
+// empty (x > y) when none is left.
+fn next_part(start_at: f32) -> vec2<f32> {
+    if supports.overflow {
+        // One part start_at the first entry to the last exit of every support in the tile.
+        var lo = INF;
+        var hi = -INF;
+        for (var j = supports.tile_start; j < supports.tile_end; j++) {
+            let s = support_interval(current_ray, tile_items[j]);
+            if s.x <= s.y {
+                lo = min(lo, max(s.x, 0.0));
+                hi = max(hi, min(s.y, globals.origin.w));
+            }
+        }
+        if hi <= start_at {
+            return vec2<f32>(INF, -INF);
+        }
+        return vec2<f32>(max(lo, start_at), hi);
+    }
+    var lo = INF;
+    var hi = -INF;
+    for (var j = 0u; j < supports.count; j++) {
+        let s = supports.spans[j];
+        if s.y <= start_at {
+            continue;
+        }
+        if lo == INF {
+            lo = max(s.x, start_at);
+            hi = s.y;
+        } else if s.x <= hi {
+            hi = max(hi, s.y);
+        } else {
+            break;
+        }
+    }
+    return vec2<f32>(lo, hi);
+}

@@ -1,0 +1,251 @@
+// The SCALIS tracer (scalis 2021 §5–7; core: methods/scalis_quadratic.rs, normalised.rs):
+// breakpoints at support boundaries and homothetic-distance minima, Hermite data of the
+// normalised field F = g∘f − 1, the two-piece Bézier oracle of eq. 20 (rational weight 3 until
+// a sign change), Algorithm 1 with one backtracking step, 32 iterations per piece. Opaque only.
+
+struct Trace {
+    t: f32,
+    hit: bool,
+    entering: bool,
+    steps: u32,
+};
+
+struct Hermite {
+    t: f32,
+    v: f32,
+    d: f32,
+    flat: bool,
+};
+
+// (g(f), g′(f)) for the common kernel (KernelProfile::field_normalisation).
+fn normalisation(f: f32) -> vec2<f32> {
+    let k = kernels[0];
+    let cap = k.support_sq;
+    if f <= 0.0 {
+        return vec2<f32>(cap, 0.0);
+    }
+    let s2 = 1.0 / k.inv_sigma2;
+    let ratio = f / globals.up.w;
+    var g: f32;
+    var d: f32;
+    if k.family == 0u {
+        let e = 2.0 / (2.0 * k.exponent + 1.0);
+        let q = 1.0 - 1.0 / s2;
+        let p = pow(ratio, e);
+        g = s2 * (1.0 - q * p);
+        d = -s2 * q * e * p / f;
+    } else if k.family == 1u && k.exponent > 0.5 {
+        let e = 1.0 / (k.exponent - 0.5);
+        let p = pow(ratio, -e);
+        g = (1.0 + s2) * p - s2;
+        d = -(1.0 + s2) * e * p / f;
+    } else {
+        g = 1.0 - s2 * log(ratio);
+        d = -s2 / f;
+    }
+    if g >= cap {
+        return vec2<f32>(cap, 0.0);
+    }
+    return vec2<f32>(g, d);
+}
+
+var<private> scalis_steps: u32;
+
+fn hermite(ray: Ray, t: f32) -> Hermite {
+    scalis_steps += 1u;
+    let fd = along_ray(ray, t);
+    let g = normalisation(fd.x);
+    let v = g.x - 1.0;
+    return Hermite(t, v, g.y * fd.y, v >= kernels[0].support_sq - 1.0);
+}
+
+fn flip(h: Hermite, sign: f32) -> Hermite {
+    return Hermite(h.t, sign * h.v, sign * h.d, h.flat);
+}
+
+// Ray parameter of the minimum of the homothetic distance of segment i to the ray (eq. 16–19).
+fn homothetic_argmin(ray: Ray, i: u32) -> f32 {
+    let prim = primitives[i];
+    let m = prim.a.xyz - ray.origin;
+    let m_p = m - dot(m, ray.dir) * ray.dir;
+    let u_p = prim.b.xyz - dot(prim.b.xyz, ray.dir) * ray.dir;
+    let a = dot(m_p, m_p);
+    let b = dot(m_p, u_p);
+    let c = dot(u_p, u_p);
+    let tau0 = prim.a.w;
+    let delta = prim.c.y;
+    let len = prim.b.w;
+    var best_s = 0.0;
+    var best = a / (tau0 * tau0);
+    let at_end = (a + len * (2.0 * b + c * len)) / pow(tau0 + delta * len, 2.0);
+    if at_end < best {
+        best = at_end;
+        best_s = len;
+    }
+    let den = c * tau0 - delta * b;
+    if abs(den) > 0.0 {
+        let s = (delta * a - b * tau0) / den;
+        if s >= 0.0 && s <= len {
+            let r = (a + s * (2.0 * b + c * s)) / pow(tau0 + delta * s, 2.0);
+            if r < best {
+                best_s = s;
+            }
+        }
+    }
+    return dot(prim.a.xyz + best_s * prim.b.xyz - ray.origin, ray.dir);
+}
+
+// First root in [0, 1] of the rational quadratic Bézier (p, weight w) and its abscissa; −INF if none.
+fn bezier_root(p: vec3<f32>, x: vec3<f32>, w: f32) -> f32 {
+    let r = quadratic_roots(p.x - 2.0 * w * p.y + p.z, 2.0 * (w * p.y - p.x), p.x);
+    if r.x > r.y {
+        return -INF;
+    }
+    var u = -1.0;
+    if r.x >= 0.0 && r.x <= 1.0 {
+        u = r.x;
+    } else if r.y >= 0.0 && r.y <= 1.0 {
+        u = r.y;
+    }
+    if u < 0.0 {
+        return -INF;
+    }
+    let basis = vec3<f32>((1.0 - u) * (1.0 - u), 2.0 * w * u * (1.0 - u), u * u);
+    return dot(basis, x) / (basis.x + basis.y + basis.z);
+}
+
+fn oracle(b: Hermite, e: Hermite, w: f32) -> f32 {
+    let l = e.t - b.t;
+    let secant = (e.v - b.v) / l;
+    let bd = select(b.d, secant, b.flat);
+    let ed = select(e.d, secant, e.flat);
+    let mid = 0.5 * (b.v + e.v) + 0.125 * l * (bd - ed);
+    let tm = b.t + 0.5 * l;
+    let first = bezier_root(vec3<f32>(b.v, b.v + 0.25 * l * bd, mid), vec3<f32>(b.t, b.t + 0.25 * l, tm), w);
+    if first > -INF {
+        return first;
+    }
+    return bezier_root(vec3<f32>(mid, e.v - 0.25 * l * ed, e.v), vec3<f32>(tm, e.t - 0.25 * l, e.t), w);
+}
+
+// Algorithm 1 on [b, e] oriented so that b.v ≥ 0; the root's Hermite data (t = −INF: none).
+fn find_root(ray: Ray, b_in: Hermite, e_in: Hermite, sign: f32) -> Hermite {
+    var b = b_in;
+    var e = e_in;
+    var has_saved = false;
+    var saved_b = b;
+    var saved_e = e;
+    let none = Hermite(-INF, 0.0, 0.0, false);
+    for (var n = 0u; n < 32u; n++) {
+        if scalis_steps >= globals.counts.w {
+            return none;
+        }
+        if e.t - b.t < globals.march.x {
+            if e.v < 0.0 {
+                return e;
+            }
+            return none;
+        }
+        let w = select(3.0, 1.0, e.v < 0.0);
+        let t = oracle(b, e, w);
+        if t == -INF {
+            if !has_saved {
+                return none;
+            }
+            b = saved_b;
+            e = saved_e;
+            has_saved = false;
+            continue;
+        }
+        let r = flip(hermite(ray, t), sign);
+        if abs(r.v) <= abs(r.d) * globals.march.x || r.v == 0.0 {
+            return r;
+        }
+        let rising = r.d > 0.0 && b.d < 0.0;
+        if !has_saved && r.v >= 0.0 && e.v < 0.0 && rising {
+            has_saved = true;
+            saved_b = r;
+            saved_e = e;
+        }
+        if r.v < 0.0 || rising {
+            e = r;
+        } else {
+            b = r;
+        }
+    }
+    return none;
+}
+
+// Breakpoints inside part (support boundaries and argmins), sorted, at least min_step apart.
+const MAX_BREAKPOINTS: u32 = 50u;
+
+fn trace_ray(ray: Ray) -> Trace {
+    var trace = Trace(0.0, false, false, 0u);
+    scalis_steps = 0u;
+    var start_at = 0.0;
+    let gap = globals.march.y;
+    loop {
+        let part = next_part(start_at);
+        if part.x > part.y || scalis_steps >= globals.counts.w {
+            break;
+        }
+        var points: array<f32, MAX_BREAKPOINTS>;
+        var count = 1u;
+        points[0] = part.x;
+        for (var j = 0u; j < supports.count; j++) {
+            let s = supports.spans[j];
+            if s.y < part.x || s.x > part.y {
+                continue;
+            }
+            let t = homothetic_argmin(ray, supports.ids[j]);
+            if t > part.x && t < part.y && count < MAX_BREAKPOINTS - 1u {
+                var k = count;
+                while k > 1u && points[k - 1u] > t {
+                    points[k] = points[k - 1u];
+                    k -= 1u;
+                }
+                points[k] = t;
+                count += 1u;
+            }
+        }
+        // Drop points closer than `gap` to the previous kept one, then close with part.y.
+        var kept = 1u;
+        for (var j = 1u; j < count; j++) {
+            if points[j] - points[kept - 1u] >= gap {
+                points[kept] = points[j];
+                kept += 1u;
+            }
+        }
+        if kept > 1u && part.y - points[kept - 1u] < gap {
+            kept -= 1u;
+        }
+        points[kept] = part.y;
+        var b = hermite(ray, points[0]);
+        for (var j = 1u; j <= kept; j++) {
+            if scalis_steps >= globals.counts.w {
+                break;
+            }
+            let e = hermite(ray, points[j]);
+            let sign = select(-1.0, 1.0, b.v >= 0.0);
+            let r = find_root(ray, flip(b, sign), flip(e, sign), sign);
+            if r.t > -INF {
+                var t = r.t;
+                if r.d != 0.0 {
+                    let newton = r.t - r.v / r.d;
+                    if newton >= b.t && newton <= e.t {
+                        t = newton;
+                    }
+                }
+                trace.t = t;
+                trace.hit = true;
+                trace.entering = sign > 0.0;
+                trace.steps = scalis_steps;
+                return trace;
+            }
+            b = e;
+        }
+        start_at = part.y;
+    }
+    trace.steps = scalis_steps;
+    return trace;
+}

@@ -1,0 +1,250 @@
+// Inclusions of point-blob fields for segment tracing and the Taylor and bottom-up methods
+// (core: primitives/point.rs ray_jet, inclusion.rs, bottom_up.rs; forward-inclusion 2023
+// §5–6, appendices A–C). Only point blobs have these bounds on the GPU; other scenes run these
+// methods on the CPU. `METHOD` is set by the composer: 0 segment, 1 linear-taylor,
+// 2 quadratic-taylor, 3 bottom-up-quadratic.
+
+struct Jet {
+    value: vec2<f32>,
+    d1: vec2<f32>,
+    d2: vec2<f32>,
+};
+
+fn hull_with(i: vec2<f32>, v: f32) -> vec2<f32> {
+    return vec2<f32>(min(i.x, v), max(i.y, v));
+}
+
+// The jet of point blob i over [lo, hi] (exact extrema, MATH.md §5).
+fn point_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let rho = prim.a.w;
+    let norm = prim.c.x;
+    let t_closest = dot(prim.a.xyz - ray.origin, ray.dir);
+    let off = ray.origin + t_closest * ray.dir - prim.a.xyz;
+    let h2 = dot(off, off) / (rho * rho);
+    let a = (lo - t_closest) / rho;
+    let b = (hi - t_closest) / rho;
+    let near = clamp(0.0, a, b);
+    let far = select(b, a, abs(a) > abs(b));
+    let value = vec2<f32>(norm * kernel_d1(k, min(far * far + h2, k.support_sq)).x,
+                          norm * kernel_d1(k, min(near * near + h2, k.support_sq)).x);
+    var d1 = vec2<f32>(INF, -INF);
+    var d2 = vec2<f32>(INF, -INF);
+    // Critical points of f′ and f″ (KernelProfile::point_critical_tau2).
+    let s2 = 1.0 / k.inv_sigma2;
+    var c1: f32;
+    var c2: f32;
+    if k.family == 0u {
+        let p = max(s2 - h2, 0.0);
+        let q = 2.0 * k.exponent - 1.0;
+        c1 = p / q;
+        c2 = 3.0 * p / q;
+    } else if k.family == 1u {
+        let bb = s2 + h2;
+        let q = 2.0 * k.exponent + 1.0;
+        c1 = bb / q;
+        c2 = 3.0 * bb / q;
+    } else {
+        c1 = 0.5 * s2;
+        c2 = 1.5 * s2;
+    }
+    var taus = array<f32, 7>(a, b, sqrt(c1), -sqrt(c1), 0.0, sqrt(c2), -sqrt(c2));
+    for (var j = 0; j < 7; j++) {
+        let tau = taus[j];
+        if tau < a || tau > b {
+            continue;
+        }
+        let kk = kernel_d2_inside(k, min(tau * tau + h2, k.support_sq));
+        if j < 4 {
+            d1 = hull_with(d1, norm * kk.y * 2.0 * tau / rho);
+        }
+        if j < 2 || j >= 4 {
+            d2 = hull_with(d2, norm * (kk.z * 4.0 * tau * tau + 2.0 * kk.y) / (rho * rho));
+        }
+    }
+    return Jet(value, d1, d2);
+}
+
+fn jet_add(a: Jet, b: Jet) -> Jet {
+    return Jet(a.value + b.value, a.d1 + b.d1, a.d2 + b.d2);
+}
+
+fn jet_max(f: Jet, g: Jet) -> Jet {
+    if f.value.x >= g.value.y {
+        return f;
+    } else if g.value.x >= f.value.y {
+        return g;
+    }
+    return Jet(vec2<f32>(max(f.value.x, g.value.x), max(f.value.y, g.value.y)),
+               vec2<f32>(min(f.d1.x, g.d1.x), max(f.d1.y, g.d1.y)),
+               vec2<f32>(min(f.d2.x, g.d2.x), INF));
+}
+
+fn jet_neg(f: Jet) -> Jet {
+    return Jet(-f.value.yx, -f.d1.yx, -f.d2.yx);
+}
+
+// Primitive i's support overlaps [lo, hi] (start_at the ray's sorted spans).
+fn for_span(j: u32, lo: f32, hi: f32) -> bool {
+    let s = supports.spans[j];
+    return s.x <= hi && s.y >= lo;
+}
+
+// Group jets over [lo, hi], blended (ray_jet), and the summed Lipschitz bound (summed_lipschitz).
+fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
+    var groups: array<Jet, MAX_GROUPS>;
+    for (var g = 0u; g < MAX_GROUPS; g++) {
+        groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
+    }
+    for (var j = 0u; j < supports.count; j++) {
+        if !for_span(j, lo, hi) {
+            continue;
+        }
+        let i = supports.ids[j];
+        let g = primitives[i].group;
+        groups[g] = jet_add(groups[g], point_jet(ray, i, lo, hi));
+    }
+    let n = globals.counts.y;
+    let op = globals.counts.z;
+    var out = groups[0];
+    for (var g = 1u; g < n; g++) {
+        if op == 0u {
+            out = jet_add(out, groups[g]);
+        } else if op == 1u {
+            out = jet_max(out, groups[g]);
+        } else {
+            out = jet_neg(jet_max(jet_neg(out), jet_neg(groups[g])));
+        }
+    }
+    return out;
+}
+
+fn summed_lipschitz(ray: Ray, lo: f32, hi: f32) -> f32 {
+    var groups: array<f32, MAX_GROUPS>;
+    for (var j = 0u; j < supports.count; j++) {
+        if !for_span(j, lo, hi) {
+            continue;
+        }
+        let i = supports.ids[j];
+        let d1 = point_jet(ray, i, lo, hi).d1;
+        groups[primitives[i].group] += max(abs(d1.x), abs(d1.y));
+    }
+    var out = 0.0;
+    for (var g = 0u; g < globals.counts.y; g++) {
+        out = select(max(out, groups[g]), out + groups[g], globals.counts.z == 0u);
+    }
+    return out;
+}
+
+// ---- bottom-up quadratic (bottom_up.rs point_quadratic, inclusion.rs max) ----
+
+fn kernel_convex(k: Kernel, x: f32) -> vec2<f32> {
+    if x < 0.0 {
+        let d0 = kernel_d1(k, 0.0);
+        return vec2<f32>(d0.x + d0.y * x, d0.y);
+    }
+    return kernel_d1(k, x);
+}
+
+fn point_quadratic(ray: Ray, i: u32, t0: f32, h_in: f32) -> Inclusion {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let inv = 1.0 / (prim.a.w * prim.a.w);
+    let w = ray.origin + t0 * ray.dir - prim.a.xyz;
+    let x0 = dot(w, w) * inv;
+    let x1 = 2.0 * dot(w, ray.dir) * inv;
+    let x2 = inv;
+    let n = prim.c.x;
+    let closest = -x1 / (2.0 * x2);
+    var h = h_in;
+    var x_other = x0 + h * (x1 + x2 * h);
+    if closest > 0.0 && closest < h_in {
+        h = 2.0 * closest;
+        x_other = x0 + closest * (x1 + x2 * closest);
+    }
+    let k0 = kernel_convex(k, x0);
+    var chord = k0.y;
+    if abs(x_other - x0) > 1e-12 * (1.0 + abs(x0)) {
+        chord = (kernel_convex(k, x_other).x - k0.x) / (x_other - x0);
+    }
+    return Inclusion(n * k0.x, vec2<f32>(n * k0.y * x1, n * k0.y * x2),
+                     vec2<f32>(n * chord * x1, n * chord * x2), h);
+}
+
+fn inclusion_add(a: Inclusion, b: Inclusion) -> Inclusion {
+    return Inclusion(a.start + b.start, a.lower + b.lower, a.upper + b.upper, min(a.length, b.length));
+}
+
+fn inclusion_neg(a: Inclusion) -> Inclusion {
+    return Inclusion(-a.start, -a.upper, -a.lower, a.length);
+}
+
+fn offset_at(o: vec2<f32>, s: f32) -> f32 {
+    return s * (o.x + o.y * s);
+}
+
+// Maximum of two inclusions (appendix C).
+fn inclusion_max(a: Inclusion, b: Inclusion) -> Inclusion {
+    let h = min(a.length, b.length);
+    var best = b;
+    if a.start >= b.start {
+        best = a;
+    }
+    let c0 = max(a.start, b.start);
+    let c1 = max(a.start + 0.5 * h * a.upper.x, b.start + 0.5 * h * b.upper.x);
+    let c2 = max(a.start + offset_at(a.upper, h), b.start + offset_at(b.upper, h));
+    var upper = best.upper;
+    if h > 0.0 {
+        upper = vec2<f32>(2.0 * (c1 - c0) / h, (c0 - 2.0 * c1 + c2) / (h * h));
+    }
+    return Inclusion(c0, best.lower, upper, h);
+}
+
+fn bottom_up_quadratic(ray: Ray, t: f32, h: f32) -> Inclusion {
+    var groups: array<Inclusion, MAX_GROUPS>;
+    for (var g = 0u; g < MAX_GROUPS; g++) {
+        groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
+    }
+    for (var j = 0u; j < supports.count; j++) {
+        if !for_span(j, t, t + h) {
+            continue;
+        }
+        let i = supports.ids[j];
+        let g = primitives[i].group;
+        groups[g] = inclusion_add(groups[g], point_quadratic(ray, i, t, h));
+    }
+    var out = groups[0];
+    for (var g = 1u; g < globals.counts.y; g++) {
+        if globals.counts.z == 0u {
+            out = inclusion_add(out, groups[g]);
+        } else if globals.counts.z == 1u {
+            out = inclusion_max(out, groups[g]);
+        } else {
+            out = inclusion_neg(inclusion_max(inclusion_neg(out), inclusion_neg(groups[g])));
+        }
+    }
+    return out;
+}
+
+fn method_bound(ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
+    if METHOD == 0u {
+        return symmetric(f, summed_lipschitz(ray, t, t + h), h);
+    } else if METHOD == 3u {
+        return bottom_up_quadratic(ray, t, h);
+    }
+    let jet = ray_jet(ray, t, t + h);
+    if METHOD == 1u {
+        return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);
+    }
+    // Quadratic Taylor: a side whose f″ bound is infinite falls back to linear Taylor.
+    var lower = vec2<f32>(d, 0.5 * jet.d2.x);
+    var upper = vec2<f32>(d, 0.5 * jet.d2.y);
+    if abs(jet.d2.x) >= INF {
+        lower = vec2<f32>(jet.d1.x, 0.0);
+    }
+    if abs(jet.d2.y) >= INF {
+        upper = vec2<f32>(jet.d1.y, 0.0);
+    }
+    return Inclusion(f, lower, upper, h);
+}

@@ -1,0 +1,277 @@
+//! The scene packed for the GPU: `#[repr(C)]` + bytemuck twins of the WGSL structs in
+//! `shaders/prelude.wgsl`, built from a [`FieldProgram`] and its [`Scene`].
+//!
+//! The GPU evaluates point blobs, distance and SCALIS segments and planes, up to
+//! [`MAX_GROUPS`] groups combined by one sum, max or min (the flat blend trees of every
+//! asset). Other scenes (boxes, tori, cylinders, difference or Ricci blends, nested trees) are
+//! refused with a message, and the caller falls back to the CPU tracer.
+
+use bytemuck::{Pod, Zeroable};
+use skeletrace_core::FieldProgram;
+use skeletrace_core::kernel::Kernel;
+use skeletrace_core::primitives::{Primitive, Solid};
+use skeletrace_core::scene::{Blend, Light, Scene};
+
+/// Groups the shaders hold in registers (`MAX_GROUPS` in prelude.wgsl).
+pub const MAX_GROUPS: usize = 8;
+
+/// Twin of `Primitive` in prelude.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuPrimitive {
+    /// 0 point blob, 1 distance segment, 2 SCALIS segment, 3 plane.
+    pub kind: u32,
+    /// Group index.
+    pub group: u32,
+    /// Padding.
+    pub pad: [u32; 2],
+    /// Point: centre and radius; segment: start (smaller radius) and radius; plane: normal, offset.
+    pub a: [f32; 4],
+    /// Segment: unit axis and length; plane: radius in `x`.
+    pub b: [f32; 4],
+    /// `x`: normalisation, `y`: radius slope.
+    pub c: [f32; 4],
+    /// Bounding sphere of the support; `w < 0` for unbounded supports.
+    pub bound: [f32; 4],
+}
+
+/// Twin of `Kernel` in prelude.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuKernel {
+    /// 0 compact, 1 Cauchy, 2 Gaussian.
+    pub family: u32,
+    /// Whether `K′` jumps at the support boundary.
+    pub kinked: u32,
+    /// Padding.
+    pub pad: [u32; 2],
+    /// `m` (compact) or `n = i/2` (Cauchy).
+    pub exponent: f32,
+    /// `1/σ²`.
+    pub inv_sigma2: f32,
+    /// Squared support radius.
+    pub support_sq: f32,
+    /// Clipping value ε (0 for compact kernels).
+    pub clip: f32,
+    /// `1/(1 − ε)`.
+    pub clip_scale: f32,
+    /// Padding.
+    pub pad2: [f32; 3],
+}
+
+/// Twin of `Light` in prelude.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    /// Direction towards the light or position; `w`: 0 directional, 1 point.
+    pub vector: [f32; 4],
+    /// Colour; `w`: intensity.
+    pub colour: [f32; 4],
+}
+
+/// A scene in GPU layout.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PackedScene {
+    /// Primitives, in program order.
+    pub primitives: Vec<GpuPrimitive>,
+    /// One kernel per group.
+    pub kernels: Vec<GpuKernel>,
+    /// Base colour per group (`w`: opacity).
+    pub materials: Vec<[f32; 4]>,
+    /// Lights.
+    pub lights: Vec<GpuLight>,
+    /// Blend operator over groups: 0 sum, 1 max, 2 min.
+    pub blend: u32,
+}
+
+fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// The blend operator of a flat tree whose leaves are every group once, if it is one.
+fn flat_blend(blend: &Blend, groups: usize) -> Option<u32> {
+    let (op, children) = match blend {
+        Blend::Group(0) if groups == 1 => return Some(0),
+        Blend::Sum(v) => (0, v),
+        Blend::Max(v) => (1, v),
+        Blend::Min(v) => (2, v),
+        _ => return None,
+    };
+    let mut seen = vec![false; groups];
+    for c in children {
+        match c {
+            Blend::Group(i) if (*i as usize) < groups && !seen[*i as usize] => {
+                seen[*i as usize] = true;
+            }
+            _ => return None,
+        }
+    }
+    seen.iter().all(|s| *s).then_some(op)
+}
+
+fn kernel(k: Kernel) -> GpuKernel {
+    let profile = skeletrace_core::kernel::KernelProfile::new(k);
+    let (family, exponent, sigma, clip) = match k {
+        Kernel::CompactPolynomial { degree, scale } => (0, f64::from(degree / 2), scale, 0.0),
+        Kernel::Cauchy { degree, scale } => (
+            1,
+            f64::from(degree) / 2.0,
+            scale,
+            skeletrace_core::kernel::CLIP_EPSILON,
+        ),
+        Kernel::Gaussian { scale } => (2, 0.0, scale, skeletrace_core::kernel::CLIP_EPSILON),
+    };
+    GpuKernel {
+        family,
+        kinked: u32::from(profile.is_kinked()),
+        pad: [0; 2],
+        exponent: exponent as f32,
+        inv_sigma2: (1.0 / (sigma * sigma)) as f32,
+        support_sq: profile.support_sq() as f32,
+        clip: clip as f32,
+        clip_scale: (1.0 / (1.0 - clip)) as f32,
+        pad2: [0.0; 3],
+    }
+}
+
+impl PackedScene {
+    /// Packs `program` (compiled from `scene`).
+    ///
+    /// # Errors
+    /// What the GPU backend does not evaluate in this scene.
+    pub fn new(scene: &Scene, program: &FieldProgram) -> Result<Self, String> {
+        let groups = program.group_count();
+        if groups > MAX_GROUPS {
+            return Err(format!(
+                "the GPU backend handles at most {MAX_GROUPS} groups (this scene has {groups})"
+            ));
+        }
+        let blend = flat_blend(program.blend(), groups).ok_or_else(|| {
+            "the GPU backend handles one sum, max or min over all groups; this scene's blend \
+             tree is nested or uses difference/Ricci"
+                .to_owned()
+        })?;
+        let mut primitives = Vec::with_capacity(program.primitives().len());
+        for (i, p) in program.primitives().iter().enumerate() {
+            let k = program.kernel_of(i as u32);
+            let group = program.group_of(i as u32) as u32;
+            let bound = p.support_aabb(k).map_or([0.0, 0.0, 0.0, -1.0], |b| {
+                f4(b.center(), 0.5 * b.diagonal())
+            });
+            let (kind, a, b, c) = match p {
+                Primitive::Point(x) => (
+                    0,
+                    f4(x.center, x.radius),
+                    [0.0; 4],
+                    [x.norm as f32, 0.0, 0.0, 0.0],
+                ),
+                Primitive::Distance(x) => (
+                    1,
+                    f4(x.cone.start, x.cone.radius),
+                    f4(x.cone.axis, x.cone.length),
+                    [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
+                ),
+                Primitive::Scalis(x) => (
+                    2,
+                    f4(x.cone.start, x.cone.radius),
+                    f4(x.cone.axis, x.cone.length),
+                    [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
+                ),
+                Primitive::Shape(s) => match s.solid {
+                    Solid::Plane { normal, offset } => (
+                        3,
+                        f4(normal, offset),
+                        [s.radius as f32, 0.0, 0.0, 0.0],
+                        [s.norm as f32, 0.0, 0.0, 0.0],
+                    ),
+                    other => {
+                        return Err(format!(
+                            "the GPU backend does not evaluate {} shapes yet",
+                            match other {
+                                Solid::Box { .. } => "box",
+                                Solid::RoundedBox { .. } => "rounded box",
+                                Solid::Torus { .. } => "torus",
+                                _ => "cylinder",
+                            }
+                        ));
+                    }
+                },
+            };
+            primitives.push(GpuPrimitive {
+                kind,
+                group,
+                pad: [0; 2],
+                a,
+                b,
+                c,
+                bound,
+            });
+        }
+        let lights = if scene.lights.is_empty() {
+            Scene::default_lights()
+        } else {
+            scene.lights.clone()
+        };
+        Ok(Self {
+            primitives,
+            kernels: (0..groups)
+                .map(|g| kernel(program.group_kernel_spec(g)))
+                .collect(),
+            materials: scene
+                .groups
+                .iter()
+                .map(|g| {
+                    let c = g.material.color;
+                    [
+                        c[0] as f32,
+                        c[1] as f32,
+                        c[2] as f32,
+                        g.material.opacity as f32,
+                    ]
+                })
+                .collect(),
+            lights: lights
+                .iter()
+                .map(|l| match l {
+                    Light::Directional {
+                        direction,
+                        color,
+                        intensity,
+                    } => GpuLight {
+                        vector: [
+                            direction[0] as f32,
+                            direction[1] as f32,
+                            direction[2] as f32,
+                            0.0,
+                        ],
+                        colour: [
+                            color[0] as f32,
+                            color[1] as f32,
+                            color[2] as f32,
+                            *intensity as f32,
+                        ],
+                    },
+                    Light::Point {
+                        position,
+                        color,
+                        intensity,
+                    } => GpuLight {
+                        vector: [
+                            position[0] as f32,
+                            position[1] as f32,
+                            position[2] as f32,
+                            1.0,
+                        ],
+                        colour: [
+                            color[0] as f32,
+                            color[1] as f32,
+                            color[2] as f32,
+                            *intensity as f32,
+                        ],
+                    },
+                })
+                .collect(),
+            blend,
+        })
+    }
+}

@@ -1,0 +1,558 @@
+//! Headless GPU rendering: device set-up, scene upload (re-uploading only what changed), tile
+//! binning, one trace pass per method into one side-by-side frame, readback into core
+//! [`Frame`]s. wgpu errors and a lost device are reported as `Err`, never as a panic; callers
+//! fall back to the CPU tracer.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use bytemuck::{Pod, Zeroable};
+use skeletrace_core::methods::TraceSettings;
+use skeletrace_core::render::{Frame, PinholeCamera, far_distance};
+use skeletrace_core::scene::{Camera, Scene};
+use skeletrace_core::{FieldProgram, primitives::Primitive};
+use wgpu::util::DeviceExt;
+
+use crate::buffers::{GpuPrimitive, PackedScene};
+use crate::shaders::{BINNING, GpuMethod};
+
+/// Tile edge in pixels.
+const TILE: u32 = 8;
+
+/// What the colour output shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum View {
+    /// Blinn–Phong shading.
+    Shaded,
+    /// Step-count heat map on `[0, steps_max]`.
+    Steps {
+        /// Top of the colour scale.
+        steps_max: u32,
+    },
+}
+
+/// Twin of `Globals` in prelude.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuGlobals {
+    origin: [f32; 4],
+    forward: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    size: [u32; 4],
+    counts: [u32; 4],
+    march: [f32; 4],
+    method: [f32; 4],
+    tile: [u32; 4],
+    heat: [f32; 4],
+}
+
+/// Twin of `Binning` in binning.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuBinning {
+    origin: [f32; 4],
+    forward: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    tiles: [u32; 4],
+    size: [u32; 4],
+}
+
+/// The uploaded scene.
+struct SceneBuffers {
+    packed: PackedScene,
+    primitives: wgpu::Buffer,
+    kernels: wgpu::Buffer,
+    materials: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    /// Per-method constants: global Lipschitz bound; field inversion σ, radius, N₀.
+    method: [f32; 4],
+    isovalue: f32,
+}
+
+/// A GPU device with the pipelines built so far and the current scene.
+pub struct GpuRenderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    adapter: String,
+    errors: Arc<Mutex<Vec<String>>>,
+    count_pipeline: wgpu::ComputePipeline,
+    fill_pipeline: wgpu::ComputePipeline,
+    trace_pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    scene: Option<SceneBuffers>,
+    /// Primitive uploads in bytes, for the tests of partial re-upload.
+    uploaded_bytes: u64,
+}
+
+fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    // Storage buffers may not be empty.
+    let padded;
+    let contents = if bytes.is_empty() {
+        padded = [0u8; 16];
+        &padded[..]
+    } else {
+        bytes
+    };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(entry),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    })
+}
+
+fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// σ, smallest radius and normalisation of a Gaussian-blob scene (field inversion).
+fn gaussian_parameters(program: &FieldProgram) -> [f32; 3] {
+    let sigma = match program.common_kernel() {
+        Some(skeletrace_core::kernel::Kernel::Gaussian { scale }) => scale,
+        _ => 1.0,
+    };
+    let (mut radius, mut norm) = (f64::INFINITY, 1.0);
+    for p in program.primitives() {
+        if let Primitive::Point(b) = p {
+            radius = radius.min(b.radius);
+            norm = b.norm;
+        }
+    }
+    [
+        sigma as f32,
+        if radius.is_finite() {
+            radius as f32
+        } else {
+            1.0
+        },
+        norm as f32,
+    ]
+}
+
+impl GpuRenderer {
+    /// Opens the first GPU adapter (any backend wgpu was built with: Vulkan, including Mesa's
+    /// lavapipe).
+    ///
+    /// # Errors
+    /// No adapter, or no device.
+    pub fn new() -> Result<Self, String> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| format!("no GPU adapter: {e}"))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("skeletrace"),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("GPU adapter '{}' gave no device: {e}", info.name))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&errors);
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        let lost = Arc::clone(&errors);
+        device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut v) = lost.lock() {
+                v.push(format!("device lost ({reason:?}): {message}"));
+            }
+        });
+        let count_pipeline = pipeline(&device, BINNING, "count_tiles");
+        let fill_pipeline = pipeline(&device, BINNING, "fill_tiles");
+        let renderer = Self {
+            device,
+            queue,
+            adapter: format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type),
+            errors,
+            count_pipeline,
+            fill_pipeline,
+            trace_pipelines: HashMap::new(),
+            scene: None,
+            uploaded_bytes: 0,
+        };
+        renderer.check()?;
+        Ok(renderer)
+    }
+
+    /// Adapter name, backend and type.
+    #[must_use]
+    pub fn adapter_name(&self) -> &str {
+        &self.adapter
+    }
+
+    /// Bytes of primitive data uploaded so far.
+    #[must_use]
+    pub fn uploaded_primitive_bytes(&self) -> u64 {
+        self.uploaded_bytes
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let mut errors = self.errors.lock().map_err(|e| e.to_string())?;
+        if errors.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "GPU error: {}",
+                errors.drain(..).collect::<Vec<_>>().join("; ")
+            ))
+        }
+    }
+
+    /// Uploads `scene`; when only some primitives changed since the last upload (same count),
+    /// only the changed range is written.
+    ///
+    /// # Errors
+    /// What the GPU backend does not handle in this scene.
+    pub fn set_scene(&mut self, scene: &Scene, program: &FieldProgram) -> Result<(), String> {
+        let packed = PackedScene::new(scene, program)?;
+        let gauss = gaussian_parameters(program);
+        let method = [
+            program.global_lipschitz() as f32,
+            gauss[0],
+            gauss[1],
+            gauss[2],
+        ];
+        let isovalue = program.isovalue() as f32;
+        if let Some(old) = &mut self.scene
+            && old.packed.primitives.len() == packed.primitives.len()
+            && old.packed.kernels.len() == packed.kernels.len()
+            && old.packed.materials.len() == packed.materials.len()
+            && old.packed.lights.len() == packed.lights.len()
+        {
+            let changed: Vec<usize> = (0..packed.primitives.len())
+                .filter(|&i| old.packed.primitives[i] != packed.primitives[i])
+                .collect();
+            if let (Some(&first), Some(&last)) = (changed.first(), changed.last()) {
+                let bytes = bytemuck::cast_slice(&packed.primitives[first..=last]);
+                let offset = (first * std::mem::size_of::<GpuPrimitive>()) as u64;
+                self.queue.write_buffer(&old.primitives, offset, bytes);
+                self.uploaded_bytes += bytes.len() as u64;
+            }
+            self.queue
+                .write_buffer(&old.kernels, 0, bytemuck::cast_slice(&packed.kernels));
+            self.queue
+                .write_buffer(&old.materials, 0, bytemuck::cast_slice(&packed.materials));
+            self.queue
+                .write_buffer(&old.lights, 0, bytemuck::cast_slice(&packed.lights));
+            old.packed = packed;
+            old.method = method;
+            old.isovalue = isovalue;
+            return self.check();
+        }
+        let d = &self.device;
+        let primitive_bytes: &[u8] = bytemuck::cast_slice(&packed.primitives);
+        self.uploaded_bytes += primitive_bytes.len() as u64;
+        self.scene = Some(SceneBuffers {
+            primitives: storage(d, "primitives", primitive_bytes),
+            kernels: storage(d, "kernels", bytemuck::cast_slice(&packed.kernels)),
+            materials: storage(d, "materials", bytemuck::cast_slice(&packed.materials)),
+            lights: storage(d, "lights", bytemuck::cast_slice(&packed.lights)),
+            packed,
+            method,
+            isovalue,
+        });
+        self.check()
+    }
+
+    fn trace_pipeline(&mut self, method: GpuMethod) -> &wgpu::ComputePipeline {
+        let device = &self.device;
+        self.trace_pipelines
+            .entry(method.name())
+            .or_insert_with(|| pipeline(device, &method.source(), "trace_pixels"))
+    }
+
+    /// Renders `methods` side by side (`width × height` each) through `camera`; one frame per
+    /// method.
+    ///
+    /// # Errors
+    /// No scene, a method that does not apply, or a GPU error.
+    #[allow(clippy::too_many_lines)]
+    pub fn render(
+        &mut self,
+        program: &FieldProgram,
+        methods: &[GpuMethod],
+        camera: &Camera,
+        settings: &TraceSettings,
+        (width, height): (u32, u32),
+        view: View,
+    ) -> Result<Vec<Frame>, String> {
+        for m in methods {
+            m.supports(program)?;
+        }
+        for &m in methods {
+            self.trace_pipeline(m);
+        }
+        let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
+        let d = &self.device;
+        let pinhole = PinholeCamera::new(camera);
+        let (forward, right, up) = pinhole.axes();
+        let origin = glam::DVec3::from_array(camera.position);
+        let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
+        let aspect = f64::from(width) / f64::from(height.max(1));
+        let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
+        let tiles = (tiles_x * tiles_y) as usize;
+        let n_prims = scene.packed.primitives.len() as u32;
+
+        // Pass 1: count supports per tile.
+        let binning = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("binning"),
+            contents: bytemuck::bytes_of(&GpuBinning {
+                origin: f4(origin, 0.0),
+                forward: f4(forward, tan_half),
+                right: f4(right, aspect),
+                up: f4(up, 0.0),
+                tiles: [tiles_x, tiles_y, TILE, n_prims],
+                size: [width, height, 0, 0],
+            }),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let counts = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tile counts"),
+            size: (tiles * 4) as u64,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let counts_read = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tile counts readback"),
+            size: (tiles * 4) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let count_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("count tiles"),
+            layout: &self.count_pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &binning),
+                entry(1, &scene.primitives),
+                entry(2, &counts),
+            ],
+        });
+        let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            pass.set_pipeline(&self.count_pipeline);
+            pass.set_bind_group(0, &count_group, &[]);
+            pass.dispatch_workgroups(n_prims.div_ceil(64).max(1), 1, 1);
+        }
+        encoder.copy_buffer_to_buffer(&counts, 0, &counts_read, 0, (tiles * 4) as u64);
+        self.queue.submit([encoder.finish()]);
+        let tile_counts: Vec<u32> = read_back(d, &counts_read)?;
+        self.check()?;
+        let mut ranges = Vec::with_capacity(tiles);
+        let mut total = 0u32;
+        for &c in &tile_counts {
+            ranges.push([total, total + c]);
+            total += c;
+        }
+
+        // Pass 2: fill the tile lists, then trace every method.
+        let ranges_buffer = storage(d, "tile ranges", bytemuck::cast_slice(&ranges));
+        let items = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tile items"),
+            size: u64::from(total.max(1)) * 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let fill_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("fill tiles"),
+            layout: &self.fill_pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &binning),
+                entry(1, &scene.primitives),
+                entry(2, &counts),
+                entry(3, &ranges_buffer),
+                entry(4, &items),
+            ],
+        });
+        let panels = methods.len() as u32;
+        let out_width = width * panels;
+        let pixels = u64::from(out_width) * u64::from(height);
+        let output = |label: &str| {
+            d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: pixels * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let (colour, depth, steps) = (output("colour"), output("depth"), output("steps"));
+        let far = far_distance(program, camera);
+        let (heat_max, heat_view) = match view {
+            View::Shaded => (1.0, 0.0),
+            View::Steps { steps_max } => (steps_max as f32, 1.0),
+        };
+        let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        encoder.clear_buffer(&counts, 0, None);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            pass.set_pipeline(&self.fill_pipeline);
+            pass.set_bind_group(0, &fill_group, &[]);
+            pass.dispatch_workgroups(n_prims.div_ceil(64).max(1), 1, 1);
+        }
+        for (panel, method) in methods.iter().enumerate() {
+            let globals = GpuGlobals {
+                origin: f4(origin, far),
+                forward: f4(forward, tan_half),
+                right: f4(right, aspect),
+                up: f4(up, f64::from(scene.isovalue)),
+                size: [width, height, tiles_x, tiles_y],
+                counts: [
+                    n_prims,
+                    scene.packed.kernels.len() as u32,
+                    scene.packed.blend,
+                    settings.max_steps,
+                ],
+                march: [
+                    settings.epsilon as f32,
+                    settings.min_step as f32,
+                    settings.growth as f32,
+                    settings.initial_interval as f32,
+                ],
+                method: scene.method,
+                tile: [
+                    TILE,
+                    scene.packed.lights.len() as u32,
+                    width * panel as u32,
+                    out_width,
+                ],
+                heat: [heat_max, heat_view, 0.0, 0.0],
+            };
+            let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("globals"),
+                contents: bytemuck::bytes_of(&globals),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let pipeline = &self.trace_pipelines[method.name()];
+            let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(method.name()),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &[
+                    entry(0, &globals),
+                    entry(1, &scene.primitives),
+                    entry(2, &scene.kernels),
+                    entry(3, &scene.materials),
+                    entry(4, &scene.lights),
+                    entry(5, &ranges_buffer),
+                    entry(6, &items),
+                    entry(7, &colour),
+                    entry(8, &depth),
+                    entry(9, &steps),
+                ],
+            });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+        }
+        let readback = |encoder: &mut wgpu::CommandEncoder, source: &wgpu::Buffer| {
+            let target = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: pixels * 4,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            encoder.copy_buffer_to_buffer(source, 0, &target, 0, pixels * 4);
+            target
+        };
+        let colour_read = readback(&mut encoder, &colour);
+        let depth_read = readback(&mut encoder, &depth);
+        let steps_read = readback(&mut encoder, &steps);
+        self.queue.submit([encoder.finish()]);
+        let colour: Vec<u32> = read_back(d, &colour_read)?;
+        let depth: Vec<f32> = read_back(d, &depth_read)?;
+        let steps: Vec<u32> = read_back(d, &steps_read)?;
+        self.check()?;
+        let (w, h) = (width as usize, height as usize);
+        Ok((0..methods.len())
+            .map(|panel| {
+                let index = |i: usize| (i / w) * out_width as usize + panel * w + i % w;
+                Frame {
+                    width: w,
+                    height: h,
+                    colour: (0..w * h)
+                        .map(|i| linear_from_packed(colour[index(i)]))
+                        .collect(),
+                    depth: (0..w * h)
+                        .map(|i| {
+                            let v = depth[index(i)];
+                            if v >= 3.0e38 {
+                                f64::INFINITY
+                            } else {
+                                f64::from(v)
+                            }
+                        })
+                        .collect(),
+                    steps: (0..w * h).map(|i| steps[index(i)]).collect(),
+                }
+            })
+            .collect())
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// Maps a `MAP_READ` buffer and copies it out.
+fn read_back<T: Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<T>, String> {
+    let slice = buffer.slice(..);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = sender.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| format!("GPU poll failed: {e}"))?;
+    receiver
+        .recv()
+        .map_err(|e| e.to_string())?
+        .map_err(|e| format!("GPU readback failed: {e}"))?;
+    let view = slice
+        .get_mapped_range()
+        .map_err(|e| format!("GPU readback failed: {e}"))?;
+    let data = bytemuck::cast_slice(&view).to_vec();
+    drop(view);
+    buffer.unmap();
+    Ok(data)
+}
+
+/// sRGB8 packed colour to linear RGB (the inverse of the shader's encoding).
+fn linear_from_packed(c: u32) -> [f32; 3] {
+    let channel = |shift: u32| {
+        let s = ((c >> shift) & 0xff) as f32 / 255.0;
+        if s <= 0.04045 {
+            s / 12.92
+        } else {
+            ((s + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    [channel(0), channel(8), channel(16)]
+}

@@ -1,0 +1,167 @@
+//! WGSL composition: one file per method family plus the shared prelude (`shaders/`), put
+//! together in Rust. The methods that run on the GPU, and what each needs of a scene.
+
+use skeletrace_core::FieldProgram;
+use skeletrace_core::kernel::Kernel;
+use skeletrace_core::primitives::Primitive;
+
+const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
+const MARCH: &str = include_str!("../shaders/march.wgsl");
+const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
+const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
+const TAYLOR: &str = include_str!("../shaders/taylor.wgsl");
+const SCALIS: &str = include_str!("../shaders/scalis.wgsl");
+const FIELD_INVERSION: &str = include_str!("../shaders/field_inversion.wgsl");
+const MAIN: &str = include_str!("../shaders/main.wgsl");
+/// The tile-binning passes (standalone).
+pub const BINNING: &str = include_str!("../shaders/binning.wgsl");
+
+/// A method with a GPU implementation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuMethod {
+    /// `sphere`.
+    Sphere,
+    /// `sphere-enhanced`.
+    SphereEnhanced,
+    /// `segment` (point blobs).
+    Segment,
+    /// `linear-taylor` (point blobs).
+    LinearTaylor,
+    /// `quadratic-taylor` (point blobs).
+    QuadraticTaylor,
+    /// `bottom-up-quadratic` (point blobs).
+    BottomUpQuadratic,
+    /// `scalis-quadratic` (SCALIS skeletons).
+    ScalisQuadratic,
+    /// `field-inversion` (Gaussian blobs).
+    FieldInversion,
+}
+
+impl GpuMethod {
+    /// Every GPU method.
+    pub const ALL: [Self; 8] = [
+        Self::Sphere,
+        Self::SphereEnhanced,
+        Self::Segment,
+        Self::LinearTaylor,
+        Self::QuadraticTaylor,
+        Self::BottomUpQuadratic,
+        Self::ScalisQuadratic,
+        Self::FieldInversion,
+    ];
+
+    /// The CLI name (DESIGN.md).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sphere => "sphere",
+            Self::SphereEnhanced => "sphere-enhanced",
+            Self::Segment => "segment",
+            Self::LinearTaylor => "linear-taylor",
+            Self::QuadraticTaylor => "quadratic-taylor",
+            Self::BottomUpQuadratic => "bottom-up-quadratic",
+            Self::ScalisQuadratic => "scalis-quadratic",
+            Self::FieldInversion => "field-inversion",
+        }
+    }
+
+    /// The GPU method called `name`, if there is one.
+    #[must_use]
+    pub fn by_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// `Err` with the reason when this GPU method cannot trace `program` (the CPU method may).
+    ///
+    /// # Errors
+    /// What the GPU implementation needs.
+    pub fn supports(self, program: &FieldProgram) -> Result<(), String> {
+        let only_points = program
+            .primitives()
+            .iter()
+            .all(|p| matches!(p, Primitive::Point(_)));
+        match self {
+            Self::Segment
+            | Self::LinearTaylor
+            | Self::QuadraticTaylor
+            | Self::BottomUpQuadratic
+                if !only_points =>
+            {
+                Err(format!(
+                    "{} runs on the GPU for point-blob scenes only (its bounds for segments and \
+                     shapes are CPU-only)",
+                    self.name()
+                ))
+            }
+            Self::FieldInversion
+                if !only_points
+                    || (0..program.group_count()).any(|g| {
+                        !matches!(program.group_kernel_spec(g), Kernel::Gaussian { .. })
+                    }) =>
+            {
+                Err("field-inversion needs Gaussian point blobs".to_owned())
+            }
+            Self::ScalisQuadratic
+                if !program
+                    .primitives()
+                    .iter()
+                    .all(|p| matches!(p, Primitive::Scalis(_)))
+                    || program.common_kernel().is_none() =>
+            {
+                Err("scalis-quadratic needs SCALIS skeletons with one kernel".to_owned())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The composed compute shader: prelude, the method family, the entry point.
+    #[must_use]
+    pub fn source(self) -> String {
+        let family = match self {
+            Self::Sphere => format!("{MARCH}\n{SPHERE}"),
+            Self::SphereEnhanced => SPHERE_ENHANCED.to_owned(),
+            Self::Segment
+            | Self::LinearTaylor
+            | Self::QuadraticTaylor
+            | Self::BottomUpQuadratic => {
+                let id = match self {
+                    Self::Segment => 0,
+                    Self::LinearTaylor => 1,
+                    Self::QuadraticTaylor => 2,
+                    _ => 3,
+                };
+                format!("const METHOD: u32 = {id}u;\n{MARCH}\n{TAYLOR}")
+            }
+            Self::ScalisQuadratic => SCALIS.to_owned(),
+            Self::FieldInversion => FIELD_INVERSION.to_owned(),
+        };
+        format!("{PRELUDE}\n{family}\n{MAIN}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn validate(name: &str, source: &str) {
+        let module = match naga::front::wgsl::parse_str(source) {
+            Ok(m) => m,
+            Err(e) => panic!("{name}: {}", e.emit_to_string(source)),
+        };
+        let mut validator = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        );
+        if let Err(e) = validator.validate(&module) {
+            panic!("{name}: {}", e.emit_to_string(source));
+        }
+    }
+
+    #[test]
+    fn every_composed_shader_parses_and_validates() {
+        for method in GpuMethod::ALL {
+            validate(method.name(), &method.source());
+        }
+        validate("binning", BINNING);
+    }
+}
