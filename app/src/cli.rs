@@ -31,6 +31,30 @@ pub enum Command {
     Stats(StatsArgs),
     /// Render a scene to PNG: shaded, or step-count heat maps of one or several methods.
     Render(RenderArgs),
+    /// Time full frames per method: median milliseconds over several frames.
+    Bench(BenchArgs),
+}
+
+/// Arguments of `bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scene file (.ron).
+    pub scene: PathBuf,
+    /// Tracing backend.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    pub backend: Backend,
+    /// Frame size, `WxH`.
+    #[arg(long, default_value = "512x512")]
+    pub size: String,
+    /// `all` (every method the backend runs on this scene) or a comma-separated list.
+    #[arg(long, default_value = "all")]
+    pub methods: String,
+    /// Timed frames per method (after one untimed warm-up frame).
+    #[arg(long, default_value_t = 5)]
+    pub frames: usize,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// What a render shows.

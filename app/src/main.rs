@@ -3,6 +3,7 @@
 //! Every command reports bad input as one line on standard error naming the file, the position
 //! and the item, and exits with a non-zero status; nothing here panics on user input.
 
+mod bench_cmd;
 mod cli;
 mod picture;
 mod render_cmd;
@@ -27,6 +28,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Command::Generate(args)) => run_generate(&args),
         Some(Command::Stats(args)) => run_stats(&args),
+        Some(Command::Bench(args)) => {
+            load(Some(&args.scene)).and_then(|s| bench_cmd::run(&args, &s))
+        }
         Some(Command::Render(args)) => {
             load(Some(&args.scene)).and_then(|s| render_cmd::run(&args, &s))
         }

@@ -218,14 +218,28 @@ impl FieldProgram {
         slots
     }
 
-    fn accumulate_group_jets(&self, ray: &Ray, span: Interval, slots: &mut [Jet]) {
+    /// Calls `visit(i)` for every primitive whose exact support the ray meets on `span` (a
+    /// primitive whose box meets the ray but whose support does not is exactly 0 there; a
+    /// clipped kernel's one-sided derivative at the boundary must not widen the bounds).
+    fn for_each_support_on_ray(&self, ray: &Ray, span: Interval, mut visit: impl FnMut(u32)) {
         let mut add = |i: u32| {
-            let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
-            let slot = &mut slots[self.groups_of[i as usize] as usize];
-            *slot = *slot + jet;
+            let p = &self.primitives[i as usize];
+            if p.support_interval(ray, self.kernel_of(i))
+                .is_some_and(|s| s.intersect(span).is_some())
+            {
+                visit(i);
+            }
         };
         self.bvh.for_each_on_ray(ray, span, &mut add);
         self.unbounded.iter().copied().for_each(add);
+    }
+
+    fn accumulate_group_jets(&self, ray: &Ray, span: Interval, slots: &mut [Jet]) {
+        self.for_each_support_on_ray(ray, span, |i| {
+            let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+            let slot = &mut slots[self.groups_of[i as usize] as usize];
+            *slot = *slot + jet;
+        });
     }
 
     /// Every group's `(f(t), f′(t))` along the ray.
@@ -329,12 +343,10 @@ impl FieldProgram {
     #[must_use]
     pub fn summed_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
         self.with_group_slots(0.0, |slots| {
-            let mut add = |i: u32| {
+            self.for_each_support_on_ray(ray, span, |i| {
                 let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
                 slots[self.groups_of[i as usize] as usize] += jet.d1.magnitude();
-            };
-            self.bvh.for_each_on_ray(ray, span, &mut add);
-            self.unbounded.iter().copied().for_each(add);
+            });
             blend::lipschitz(&self.blend, slots)
         })
     }

@@ -381,6 +381,29 @@ fn gather_supports(ray: Ray, px: u32, py: u32) {
     }
 }
 
+// Supports the ray visits: its sorted list, or on overflow every support of its tile (in tile
+// order, intervals computed on the fly).
+fn support_count() -> u32 {
+    if supports.overflow {
+        return supports.tile_end - supports.tile_start;
+    }
+    return supports.count;
+}
+
+struct SupportItem {
+    id: u32,
+    span: vec2<f32>,
+};
+
+fn support_item(j: u32) -> SupportItem {
+    if supports.overflow {
+        let id = tile_items[supports.tile_start + j];
+        let s = support_interval(current_ray, id);
+        return SupportItem(id, vec2<f32>(max(s.x, 0.0), min(s.y, globals.origin.w)));
+    }
+    return SupportItem(supports.ids[j], supports.spans[j]);
+}
+
 // Blend of the group values and gradients: sum, max or min over groups (flat trees only).
 fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
     let n = globals.counts.y;
@@ -444,20 +467,33 @@ fn along_ray(ray: Ray, t: f32) -> vec2<f32> {
 // empty (x > y) when none is left.
 fn next_part(start_at: f32) -> vec2<f32> {
     if supports.overflow {
-        // One part start_at the first entry to the last exit of every support in the tile.
+        // Unsorted: the part starts at the first entry past `start_at` and grows while some
+        // support overlaps its end.
         var lo = INF;
         var hi = -INF;
-        for (var j = supports.tile_start; j < supports.tile_end; j++) {
-            let s = support_interval(current_ray, tile_items[j]);
-            if s.x <= s.y {
-                lo = min(lo, max(s.x, 0.0));
-                hi = max(hi, min(s.y, globals.origin.w));
+        let n = support_count();
+        for (var j = 0u; j < n; j++) {
+            let s = support_item(j).span;
+            if s.x <= s.y && s.y > start_at && max(s.x, start_at) < lo {
+                lo = max(s.x, start_at);
+                hi = s.y;
             }
         }
-        if hi <= start_at {
+        if lo == INF {
             return vec2<f32>(INF, -INF);
         }
-        return vec2<f32>(max(lo, start_at), hi);
+        var grown = true;
+        while grown {
+            grown = false;
+            for (var j = 0u; j < n; j++) {
+                let s = support_item(j).span;
+                if s.x <= s.y && s.x <= hi && s.y > hi {
+                    hi = s.y;
+                    grown = true;
+                }
+            }
+        }
+        return vec2<f32>(lo, hi);
     }
     var lo = INF;
     var hi = -INF;

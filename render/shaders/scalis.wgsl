@@ -192,12 +192,13 @@ fn trace_ray(ray: Ray) -> Trace {
         var points: array<f32, MAX_BREAKPOINTS>;
         var count = 1u;
         points[0] = part.x;
-        for (var j = 0u; j < supports.count; j++) {
-            let s = supports.spans[j];
-            if s.y < part.x || s.x > part.y {
+        for (var j = 0u; j < support_count(); j++) {
+            let item = support_item(j);
+            let s = item.span;
+            if s.x > s.y || s.y < part.x || s.x > part.y {
                 continue;
             }
-            let t = homothetic_argmin(ray, supports.ids[j]);
+            let t = homothetic_argmin(ray, item.id);
             if t > part.x && t < part.y && count < MAX_BREAKPOINTS - 1u {
                 var k = count;
                 while k > 1u && points[k - 1u] > t {

@@ -85,10 +85,9 @@ fn jet_neg(f: Jet) -> Jet {
     return Jet(-f.value.yx, -f.d1.yx, -f.d2.yx);
 }
 
-// Primitive i's support overlaps [lo, hi] (start_at the ray's sorted spans).
-fn for_span(j: u32, lo: f32, hi: f32) -> bool {
-    let s = supports.spans[j];
-    return s.x <= hi && s.y >= lo;
+// The support item overlaps [lo, hi].
+fn overlaps(item: SupportItem, lo: f32, hi: f32) -> bool {
+    return item.span.x <= item.span.y && item.span.x <= hi && item.span.y >= lo;
 }
 
 // Group jets over [lo, hi], blended (ray_jet), and the summed Lipschitz bound (summed_lipschitz).
@@ -97,11 +96,12 @@ fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
-    for (var j = 0u; j < supports.count; j++) {
-        if !for_span(j, lo, hi) {
+    for (var j = 0u; j < support_count(); j++) {
+        let item = support_item(j);
+        if !overlaps(item, lo, hi) {
             continue;
         }
-        let i = supports.ids[j];
+        let i = item.id;
         let g = primitives[i].group;
         groups[g] = jet_add(groups[g], point_jet(ray, i, lo, hi));
     }
@@ -122,11 +122,12 @@ fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
 
 fn summed_lipschitz(ray: Ray, lo: f32, hi: f32) -> f32 {
     var groups: array<f32, MAX_GROUPS>;
-    for (var j = 0u; j < supports.count; j++) {
-        if !for_span(j, lo, hi) {
+    for (var j = 0u; j < support_count(); j++) {
+        let item = support_item(j);
+        if !overlaps(item, lo, hi) {
             continue;
         }
-        let i = supports.ids[j];
+        let i = item.id;
         let d1 = point_jet(ray, i, lo, hi).d1;
         groups[primitives[i].group] += max(abs(d1.x), abs(d1.y));
     }
@@ -206,11 +207,12 @@ fn bottom_up_quadratic(ray: Ray, t: f32, h: f32) -> Inclusion {
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
     }
-    for (var j = 0u; j < supports.count; j++) {
-        if !for_span(j, t, t + h) {
+    for (var j = 0u; j < support_count(); j++) {
+        let item = support_item(j);
+        if !overlaps(item, t, t + h) {
             continue;
         }
-        let i = supports.ids[j];
+        let i = item.id;
         let g = primitives[i].group;
         groups[g] = inclusion_add(groups[g], point_quadratic(ray, i, t, h));
     }

@@ -1,0 +1,110 @@
+//! `skeletrace bench`: milliseconds per full frame per method (median of several frames after
+//! a warm-up frame that also compiles the GPU pipelines), on the CPU tracer or the GPU backend,
+//! with the adapter name.
+
+use std::time::Instant;
+
+use skeletrace_core::methods::TraceSettings;
+use skeletrace_core::render::{RenderOptions, Renderer};
+use skeletrace_core::{FieldProgram, Scene};
+use skeletrace_render::{GpuMethod, GpuRenderer, View};
+
+use crate::cli::{Backend, BenchArgs};
+use crate::render_cmd::parse_size;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// Runs `bench`.
+///
+/// # Errors
+/// Bad arguments or a method that does not run on the chosen backend.
+pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
+    let (width, height) = parse_size(&args.size)?;
+    let program = FieldProgram::new(scene);
+    let settings = TraceSettings::for_program(&program);
+    let frames = args.frames.max(1);
+    let chosen = crate::chosen_methods(&args.methods, &program)?;
+    let mut rows: Vec<(&'static str, f64)> = Vec::new();
+    let device = match args.backend {
+        Backend::Cpu => {
+            let device = format!("CPU, {} threads", rayon::current_num_threads());
+            let options = RenderOptions {
+                width,
+                height,
+                shadows: false,
+            };
+            for method in &chosen {
+                let tracer = method.prepare(&program, settings);
+                let renderer = Renderer::new(scene, &program, tracer.as_ref(), settings);
+                let _ = renderer.render(&scene.camera, options);
+                let times = (0..frames)
+                    .map(|_| {
+                        let start = Instant::now();
+                        let _ = renderer.render(&scene.camera, options);
+                        start.elapsed().as_secs_f64() * 1e3
+                    })
+                    .collect();
+                rows.push((method.name(), median(times)));
+            }
+            device
+        }
+        Backend::Gpu => {
+            let mut gpu = GpuRenderer::new()?;
+            gpu.set_scene(scene, &program)?;
+            for method in &chosen {
+                let Some(m) =
+                    GpuMethod::by_name(method.name()).filter(|m| m.supports(&program).is_ok())
+                else {
+                    if args.methods == "all" {
+                        eprintln!(
+                            "skeletrace: {} runs only on the CPU for this scene",
+                            method.name()
+                        );
+                        continue;
+                    }
+                    return Err(format!(
+                        "method '{}' runs only on the CPU for this scene",
+                        method.name()
+                    ));
+                };
+                let size = (width as u32, height as u32);
+                let frame = |gpu: &mut GpuRenderer| {
+                    gpu.render(&program, &[m], &scene.camera, &settings, size, View::Shaded)
+                };
+                frame(&mut gpu)?;
+                let mut times = Vec::with_capacity(frames);
+                for _ in 0..frames {
+                    let start = Instant::now();
+                    frame(&mut gpu)?;
+                    times.push(start.elapsed().as_secs_f64() * 1e3);
+                }
+                rows.push((m.name(), median(times)));
+            }
+            gpu.adapter_name().to_owned()
+        }
+    };
+    if args.json {
+        let methods: Vec<String> = rows
+            .iter()
+            .map(|(name, ms)| format!("{{\"name\": \"{name}\", \"ms_per_frame\": {ms:.3}}}"))
+            .collect();
+        println!(
+            "{{\"scene\": \"{}\", \"device\": \"{}\", \"width\": {width}, \"height\": {height}, \"frames\": {frames}, \"methods\": [{}]}}",
+            args.scene.display().to_string().replace('"', "'"),
+            device.replace('"', "'"),
+            methods.join(", ")
+        );
+    } else {
+        println!(
+            "{}: {width}x{height} on {device}, median of {frames} frames",
+            args.scene.display()
+        );
+        for (name, ms) in rows {
+            println!("{name:<28} {ms:>10.2} ms/frame");
+        }
+    }
+    Ok(())
+}
