@@ -238,8 +238,9 @@ fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
 fn ball_interval(ray: Ray, centre: vec3<f32>, radius: f32) -> vec2<f32> {
     let oc = ray.origin - centre;
     let b = dot(oc, ray.dir);
-    let c = dot(oc, oc) - radius * radius;
-    let disc = b * b - c;
+    // r² − (distance from the centre to the line)², without the cancellation of b² − c.
+    let perp = oc - b * ray.dir;
+    let disc = radius * radius - dot(perp, perp);
     if disc < 0.0 {
         return vec2<f32>(INF, -INF);
     }
