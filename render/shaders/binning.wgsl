@@ -1,7 +1,10 @@
 // Screen-tile binning of primitive supports (the analogue of the scalis 2021 A-buffer, §7):
 // each primitive's support bounding sphere is projected to a rectangle of tiles; a first pass
-// counts the primitives per tile, the host turns counts into ranges (exclusive prefix sum), a
-// second pass writes the primitive indices. Unbounded supports (planes) go to every tile.
+// counts the primitives per tile and stores each rectangle, the host turns counts into ranges
+// (exclusive prefix sum), a second pass writes the primitive indices into the stored
+// rectangles. Storing them matters: the two entry points are compiled separately and may round
+// the projection differently, and a rectangle one tile larger in the second pass would write
+// past its tile's range. Unbounded supports (planes) go to every tile.
 
 struct Binning {
     origin: vec4<f32>,
@@ -29,6 +32,7 @@ struct Primitive {
 @group(0) @binding(2) var<storage, read_write> tile_counts: array<atomic<u32>>;
 @group(0) @binding(3) var<storage, read> tile_ranges: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> tile_items: array<u32>;
+@group(0) @binding(5) var<storage, read_write> rects: array<vec4<i32>>;
 
 // Inclusive tile rectangle (x0, y0, x1, y1) covered by primitive i; x0 > x1 when off screen.
 fn tile_rect(i: u32) -> vec4<i32> {
@@ -77,6 +81,7 @@ fn count_tiles(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let rect = tile_rect(i);
+    rects[i] = rect;
     for (var ty = rect.y; ty <= rect.w; ty++) {
         for (var tx = rect.x; tx <= rect.z; tx++) {
             atomicAdd(&tile_counts[u32(ty) * binning.tiles.x + u32(tx)], 1u);
@@ -91,12 +96,15 @@ fn fill_tiles(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= binning.tiles.w {
         return;
     }
-    let rect = tile_rect(i);
+    let rect = rects[i];
     for (var ty = rect.y; ty <= rect.w; ty++) {
         for (var tx = rect.x; tx <= rect.z; tx++) {
             let tile = u32(ty) * binning.tiles.x + u32(tx);
             let slot = atomicAdd(&tile_counts[tile], 1u);
-            tile_items[tile_ranges[tile].x + slot] = i;
+            let range = tile_ranges[tile];
+            if range.x + slot < range.y {
+                tile_items[range.x + slot] = i;
+            }
         }
     }
 }

@@ -17,7 +17,7 @@ fn trace_ray(ray: Ray) -> Trace {
     let norm = globals.method.w;
     var start_at = 0.0;
     loop {
-        let part = next_part(start_at);
+        let part = next_part(ray, start_at);
         if part.x > part.y || trace.steps >= globals.counts.w {
             break;
         }

@@ -99,7 +99,7 @@ fn trace_ray(ray: Ray) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     var start_at = 0.0;
     loop {
-        let part = next_part(start_at);
+        let part = next_part(ray, start_at);
         if part.x > part.y || trace.steps >= globals.counts.w {
             break;
         }

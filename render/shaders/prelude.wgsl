@@ -330,7 +330,7 @@ fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
 // more than RAY_SUPPORTS of them (the ray then uses the whole tile list and one part).
 struct RaySupports {
     count: u32,
-    overflow: bool,
+    overflow: u32,
     tile_start: u32,
     tile_end: u32,
     ids: array<u32, RAY_SUPPORTS>,
@@ -338,7 +338,6 @@ struct RaySupports {
 };
 
 var<private> supports: RaySupports;
-var<private> current_ray: Ray;
 
 fn pixel_ray(px: u32, py: u32) -> Ray {
     let w = f32(globals.size.x);
@@ -350,12 +349,11 @@ fn pixel_ray(px: u32, py: u32) -> Ray {
 }
 
 fn gather_supports(ray: Ray, px: u32, py: u32) {
-    current_ray = ray;
     let ts = globals.tile.x;
     let tile = (py / ts) * globals.size.z + px / ts;
     let range = tile_ranges[tile];
     supports.count = 0u;
-    supports.overflow = false;
+    supports.overflow = 0u;
     supports.tile_start = range.x;
     supports.tile_end = range.y;
     for (var j = range.x; j < range.y; j++) {
@@ -366,7 +364,7 @@ fn gather_supports(ray: Ray, px: u32, py: u32) {
             continue;
         }
         if supports.count == RAY_SUPPORTS {
-            supports.overflow = true;
+            supports.overflow = 1u;
             continue;
         }
         // Insertion by entry.
@@ -385,7 +383,7 @@ fn gather_supports(ray: Ray, px: u32, py: u32) {
 // Supports the ray visits: its sorted list, or on overflow every support of its tile (in tile
 // order, intervals computed on the fly).
 fn support_count() -> u32 {
-    if supports.overflow {
+    if supports.overflow != 0u {
         return supports.tile_end - supports.tile_start;
     }
     return supports.count;
@@ -396,10 +394,10 @@ struct SupportItem {
     span: vec2<f32>,
 };
 
-fn support_item(j: u32) -> SupportItem {
-    if supports.overflow {
+fn support_item(ray: Ray, j: u32) -> SupportItem {
+    if supports.overflow != 0u {
         let id = tile_items[supports.tile_start + j];
-        let s = support_interval(current_ray, id);
+        let s = support_interval(ray, id);
         return SupportItem(id, vec2<f32>(max(s.x, 0.0), min(s.y, globals.origin.w)));
     }
     return SupportItem(supports.ids[j], supports.spans[j]);
@@ -436,7 +434,7 @@ fn add_primitive(values: ptr<function, array<vec4<f32>, MAX_GROUPS>>, i: u32, p:
 fn groups_at(ray: Ray, t: f32) -> array<vec4<f32>, MAX_GROUPS> {
     let p = ray.origin + t * ray.dir;
     var values: array<vec4<f32>, MAX_GROUPS>;
-    if supports.overflow {
+    if supports.overflow != 0u {
         for (var j = supports.tile_start; j < supports.tile_end; j++) {
             add_primitive(&values, tile_items[j], p);
         }
@@ -466,15 +464,15 @@ fn along_ray(ray: Ray, t: f32) -> vec2<f32> {
 
 // The part of the ray inside the union of supports that starts at or after `start_at`: (lo, hi),
 // empty (x > y) when none is left.
-fn next_part(start_at: f32) -> vec2<f32> {
-    if supports.overflow {
+fn next_part(ray: Ray, start_at: f32) -> vec2<f32> {
+    if supports.overflow != 0u {
         // Unsorted: the part starts at the first entry past `start_at` and grows while some
         // support overlaps its end.
         var lo = INF;
         var hi = -INF;
         let n = support_count();
         for (var j = 0u; j < n; j++) {
-            let s = support_item(j).span;
+            let s = support_item(ray, j).span;
             if s.x <= s.y && s.y > start_at && max(s.x, start_at) < lo {
                 lo = max(s.x, start_at);
                 hi = s.y;
@@ -487,7 +485,7 @@ fn next_part(start_at: f32) -> vec2<f32> {
         while grown {
             grown = false;
             for (var j = 0u; j < n; j++) {
-                let s = support_item(j).span;
+                let s = support_item(ray, j).span;
                 if s.x <= s.y && s.x <= hi && s.y > hi {
                     hi = s.y;
                     grown = true;

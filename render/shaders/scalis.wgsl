@@ -185,7 +185,7 @@ fn trace_ray(ray: Ray) -> Trace {
     var start_at = 0.0;
     let gap = globals.march.y;
     loop {
-        let part = next_part(start_at);
+        let part = next_part(ray, start_at);
         if part.x > part.y || scalis_steps >= globals.counts.w {
             break;
         }
@@ -193,7 +193,7 @@ fn trace_ray(ray: Ray) -> Trace {
         var count = 1u;
         points[0] = part.x;
         for (var j = 0u; j < support_count(); j++) {
-            let item = support_item(j);
+            let item = support_item(ray, j);
             let s = item.span;
             if s.x > s.y || s.y < part.x || s.x > part.y {
                 continue;

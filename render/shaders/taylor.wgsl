@@ -97,7 +97,7 @@ fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
         groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
     for (var j = 0u; j < support_count(); j++) {
-        let item = support_item(j);
+        let item = support_item(ray, j);
         if !overlaps(item, lo, hi) {
             continue;
         }
@@ -123,7 +123,7 @@ fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
 fn summed_lipschitz(ray: Ray, lo: f32, hi: f32) -> f32 {
     var groups: array<f32, MAX_GROUPS>;
     for (var j = 0u; j < support_count(); j++) {
-        let item = support_item(j);
+        let item = support_item(ray, j);
         if !overlaps(item, lo, hi) {
             continue;
         }
@@ -208,7 +208,7 @@ fn bottom_up_quadratic(ray: Ray, t: f32, h: f32) -> Inclusion {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
     }
     for (var j = 0u; j < support_count(); j++) {
-        let item = support_item(j);
+        let item = support_item(ray, j);
         if !overlaps(item, t, t + h) {
             continue;
         }

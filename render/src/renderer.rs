@@ -171,7 +171,7 @@ impl GpuRenderer {
         let sink = Arc::clone(&errors);
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
+                v.push(format!("{e:?}"));
             }
         }));
         let lost = Arc::clone(&errors);
@@ -343,6 +343,12 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let rects = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tile rectangles"),
+            size: u64::from(n_prims.max(1)) * 16,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         let count_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("count tiles"),
             layout: &self.count_pipeline.get_bind_group_layout(0),
@@ -350,6 +356,7 @@ impl GpuRenderer {
                 entry(0, &binning),
                 entry(1, &scene.primitives),
                 entry(2, &counts),
+                entry(5, &rects),
             ],
         });
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
@@ -383,10 +390,10 @@ impl GpuRenderer {
             layout: &self.fill_pipeline.get_bind_group_layout(0),
             entries: &[
                 entry(0, &binning),
-                entry(1, &scene.primitives),
                 entry(2, &counts),
                 entry(3, &ranges_buffer),
                 entry(4, &items),
+                entry(5, &rects),
             ],
         });
         let panels = methods.len() as u32;
