@@ -9,7 +9,7 @@ struct Trace {
     steps: u32,
 };
 
-fn trace_ray(ray: Ray) -> Trace {
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     let c = globals.up.w;
     let sigma = globals.method.y;
@@ -17,7 +17,7 @@ fn trace_ray(ray: Ray) -> Trace {
     let norm = globals.method.w;
     var start_at = 0.0;
     loop {
-        let part = next_part(ray, start_at);
+        let part = next_part(sp, ray, start_at);
         if part.x > part.y || trace.steps >= globals.counts.w {
             break;
         }
@@ -26,7 +26,7 @@ fn trace_ray(ray: Ray) -> Trace {
         while t < part.y && in_span < 32u && trace.steps < globals.counts.w {
             trace.steps += 1u;
             in_span += 1u;
-            let f = along_ray(ray, t).x;
+            let f = along_ray(sp, ray, t).x;
             let unit = (f / norm) * (1.0 - 0.005) + 0.005;
             let distance = radius * (sigma * sqrt(max(-log(unit), 0.0)) - 1.0);
             if distance < 0.0125 * radius || f >= c {

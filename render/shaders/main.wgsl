@@ -30,8 +30,8 @@ fn pack(c: vec3<f32>) -> u32 {
     return b.x | (b.y << 8u) | (b.z << 16u) | (255u << 24u);
 }
 
-fn shade(ray: Ray, t: f32) -> vec3<f32> {
-    let groups = groups_at(ray, t);
+fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
+    let groups = groups_at(sp, ray, t);
     let field = blend_groups(groups);
     let normal = normalize(-field.yzw);
     var best = 0u;
@@ -66,8 +66,10 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(id.x, id.y);
-    gather_supports(ray, id.x, id.y);
-    let trace = trace_ray(ray);
+    var supports: RaySupports;
+    let sp = &supports;
+    gather_supports(sp, ray, id.x, id.y);
+    let trace = trace_ray(sp, ray);
     let out = id.y * globals.tile.w + globals.tile.z + id.x;
     out_steps[out] = trace.steps;
     out_depth[out] = select(INF, trace.t, trace.hit);
@@ -75,7 +77,7 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     if globals.heat.y > 0.5 {
         colour = heat_colour(f32(trace.steps) / max(globals.heat.x, 1.0));
     } else if trace.hit {
-        let c = shade(ray, trace.t);
+        let c = shade(sp, ray, trace.t);
         colour = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
     } else {
         let c = background(ray.dir);

@@ -1,5 +1,5 @@
 // Algorithm 1 of forward-inclusion 2023 (core: methods/marching.rs): march on forward
-// inclusions given by the method file's `method_bound(ray, t, f, d, h)`, next interval
+// inclusions given by the method file's `method_bound(sp, ray, t, f, d, h)`, next interval
 // k × last step, crossing confirmed min_step further on, a step that lands on the surface
 // caught by the sign change. Also the per-ray driver over the support parts (trace_supports).
 
@@ -36,7 +36,7 @@ fn symmetric(start: f32, lambda: f32, length: f32) -> Inclusion {
     return Inclusion(start, vec2<f32>(-lambda, 0.0), vec2<f32>(lambda, 0.0), length);
 }
 
-fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
+fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
     let c = globals.up.w;
     let eps = globals.march.x;
     let min_step = globals.march.y;
@@ -47,14 +47,14 @@ fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
     var previous_inside = false;
     while t < part.y && (*trace).steps < globals.counts.w {
         (*trace).steps += 1u;
-        let fd = along_ray(ray, t);
+        let fd = along_ray(sp, ray, t);
         let inside = fd.x >= c;
         if has_previous && previous_inside != inside {
             var lo = previous_t;
             var hi = t;
             while hi - lo > eps {
                 let mid = 0.5 * (lo + hi);
-                if (along_ray(ray, mid).x >= c) == previous_inside {
+                if (along_ray(sp, ray, mid).x >= c) == previous_inside {
                     lo = mid;
                 } else {
                     hi = mid;
@@ -69,13 +69,13 @@ fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
         previous_t = t;
         previous_inside = inside;
         let h_now = min(max(h, min_step), part.y - t);
-        let inc = method_bound(ray, t, fd.x, fd.y, h_now);
+        let inc = method_bound(sp, ray, t, fd.x, fd.y, h_now);
         let limit = min(inc.length, part.y - t);
         let offset = select(inc.upper, inc.lower, inside);
         let s = first_reach(fd.x, offset, c, limit);
         if s >= 0.0 && s < eps {
             let beyond = t + s + min_step;
-            if (along_ray(ray, beyond).x >= c) == inside {
+            if (along_ray(sp, ray, beyond).x >= c) == inside {
                 t += max(s, 1.2e-7 * abs(t));
                 h = min_step;
                 continue;
@@ -95,15 +95,15 @@ fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
 }
 
 // Opaque trace of the pixel's ray over its support parts.
-fn trace_ray(ray: Ray) -> Trace {
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     var start_at = 0.0;
     loop {
-        let part = next_part(ray, start_at);
+        let part = next_part(sp, ray, start_at);
         if part.x > part.y || trace.steps >= globals.counts.w {
             break;
         }
-        march_part(ray, part, &trace);
+        march_part(sp, ray, part, &trace);
         if trace.hit {
             break;
         }

@@ -337,7 +337,6 @@ struct RaySupports {
     spans: array<vec2<f32>, RAY_SUPPORTS>,
 };
 
-var<private> supports: RaySupports;
 
 fn pixel_ray(px: u32, py: u32) -> Ray {
     let w = f32(globals.size.x);
@@ -348,14 +347,14 @@ fn pixel_ray(px: u32, py: u32) -> Ray {
     return Ray(globals.origin.xyz, dir);
 }
 
-fn gather_supports(ray: Ray, px: u32, py: u32) {
+fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
     let ts = globals.tile.x;
     let tile = (py / ts) * globals.size.z + px / ts;
     let range = tile_ranges[tile];
-    supports.count = 0u;
-    supports.overflow = 0u;
-    supports.tile_start = range.x;
-    supports.tile_end = range.y;
+    (*sp).count = 0u;
+    (*sp).overflow = 0u;
+    (*sp).tile_start = range.x;
+    (*sp).tile_end = range.y;
     for (var j = range.x; j < range.y; j++) {
         let i = tile_items[j];
         var span = support_interval(ray, i);
@@ -363,30 +362,30 @@ fn gather_supports(ray: Ray, px: u32, py: u32) {
         if span.x > span.y {
             continue;
         }
-        if supports.count == RAY_SUPPORTS {
-            supports.overflow = 1u;
+        if (*sp).count == RAY_SUPPORTS {
+            (*sp).overflow = 1u;
             continue;
         }
         // Insertion by entry.
-        var k = supports.count;
-        while k > 0u && supports.spans[k - 1u].x > span.x {
-            supports.spans[k] = supports.spans[k - 1u];
-            supports.ids[k] = supports.ids[k - 1u];
+        var k = (*sp).count;
+        while k > 0u && (*sp).spans[k - 1u].x > span.x {
+            (*sp).spans[k] = (*sp).spans[k - 1u];
+            (*sp).ids[k] = (*sp).ids[k - 1u];
             k -= 1u;
         }
-        supports.spans[k] = span;
-        supports.ids[k] = i;
-        supports.count += 1u;
+        (*sp).spans[k] = span;
+        (*sp).ids[k] = i;
+        (*sp).count += 1u;
     }
 }
 
 // Supports the ray visits: its sorted list, or on overflow every support of its tile (in tile
 // order, intervals computed on the fly).
-fn support_count() -> u32 {
-    if supports.overflow != 0u {
-        return supports.tile_end - supports.tile_start;
+fn support_count(sp: ptr<function, RaySupports>) -> u32 {
+    if (*sp).overflow != 0u {
+        return (*sp).tile_end - (*sp).tile_start;
     }
-    return supports.count;
+    return (*sp).count;
 }
 
 struct SupportItem {
@@ -394,13 +393,13 @@ struct SupportItem {
     span: vec2<f32>,
 };
 
-fn support_item(ray: Ray, j: u32) -> SupportItem {
-    if supports.overflow != 0u {
-        let id = tile_items[supports.tile_start + j];
+fn support_item(sp: ptr<function, RaySupports>, ray: Ray, j: u32) -> SupportItem {
+    if (*sp).overflow != 0u {
+        let id = tile_items[(*sp).tile_start + j];
         let s = support_interval(ray, id);
         return SupportItem(id, vec2<f32>(max(s.x, 0.0), min(s.y, globals.origin.w)));
     }
-    return SupportItem(supports.ids[j], supports.spans[j]);
+    return SupportItem((*sp).ids[j], (*sp).spans[j]);
 }
 
 // Blend of the group values and gradients: sum, max or min over groups (flat trees only).
@@ -431,48 +430,48 @@ fn add_primitive(values: ptr<function, array<vec4<f32>, MAX_GROUPS>>, i: u32, p:
 
 // Every group's value and gradient at ray parameter t: only the primitives whose support
 // contains the point (the ray's sorted spans, or the whole tile list on overflow).
-fn groups_at(ray: Ray, t: f32) -> array<vec4<f32>, MAX_GROUPS> {
+fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32>, MAX_GROUPS> {
     let p = ray.origin + t * ray.dir;
     var values: array<vec4<f32>, MAX_GROUPS>;
-    if supports.overflow != 0u {
-        for (var j = supports.tile_start; j < supports.tile_end; j++) {
+    if (*sp).overflow != 0u {
+        for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
             add_primitive(&values, tile_items[j], p);
         }
     } else {
-        for (var j = 0u; j < supports.count; j++) {
-            let s = supports.spans[j];
+        for (var j = 0u; j < (*sp).count; j++) {
+            let s = (*sp).spans[j];
             if s.x > t {
                 break;
             }
             if t <= s.y {
-                add_primitive(&values, supports.ids[j], p);
+                add_primitive(&values, (*sp).ids[j], p);
             }
         }
     }
     return values;
 }
 
-fn field_at(ray: Ray, t: f32) -> vec4<f32> {
-    return blend_groups(groups_at(ray, t));
+fn field_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec4<f32> {
+    return blend_groups(groups_at(sp, ray, t));
 }
 
 // (f(t), f′(t)) along the ray.
-fn along_ray(ray: Ray, t: f32) -> vec2<f32> {
-    let v = field_at(ray, t);
+fn along_ray(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec2<f32> {
+    let v = field_at(sp, ray, t);
     return vec2<f32>(v.x, dot(v.yzw, ray.dir));
 }
 
 // The part of the ray inside the union of supports that starts at or after `start_at`: (lo, hi),
 // empty (x > y) when none is left.
-fn next_part(ray: Ray, start_at: f32) -> vec2<f32> {
-    if supports.overflow != 0u {
+fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f32> {
+    if (*sp).overflow != 0u {
         // Unsorted: the part starts at the first entry past `start_at` and grows while some
         // support overlaps its end.
         var lo = INF;
         var hi = -INF;
-        let n = support_count();
+        let n = support_count(sp);
         for (var j = 0u; j < n; j++) {
-            let s = support_item(ray, j).span;
+            let s = support_item(sp, ray, j).span;
             if s.x <= s.y && s.y > start_at && max(s.x, start_at) < lo {
                 lo = max(s.x, start_at);
                 hi = s.y;
@@ -485,7 +484,7 @@ fn next_part(ray: Ray, start_at: f32) -> vec2<f32> {
         while grown {
             grown = false;
             for (var j = 0u; j < n; j++) {
-                let s = support_item(ray, j).span;
+                let s = support_item(sp, ray, j).span;
                 if s.x <= s.y && s.x <= hi && s.y > hi {
                     hi = s.y;
                     grown = true;
@@ -496,8 +495,8 @@ fn next_part(ray: Ray, start_at: f32) -> vec2<f32> {
     }
     var lo = INF;
     var hi = -INF;
-    for (var j = 0u; j < supports.count; j++) {
-        let s = supports.spans[j];
+    for (var j = 0u; j < (*sp).count; j++) {
+        let s = (*sp).spans[j];
         if s.y <= start_at {
             continue;
         }

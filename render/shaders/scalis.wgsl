@@ -51,9 +51,9 @@ fn normalisation(f: f32) -> vec2<f32> {
 
 var<private> scalis_steps: u32;
 
-fn hermite(ray: Ray, t: f32) -> Hermite {
+fn hermite(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> Hermite {
     scalis_steps += 1u;
-    let fd = along_ray(ray, t);
+    let fd = along_ray(sp, ray, t);
     let g = normalisation(fd.x);
     let v = g.x - 1.0;
     return Hermite(t, v, g.y * fd.y, v >= kernels[0].support_sq - 1.0);
@@ -129,7 +129,7 @@ fn oracle(b: Hermite, e: Hermite, w: f32) -> f32 {
 }
 
 // Algorithm 1 on [b, e] oriented so that b.v ≥ 0; the root's Hermite data (t = −INF: none).
-fn find_root(ray: Ray, b_in: Hermite, e_in: Hermite, sign: f32) -> Hermite {
+fn find_root(sp: ptr<function, RaySupports>, ray: Ray, b_in: Hermite, e_in: Hermite, sign: f32) -> Hermite {
     var b = b_in;
     var e = e_in;
     var has_saved = false;
@@ -157,7 +157,7 @@ fn find_root(ray: Ray, b_in: Hermite, e_in: Hermite, sign: f32) -> Hermite {
             has_saved = false;
             continue;
         }
-        let r = flip(hermite(ray, t), sign);
+        let r = flip(hermite(sp, ray, t), sign);
         if abs(r.v) <= abs(r.d) * globals.march.x || r.v == 0.0 {
             return r;
         }
@@ -179,21 +179,21 @@ fn find_root(ray: Ray, b_in: Hermite, e_in: Hermite, sign: f32) -> Hermite {
 // Breakpoints inside part (support boundaries and argmins), sorted, at least min_step apart.
 const MAX_BREAKPOINTS: u32 = 50u;
 
-fn trace_ray(ray: Ray) -> Trace {
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     scalis_steps = 0u;
     var start_at = 0.0;
     let gap = globals.march.y;
     loop {
-        let part = next_part(ray, start_at);
+        let part = next_part(sp, ray, start_at);
         if part.x > part.y || scalis_steps >= globals.counts.w {
             break;
         }
         var points: array<f32, MAX_BREAKPOINTS>;
         var count = 1u;
         points[0] = part.x;
-        for (var j = 0u; j < support_count(); j++) {
-            let item = support_item(ray, j);
+        for (var j = 0u; j < support_count(sp); j++) {
+            let item = support_item(sp, ray, j);
             let s = item.span;
             if s.x > s.y || s.y < part.x || s.x > part.y {
                 continue;
@@ -221,14 +221,14 @@ fn trace_ray(ray: Ray) -> Trace {
             kept -= 1u;
         }
         points[kept] = part.y;
-        var b = hermite(ray, points[0]);
+        var b = hermite(sp, ray, points[0]);
         for (var j = 1u; j <= kept; j++) {
             if scalis_steps >= globals.counts.w {
                 break;
             }
-            let e = hermite(ray, points[j]);
+            let e = hermite(sp, ray, points[j]);
             let sign = select(-1.0, 1.0, b.v >= 0.0);
-            let r = find_root(ray, flip(b, sign), flip(e, sign), sign);
+            let r = find_root(sp, ray, flip(b, sign), flip(e, sign), sign);
             if r.t > -INF {
                 var t = r.t;
                 if r.d != 0.0 {

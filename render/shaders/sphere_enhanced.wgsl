@@ -9,7 +9,7 @@ struct Trace {
     steps: u32,
 };
 
-fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
+fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
     let c = globals.up.w;
     let lipschitz = globals.method.x;
     var t = part.x;
@@ -20,7 +20,7 @@ fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
     var side = false;
     while t < part.y && (*trace).steps < globals.counts.w {
         (*trace).steps += 1u;
-        let f = along_ray(ray, t).x;
+        let f = along_ray(sp, ray, t).x;
         let inside = f >= c;
         let radius = abs(f - c) / lipschitz;
         let crossed_side = has_side && side != inside;
@@ -34,7 +34,7 @@ fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
         has_side = true;
         side = inside;
         if radius < globals.march.x {
-            let beyond = along_ray(ray, t + globals.march.y).x >= c;
+            let beyond = along_ray(sp, ray, t + globals.march.y).x >= c;
             if beyond == inside {
                 t += max(radius, 1.2e-7 * abs(t));
                 omega = 1.0;
@@ -53,15 +53,15 @@ fn march_part(ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
     }
 }
 
-fn trace_ray(ray: Ray) -> Trace {
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     var start_at = 0.0;
     loop {
-        let part = next_part(ray, start_at);
+        let part = next_part(sp, ray, start_at);
         if part.x > part.y || trace.steps >= globals.counts.w {
             break;
         }
-        march_part(ray, part, &trace);
+        march_part(sp, ray, part, &trace);
         if trace.hit {
             break;
         }

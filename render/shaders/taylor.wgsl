@@ -91,13 +91,13 @@ fn overlaps(item: SupportItem, lo: f32, hi: f32) -> bool {
 }
 
 // Group jets over [lo, hi], blended (ray_jet), and the summed Lipschitz bound (summed_lipschitz).
-fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
+fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
     var groups: array<Jet, MAX_GROUPS>;
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
-    for (var j = 0u; j < support_count(); j++) {
-        let item = support_item(ray, j);
+    for (var j = 0u; j < support_count(sp); j++) {
+        let item = support_item(sp, ray, j);
         if !overlaps(item, lo, hi) {
             continue;
         }
@@ -120,10 +120,10 @@ fn ray_jet(ray: Ray, lo: f32, hi: f32) -> Jet {
     return out;
 }
 
-fn summed_lipschitz(ray: Ray, lo: f32, hi: f32) -> f32 {
+fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> f32 {
     var groups: array<f32, MAX_GROUPS>;
-    for (var j = 0u; j < support_count(); j++) {
-        let item = support_item(ray, j);
+    for (var j = 0u; j < support_count(sp); j++) {
+        let item = support_item(sp, ray, j);
         if !overlaps(item, lo, hi) {
             continue;
         }
@@ -202,13 +202,13 @@ fn inclusion_max(a: Inclusion, b: Inclusion) -> Inclusion {
     return Inclusion(c0, best.lower, upper, h);
 }
 
-fn bottom_up_quadratic(ray: Ray, t: f32, h: f32) -> Inclusion {
+fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32) -> Inclusion {
     var groups: array<Inclusion, MAX_GROUPS>;
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
     }
-    for (var j = 0u; j < support_count(); j++) {
-        let item = support_item(ray, j);
+    for (var j = 0u; j < support_count(sp); j++) {
+        let item = support_item(sp, ray, j);
         if !overlaps(item, t, t + h) {
             continue;
         }
@@ -229,13 +229,13 @@ fn bottom_up_quadratic(ray: Ray, t: f32, h: f32) -> Inclusion {
     return out;
 }
 
-fn method_bound(ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
+fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
     if METHOD == 0u {
-        return symmetric(f, summed_lipschitz(ray, t, t + h), h);
+        return symmetric(f, summed_lipschitz(sp, ray, t, t + h), h);
     } else if METHOD == 3u {
-        return bottom_up_quadratic(ray, t, h);
+        return bottom_up_quadratic(sp, ray, t, h);
     }
-    let jet = ray_jet(ray, t, t + h);
+    let jet = ray_jet(sp, ray, t, t + h);
     if METHOD == 1u {
         return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);
     }
