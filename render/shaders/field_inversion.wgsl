@@ -2,13 +2,6 @@
 // D = ρ(σ√(−ln F) − 1), steps of 1.2·D, hit when D < 0.0125ρ or inside, 32 steps per part.
 // globals.method: (unused, σ, smallest radius ρ, N0).
 
-struct Trace {
-    t: f32,
-    hit: bool,
-    entering: bool,
-    steps: u32,
-};
-
 fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     let c = globals.up.w;

@@ -1,20 +1,13 @@
 // Algorithm 1 of forward-inclusion 2023 (core: methods/marching.rs): march on forward
 // inclusions given by the method file's `method_bound(sp, ray, t, f, d, h)`, next interval
 // k × last step, crossing confirmed min_step further on, a step that lands on the surface
-// caught by the sign change. Also the per-ray driver over the support parts (trace_supports).
+// caught by the sign change.
 
 struct Inclusion {
     start: f32,
     lower: vec2<f32>,  // offset a·s + b·s²
     upper: vec2<f32>,
     length: f32,
-};
-
-struct Trace {
-    t: f32,
-    hit: bool,
-    entering: bool,
-    steps: u32,
 };
 
 // First s in [0, limit] where start + a s + b s² reaches target; −1 when none.
@@ -92,22 +85,4 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             h = globals.march.z * limit;
         }
     }
-}
-
-// Opaque trace of the pixel's ray over its support parts.
-fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
-    var trace = Trace(0.0, false, false, 0u);
-    var start_at = 0.0;
-    loop {
-        let part = next_part(sp, ray, start_at);
-        if part.x > part.y || trace.steps >= globals.counts.w {
-            break;
-        }
-        march_part(sp, ray, part, &trace);
-        if trace.hit {
-            break;
-        }
-        start_at = part.y;
-    }
-    return trace;
 }

@@ -72,6 +72,14 @@ struct Ray {
     dir: vec3<f32>,
 };
 
+// The outcome of tracing one ray (first crossing).
+struct Trace {
+    t: f32,
+    hit: bool,
+    entering: bool,
+    steps: u32,
+};
+
 // ---- kernels (kernel.rs: KernelProfile) ----
 
 // (K, K′, K″) of the formula valid inside the support at x (clamped to [0, support]).

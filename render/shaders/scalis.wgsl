@@ -3,13 +3,6 @@
 // normalised field F = g∘f − 1, the two-piece Bézier oracle of eq. 20 (rational weight 3 until
 // a sign change), Algorithm 1 with one backtracking step, 32 iterations per piece. Opaque only.
 
-struct Trace {
-    t: f32,
-    hit: bool,
-    entering: bool,
-    steps: u32,
-};
-
 struct Hermite {
     t: f32,
     v: f32,

@@ -2,13 +2,6 @@
 // of ω·r with ω = 1.6; when consecutive unbounding spheres do not overlap (or the side
 // changed), go back and continue with ω = 1.
 
-struct Trace {
-    t: f32,
-    hit: bool,
-    entering: bool,
-    steps: u32,
-};
-
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
     let c = globals.up.w;
     let lipschitz = globals.method.x;
@@ -51,21 +44,4 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
         previous_radius = radius;
         t += step;
     }
-}
-
-fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
-    var trace = Trace(0.0, false, false, 0u);
-    var start_at = 0.0;
-    loop {
-        let part = next_part(sp, ray, start_at);
-        if part.x > part.y || trace.steps >= globals.counts.w {
-            break;
-        }
-        march_part(sp, ray, part, &trace);
-        if trace.hit {
-            break;
-        }
-        start_at = part.y;
-    }
-    return trace;
 }

@@ -7,6 +7,7 @@ use skeletrace_core::primitives::Primitive;
 
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
 const MARCH: &str = include_str!("../shaders/march.wgsl");
+const PARTS: &str = include_str!("../shaders/parts.wgsl");
 const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
 const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
 const TAYLOR: &str = include_str!("../shaders/taylor.wgsl");
@@ -118,8 +119,8 @@ impl GpuMethod {
     #[must_use]
     pub fn source(self) -> String {
         let family = match self {
-            Self::Sphere => format!("{MARCH}\n{SPHERE}"),
-            Self::SphereEnhanced => SPHERE_ENHANCED.to_owned(),
+            Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
+            Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
@@ -130,7 +131,7 @@ impl GpuMethod {
                     Self::QuadraticTaylor => 2,
                     _ => 3,
                 };
-                format!("const METHOD: u32 = {id}u;\n{MARCH}\n{TAYLOR}")
+                format!("const METHOD: u32 = {id}u;\n{MARCH}\n{TAYLOR}\n{PARTS}")
             }
             Self::ScalisQuadratic => SCALIS.to_owned(),
             Self::FieldInversion => FIELD_INVERSION.to_owned(),

@@ -7,16 +7,11 @@ use crate::geometry::Ray;
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::bisection::bisect;
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::bisection::Bisector;
+use super::{Method, RayTracer, Trace, TraceSettings};
 
 /// `affine`.
 pub struct AffineArithmetic;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-}
 
 impl Method for AffineArithmetic {
     fn name(&self) -> &'static str {
@@ -32,18 +27,13 @@ impl Method for AffineArithmetic {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared { program, settings })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let (p, s) = (self.program, &self.settings);
-        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
-            bisect(p, ray, part, s, mode, trace, |i, trace| {
+        Box::new(Bisector {
+            program,
+            settings,
+            enclosure: |p: &FieldProgram, ray: &Ray, i: Interval, trace: &mut Trace| {
                 trace.evaluations += 1;
                 Some(field_form(p, ray, i).map_or_else(|| p.ray_jet(ray, i).value, |f| f.range()))
-            });
+            },
         })
     }
 }

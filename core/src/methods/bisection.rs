@@ -8,11 +8,11 @@ use crate::geometry::Ray;
 use crate::interval::Interval;
 use crate::program::FieldProgram;
 
-use super::{Crossing, Trace, TraceMode, TraceSettings};
+use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
 /// Bisects `part`; `enclosure(interval, trace)` returns a range of `f` over the interval, or
 /// `None` when it cannot bound it (the interval is then split).
-pub(crate) fn bisect(
+fn bisect(
     program: &FieldProgram,
     ray: &Ray,
     part: Interval,
@@ -49,5 +49,27 @@ pub(crate) fn bisect(
         if mode == TraceMode::Opaque {
             return;
         }
+    }
+}
+
+/// A bisection method bound to a scene: `enclosure(program, ray, interval, trace)` encloses
+/// `f` over an interval. Every bisection-based method is this with its own enclosure.
+pub(crate) struct Bisector<'a, E> {
+    pub(crate) program: &'a FieldProgram,
+    pub(crate) settings: TraceSettings,
+    pub(crate) enclosure: E,
+}
+
+impl<E> RayTracer for Bisector<'_, E>
+where
+    E: Fn(&FieldProgram, &Ray, Interval, &mut Trace) -> Option<Interval> + Sync,
+{
+    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        let (p, s) = (self.program, &self.settings);
+        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
+            bisect(p, ray, part, s, mode, trace, |i, trace| {
+                (self.enclosure)(p, ray, i, trace)
+            });
+        })
     }
 }

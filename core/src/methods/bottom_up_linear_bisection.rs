@@ -3,20 +3,15 @@
 //! over it; intervals that cannot hold the isovalue are pruned, the others bisected.
 
 use crate::bottom_up::{Degree, field_inclusion};
-use crate::program::FieldProgram;
-
-use super::bisection::bisect;
-use super::{Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 use crate::geometry::Ray;
 use crate::interval::Interval;
+use crate::program::FieldProgram;
+
+use super::bisection::Bisector;
+use super::{Method, RayTracer, Trace, TraceSettings};
 
 /// `bottom-up-linear-bisection`.
 pub struct BottomUpLinearBisection;
-
-struct Prepared<'a> {
-    program: &'a FieldProgram,
-    settings: TraceSettings,
-}
 
 impl Method for BottomUpLinearBisection {
     fn name(&self) -> &'static str {
@@ -32,15 +27,10 @@ impl Method for BottomUpLinearBisection {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        Box::new(Prepared { program, settings })
-    }
-}
-
-impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let (p, s) = (self.program, &self.settings);
-        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
-            bisect(p, ray, part, s, mode, trace, |i, trace| {
+        Box::new(Bisector {
+            program,
+            settings,
+            enclosure: |p: &FieldProgram, ray: &Ray, i: Interval, trace: &mut Trace| {
                 trace.evaluations += 1;
                 let (f, d) = p.along_ray(ray, i.lo);
                 let inc = field_inclusion(p, ray, (i.lo, f, d, i.width()), Degree::Linear);
@@ -49,7 +39,7 @@ impl RayTracer for Prepared<'_> {
                     Interval::new(inc.start, inc.upper_at(inc.length))
                         .include(inc.lower_at(inc.length))
                 })
-            });
+            },
         })
     }
 }
