@@ -442,7 +442,9 @@ fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32
     let p = ray.origin + t * ray.dir;
     var values: array<vec4<f32>, MAX_GROUPS>;
     if (*sp).overflow != 0u {
-        for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
+        let first = (*sp).tile_start;
+        let end = (*sp).tile_end;
+        for (var j = first; j < end; j++) {
             add_primitive(&values, tile_items[j], p);
         }
     } else {

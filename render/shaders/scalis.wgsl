@@ -185,7 +185,8 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
         var points: array<f32, MAX_BREAKPOINTS>;
         var count = 1u;
         points[0] = part.x;
-        for (var j = 0u; j < support_count(sp); j++) {
+        let items = support_count(sp);
+    for (var j = 0u; j < items; j++) {
             let item = support_item(sp, ray, j);
             let s = item.span;
             if s.x > s.y || s.y < part.x || s.x > part.y {

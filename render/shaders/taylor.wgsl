@@ -96,7 +96,8 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
-    for (var j = 0u; j < support_count(sp); j++) {
+    let items = support_count(sp);
+    for (var j = 0u; j < items; j++) {
         let item = support_item(sp, ray, j);
         if !overlaps(item, lo, hi) {
             continue;
@@ -122,7 +123,8 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
 
 fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> f32 {
     var groups: array<f32, MAX_GROUPS>;
-    for (var j = 0u; j < support_count(sp); j++) {
+    let items = support_count(sp);
+    for (var j = 0u; j < items; j++) {
         let item = support_item(sp, ray, j);
         if !overlaps(item, lo, hi) {
             continue;
@@ -207,7 +209,8 @@ fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32)
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
     }
-    for (var j = 0u; j < support_count(sp); j++) {
+    let items = support_count(sp);
+    for (var j = 0u; j < items; j++) {
         let item = support_item(sp, ray, j);
         if !overlaps(item, t, t + h) {
             continue;

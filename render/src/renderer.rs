@@ -171,7 +171,10 @@ impl GpuRenderer {
         let sink = Arc::clone(&errors);
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             if let Ok(mut v) = sink.lock() {
-                v.push(format!("{e:?}"));
+                v.push(match e {
+                    wgpu::Error::Validation { description, .. } => description,
+                    other => other.to_string(),
+                });
             }
         }));
         let lost = Arc::clone(&errors);
