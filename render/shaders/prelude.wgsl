@@ -65,7 +65,7 @@ struct Light {
 const INF: f32 = 3.0e38;
 const MAX_GROUPS: u32 = 8u;
 // Supports kept per ray (sorted by entry); tiles are small enough that lists rarely exceed it.
-const RAY_SUPPORTS: u32 = 48u;
+const RAY_SUPPORTS: u32 = 64u;
 
 struct Ray {
     origin: vec3<f32>,

@@ -17,7 +17,7 @@ use crate::buffers::{GpuPrimitive, PackedScene};
 use crate::shaders::{BINNING, GpuMethod};
 
 /// Tile edge in pixels.
-const TILE: u32 = 8;
+const TILE: u32 = 4;
 
 /// What the colour output shows.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,9 +9,9 @@
 //! they hold today. The others are printed, not asserted, and listed in the issue note:
 //! sphere tracing with a global bound runs into its step budget, where f32 and f64 marches
 //! diverge; bottom-up-quadratic and scalis-quadratic agree on 97–98.5 % of step counts (f32
-//! validity intervals and Hermite data); on the 3 000-atom `molecule` the GPU misses 2–18 % of
-//! the pixels the CPU hits, on rays whose supports overflow the per-ray list (a known defect,
-//! README "GPU backend").
+//! validity intervals and Hermite data); on the 3 000-atom `molecule`, rays that overflow the
+//! per-ray list walk their whole tile list and run into lavapipe's limit of 65 535 loop
+//! iterations per invocation, after which every loop stops (README, "GPU backend").
 
 use std::path::Path;
 
