@@ -31,6 +31,12 @@ pub(crate) fn scalis_kernel(program: &FieldProgram, method: &str) -> Result<Kern
     Ok(KernelProfile::new(kernel))
 }
 
+/// The kernel whose normalisation `g` the tracers invert: the scene's common kernel (checked by
+/// [`scalis_kernel`] in `supports`); the default kernel for a scene the method refused.
+pub(crate) fn normalising_kernel(program: &FieldProgram) -> KernelProfile {
+    KernelProfile::new(program.common_kernel().unwrap_or_default())
+}
+
 /// `(F, F′)` along the ray at `t`, with `F = g(f) − 1`.
 pub(crate) fn normalised(
     program: &FieldProgram,

@@ -20,7 +20,7 @@ use crate::kernel::KernelProfile;
 use crate::primitives::Primitive;
 use crate::program::FieldProgram;
 
-use super::normalised::{normalised, scalis_kernel};
+use super::normalised::{normalised, normalising_kernel, scalis_kernel};
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
 /// Iterations of Algorithm 1 per piece (scalis 2021 §6.2).
@@ -55,8 +55,7 @@ impl Method for ScalisQuadratic {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        let kernel = scalis_kernel(program, self.name())
-            .unwrap_or_else(|_| KernelProfile::new(crate::kernel::Kernel::default()));
+        let kernel = normalising_kernel(program);
         Box::new(Prepared {
             program,
             settings,

@@ -13,7 +13,7 @@ use crate::interval::Interval;
 use crate::program::FieldProgram;
 
 use super::marching::{Marcher, symmetric};
-use super::normalised::{scalis_kernel, thinnest_radius_on};
+use super::normalised::{normalising_kernel, scalis_kernel, thinnest_radius_on};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `sphere-normalized`.
@@ -37,9 +37,7 @@ impl Method for NormalizedSphereTracing {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        let kernel = scalis_kernel(program, self.name()).unwrap_or_else(|_| {
-            crate::kernel::KernelProfile::new(crate::kernel::Kernel::default())
-        });
+        let kernel = normalising_kernel(program);
         Box::new(Marcher {
             program,
             settings,
