@@ -276,3 +276,37 @@ fn render_writes_the_requested_size_and_refuses_bad_arguments() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bench_reports_milliseconds_per_frame_for_each_method() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
+    let o = skeletrace(&[
+        "bench",
+        scene.to_str().unwrap_or_default(),
+        "--size",
+        "16x16",
+        "--frames",
+        "2",
+        "--methods",
+        "segment,quadratic-taylor",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    for key in [
+        "\"device\": \"CPU",
+        "\"width\": 16",
+        "\"frames\": 2",
+        "\"name\": \"segment\"",
+        "\"name\": \"quadratic-taylor\"",
+    ] {
+        assert!(out.contains(key), "{key} missing from {out}");
+    }
+    let times: Vec<f64> = out
+        .split("\"ms_per_frame\": ")
+        .skip(1)
+        .filter_map(|s| s.split(['}', ',']).next()?.trim().parse().ok())
+        .collect();
+    assert_eq!(times.len(), 2, "{out}");
+    assert!(times.iter().all(|&t| t > 0.0 && t.is_finite()), "{out}");
+}
