@@ -64,7 +64,7 @@ struct Light {
 
 const INF: f32 = 3.0e38;
 const MAX_GROUPS: u32 = 8u;
-// Supports kept per ray (sorted by entry); tiles are small enough that lists rarely exceed it.
+// Size of a ray's support window (see RaySupports).
 const RAY_SUPPORTS: u32 = 64u;
 
 struct Ray {
@@ -334,13 +334,18 @@ fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
 
 // ---- the pixel's ray and its supports ----
 
-// The supports a ray crosses within [0, far], sorted by entry; `overflow` when the tile holds
-// more than RAY_SUPPORTS of them (the ray then uses the whole tile list and one part).
+// A window of the supports a ray crosses within [0, far]: the RAY_SUPPORTS of them with the
+// smallest entries among those leaving after `floor`, sorted by entry. Every support that
+// overlaps [floor, horizon) is in the window; when the ray gets past `horizon`, `next_part`
+// refills the window from the tile list (the 2021 paper §7 keeps a heap of the
+// primitives overlapping the current interval, algorithm 2). Refilling
+// instead of walking the whole tile list keeps a ray's loop iterations far below lavapipe's
+// per-invocation limit of 65 535.
 struct RaySupports {
     count: u32,
-    overflow: u32,
     tile_start: u32,
     tile_end: u32,
+    horizon: f32,
     ids: array<u32, RAY_SUPPORTS>,
     spans: array<vec2<f32>, RAY_SUPPORTS>,
 };
@@ -355,27 +360,31 @@ fn pixel_ray(px: u32, py: u32) -> Ray {
     return Ray(globals.origin.xyz, dir);
 }
 
-fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
-    let ts = globals.tile.x;
-    let tile = (py / ts) * globals.size.z + px / ts;
-    let range = tile_ranges[tile];
+// Fills the window with the supports of the tile that the ray leaves after `floor`.
+fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     (*sp).count = 0u;
-    (*sp).overflow = 0u;
-    (*sp).tile_start = range.x;
-    (*sp).tile_end = range.y;
-    for (var j = range.x; j < range.y; j++) {
+    (*sp).horizon = INF;
+    for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
         let i = tile_items[j];
         var span = support_interval(ray, i);
         span = vec2<f32>(max(span.x, 0.0), min(span.y, globals.origin.w));
-        if span.x > span.y {
+        if span.x > span.y || span.y <= floor {
             continue;
         }
-        if (*sp).count == RAY_SUPPORTS {
-            (*sp).overflow = 1u;
-            continue;
+        var k = (*sp).count;
+        if k == RAY_SUPPORTS {
+            // Full: the later entry of the newcomer and the last kept one bounds the window.
+            let last = (*sp).spans[k - 1u].x;
+            if span.x >= last {
+                (*sp).horizon = min((*sp).horizon, span.x);
+                continue;
+            }
+            (*sp).horizon = min((*sp).horizon, last);
+            k -= 1u;
+        } else {
+            (*sp).count += 1u;
         }
         // Insertion by entry.
-        var k = (*sp).count;
         while k > 0u && (*sp).spans[k - 1u].x > span.x {
             (*sp).spans[k] = (*sp).spans[k - 1u];
             (*sp).ids[k] = (*sp).ids[k - 1u];
@@ -383,16 +392,18 @@ fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
         }
         (*sp).spans[k] = span;
         (*sp).ids[k] = i;
-        (*sp).count += 1u;
     }
 }
 
-// Supports the ray visits: its sorted list, or on overflow every support of its tile (in tile
-// order, intervals computed on the fly).
+fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
+    let ts = globals.tile.x;
+    let range = tile_ranges[(py / ts) * globals.size.z + px / ts];
+    (*sp).tile_start = range.x;
+    (*sp).tile_end = range.y;
+    fill_window(sp, ray, 0.0);
+}
+
 fn support_count(sp: ptr<function, RaySupports>) -> u32 {
-    if (*sp).overflow != 0u {
-        return (*sp).tile_end - (*sp).tile_start;
-    }
     return (*sp).count;
 }
 
@@ -402,11 +413,6 @@ struct SupportItem {
 };
 
 fn support_item(sp: ptr<function, RaySupports>, ray: Ray, j: u32) -> SupportItem {
-    if (*sp).overflow != 0u {
-        let id = tile_items[(*sp).tile_start + j];
-        let s = support_interval(ray, id);
-        return SupportItem(id, vec2<f32>(max(s.x, 0.0), min(s.y, globals.origin.w)));
-    }
     return SupportItem((*sp).ids[j], (*sp).spans[j]);
 }
 
@@ -436,26 +442,18 @@ fn add_primitive(values: ptr<function, array<vec4<f32>, MAX_GROUPS>>, i: u32, p:
     (*values)[g] += primitive_value_gradient(i, p);
 }
 
-// Every group's value and gradient at ray parameter t: only the primitives whose support
-// contains the point (the ray's sorted spans, or the whole tile list on overflow).
+// Every group's value and gradient at ray parameter t: only the primitives of the window
+// whose support contains the point.
 fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32>, MAX_GROUPS> {
     let p = ray.origin + t * ray.dir;
     var values: array<vec4<f32>, MAX_GROUPS>;
-    if (*sp).overflow != 0u {
-        let first = (*sp).tile_start;
-        let end = (*sp).tile_end;
-        for (var j = first; j < end; j++) {
-            add_primitive(&values, tile_items[j], p);
+    for (var j = 0u; j < (*sp).count; j++) {
+        let s = (*sp).spans[j];
+        if s.x > t {
+            break;
         }
-    } else {
-        for (var j = 0u; j < (*sp).count; j++) {
-            let s = (*sp).spans[j];
-            if s.x > t {
-                break;
-            }
-            if t <= s.y {
-                add_primitive(&values, (*sp).ids[j], p);
-            }
+        if t <= s.y {
+            add_primitive(&values, (*sp).ids[j], p);
         }
     }
     return values;
@@ -472,36 +470,11 @@ fn along_ray(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec2<f32> {
 }
 
 // The part of the ray inside the union of supports that starts at or after `start_at`: (lo, hi),
-// empty (x > y) when none is left.
+// empty (x > y) when none is left. A part is cut at the window's horizon; the next call then
+// refills the window from there.
 fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f32> {
-    if (*sp).overflow != 0u {
-        // Unsorted: the part starts at the first entry past `start_at` and grows while some
-        // support overlaps its end.
-        var lo = INF;
-        var hi = -INF;
-        let n = support_count(sp);
-        for (var j = 0u; j < n; j++) {
-            let s = support_item(sp, ray, j).span;
-            if s.x <= s.y && s.y > start_at && max(s.x, start_at) < lo {
-                lo = max(s.x, start_at);
-                hi = s.y;
-            }
-        }
-        if lo == INF {
-            return vec2<f32>(INF, -INF);
-        }
-        var grown = true;
-        while grown {
-            grown = false;
-            for (var j = 0u; j < n; j++) {
-                let s = support_item(sp, ray, j).span;
-                if s.x <= s.y && s.x <= hi && s.y > hi {
-                    hi = s.y;
-                    grown = true;
-                }
-            }
-        }
-        return vec2<f32>(lo, hi);
+    if start_at >= (*sp).horizon {
+        fill_window(sp, ray, start_at);
     }
     var lo = INF;
     var hi = -INF;
@@ -519,5 +492,10 @@ fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f3
             break;
         }
     }
-    return vec2<f32>(lo, hi);
+    if lo == INF {
+        return vec2<f32>(INF, -INF);
+    }
+    // More than RAY_SUPPORTS supports overlap at lo: the window is incomplete there; march a
+    // minimum step with what it holds rather than stall.
+    return vec2<f32>(lo, min(hi, max((*sp).horizon, lo + globals.march.y)));
 }

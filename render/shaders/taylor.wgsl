@@ -90,6 +90,20 @@ fn overlaps(item: SupportItem, lo: f32, hi: f32) -> bool {
     return item.span.x <= item.span.y && item.span.x <= hi && item.span.y >= lo;
 }
 
+// The jet of an overlapping item over [lo, hi] (primitives/mod.rs ray_jet): taken on the part
+// inside the support and extended by zero; where a kinked kernel's support boundary lies in
+// [lo, hi], the upper f″ bound is infinite.
+fn item_jet(ray: Ray, item: SupportItem, lo: f32, hi: f32) -> Jet {
+    let inside = vec2<f32>(max(lo, item.span.x), min(hi, item.span.y));
+    let jet = point_jet(ray, item.id, inside.x, inside.y);
+    if inside.x == lo && inside.y == hi {
+        return jet;
+    }
+    let kinked = kernels[primitives[item.id].group].kinked != 0u;
+    return Jet(hull_with(jet.value, 0.0), hull_with(jet.d1, 0.0),
+               vec2<f32>(min(jet.d2.x, 0.0), select(max(jet.d2.y, 0.0), INF, kinked)));
+}
+
 // Group jets over [lo, hi], blended (ray_jet), and the summed Lipschitz bound (summed_lipschitz).
 fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
     var groups: array<Jet, MAX_GROUPS>;
@@ -102,9 +116,8 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
         if !overlaps(item, lo, hi) {
             continue;
         }
-        let i = item.id;
-        let g = primitives[i].group;
-        groups[g] = jet_add(groups[g], point_jet(ray, i, lo, hi));
+        let g = primitives[item.id].group;
+        groups[g] = jet_add(groups[g], item_jet(ray, item, lo, hi));
     }
     let n = globals.counts.y;
     let op = globals.counts.z;
@@ -129,9 +142,8 @@ fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) 
         if !overlaps(item, lo, hi) {
             continue;
         }
-        let i = item.id;
-        let d1 = point_jet(ray, i, lo, hi).d1;
-        groups[primitives[i].group] += max(abs(d1.x), abs(d1.y));
+        let d1 = item_jet(ray, item, lo, hi).d1;
+        groups[primitives[item.id].group] += max(abs(d1.x), abs(d1.y));
     }
     var out = 0.0;
     for (var g = 0u; g < globals.counts.y; g++) {
