@@ -5,7 +5,6 @@
 
 mod bench_cmd;
 mod cli;
-mod picture;
 mod render_cmd;
 
 use std::io::IsTerminal;
@@ -19,9 +18,7 @@ use skeletrace_core::{FieldProgram, Scene, stats};
 
 use cli::{Cli, Command};
 
-/// The scene opened when no file is given: a hand-made creature.
-const DEFAULT_SCENE: &str = include_str!("../../assets/scenes/creature.ron");
-const DEFAULT_SCENE_NAME: &str = "<embedded creature.ron>";
+use skeletrace::{DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -55,17 +52,9 @@ fn load(path: Option<&Path>) -> Result<Scene, String> {
     }
 }
 
-/// The editor is built in the editor issue; until then this validates the scene and prints
-/// its summary, so that `skeletrace [SCENE]` already checks a file.
+/// Opens the editor window (DESIGN.md, "Editor") on `path` or the embedded scene.
 fn open_editor(path: Option<&Path>) -> Result<(), String> {
-    let scene = load(path)?;
-    let name = path.map_or_else(
-        || DEFAULT_SCENE_NAME.to_owned(),
-        |p| p.display().to_string(),
-    );
-    print_info(&name, &scene);
-    println!("(the interactive editor is not part of this build yet; see README.md)");
-    Ok(())
+    skeletrace::editor::run(path)
 }
 
 fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {

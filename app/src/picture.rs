@@ -34,6 +34,12 @@ impl Canvas {
         }
     }
 
+    /// The pixels as RGBA bytes, row-major from the top-left.
+    #[must_use]
+    pub fn bytes(&self) -> &[u8] {
+        self.pixels.as_flattened()
+    }
+
     /// Sets a pixel, ignoring coordinates outside the canvas.
     pub fn put(&mut self, x: usize, y: usize, colour: [u8; 4]) {
         if x < self.width && y < self.height {
@@ -206,4 +212,76 @@ fn heat_rgba(x: f64) -> [u8; 4] {
     let [r, g, b] = heat_colour(x);
     let byte = |v: f32| (v * 255.0 + 0.5) as u8;
     [byte(r), byte(g), byte(b), 255]
+}
+
+/// The shared top of the colour scale: the largest 99th percentile, over the panels, of the
+/// step counts of pixels whose ray met a support (a single outlier pixel would otherwise
+/// darken every panel; counts above it are drawn in the top colour and the bar says so).
+pub fn shared_scale(frames: &[(&str, Frame)]) -> u32 {
+    frames
+        .iter()
+        .map(|(_, f)| {
+            let mut worked: Vec<u32> = f.steps.iter().copied().filter(|&s| s > 0).collect();
+            worked.sort_unstable();
+            worked.get(worked.len() * 99 / 100).copied().unwrap_or(1)
+        })
+        .max()
+        .unwrap_or(1)
+}
+
+/// Panels per row of a composed picture.
+pub const COLUMNS: usize = 4;
+
+/// What the panels of a composed picture show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Panels {
+    /// Shaded frames, labelled with their method when `labelled`.
+    Shaded {
+        /// Draw each panel's method name and step summary above it.
+        labelled: bool,
+    },
+    /// Step-count heat maps on `[0, steps_max]`, labelled, with the colour bar.
+    Steps {
+        /// Top of the shared scale.
+        steps_max: u32,
+        /// Some pixel exceeds `steps_max` (the bar says `>=`).
+        clipped: bool,
+    },
+}
+
+/// Lays out the panels (labelled when comparing or showing steps, four per row) and the
+/// colour bar.
+#[must_use]
+pub fn compose(frames: &[(&str, Frame)], panels: Panels) -> Canvas {
+    let Some((_, first)) = frames.first() else {
+        return Canvas::new(1, 1, [0, 0, 0, 255]);
+    };
+    let (w, h) = (first.width, first.height);
+    let labelled = match panels {
+        Panels::Shaded { labelled } => labelled,
+        Panels::Steps { .. } => true,
+    };
+    let label = if labelled { Canvas::label_height(w) } else { 0 };
+    let columns = frames.len().min(COLUMNS);
+    let rows = frames.len().div_ceil(COLUMNS);
+    let bar = if matches!(panels, Panels::Steps { .. }) {
+        BAR_HEIGHT
+    } else {
+        0
+    };
+    let mut canvas = Canvas::new(columns * w, rows * (h + label) + bar, [24, 26, 30, 255]);
+    for (i, (name, frame)) in frames.iter().enumerate() {
+        let (x, y) = ((i % COLUMNS) * w, (i / COLUMNS) * (h + label));
+        if labelled {
+            canvas.label(x, y, w, name, frame.step_summary());
+        }
+        match panels {
+            Panels::Shaded { .. } => canvas.draw_shaded(frame, x, y + label),
+            Panels::Steps { steps_max, .. } => canvas.draw_steps(frame, steps_max, x, y + label),
+        }
+    }
+    if let Panels::Steps { steps_max, clipped } = panels {
+        canvas.colour_bar(0, rows * (h + label), columns * w, steps_max, clipped);
+    }
+    canvas
 }

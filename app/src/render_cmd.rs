@@ -9,12 +9,10 @@ use skeletrace_core::{FieldProgram, Scene};
 use skeletrace_render::{GpuMethod, GpuRenderer, View as GpuView};
 
 use crate::cli::{Backend, RenderArgs, View};
-use crate::picture::{BAR_HEIGHT, Canvas};
+use skeletrace::picture::{Panels, compose, shared_scale};
 
 /// Method of a render when none is named: guaranteed, and the fastest on most scenes.
 const DEFAULT_METHOD: &str = "quadratic-taylor";
-/// Panels per row of a comparison.
-const COLUMNS: usize = 4;
 
 /// Parses `WxH`.
 ///
@@ -81,7 +79,13 @@ pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
         .unwrap_or_else(|| shared_scale(&frames))
         .max(1);
     let clipped = frames.iter().any(|(_, f)| f.step_summary().max > steps_max);
-    let picture = compose(&frames, view, (steps_max, clipped), args.compare.is_some());
+    let panels = match view {
+        View::Shaded => Panels::Shaded {
+            labelled: args.compare.is_some(),
+        },
+        View::Steps => Panels::Steps { steps_max, clipped },
+    };
+    let picture = compose(&frames, panels);
     picture.save_png(&args.output)?;
     println!(
         "wrote {} ({}x{})",
@@ -90,21 +94,6 @@ pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
         picture.height
     );
     Ok(())
-}
-
-/// The shared top of the colour scale: the largest 99th percentile, over the panels, of the
-/// step counts of pixels whose ray met a support (a single outlier pixel would otherwise
-/// darken every panel; counts above it are drawn in the top colour and the bar says so).
-fn shared_scale(frames: &[(&str, Frame)]) -> u32 {
-    frames
-        .iter()
-        .map(|(_, f)| {
-            let mut worked: Vec<u32> = f.steps.iter().copied().filter(|&s| s > 0).collect();
-            worked.sort_unstable();
-            worked.get(worked.len() * 99 / 100).copied().unwrap_or(1)
-        })
-        .max()
-        .unwrap_or(1)
 }
 
 fn print_timing(name: &str, ms: f64, frame: &Frame) {
@@ -187,37 +176,4 @@ fn render_gpu(
         print_timing(name, ms / out.len().max(1) as f64, frame);
     }
     Ok(out)
-}
-
-/// Lays out the panels (labelled when comparing or showing steps) and the colour bar.
-fn compose(
-    frames: &[(&str, Frame)],
-    view: View,
-    (steps_max, clipped): (u32, bool),
-    labelled: bool,
-) -> Canvas {
-    let Some((_, first)) = frames.first() else {
-        return Canvas::new(1, 1, [0, 0, 0, 255]);
-    };
-    let (w, h) = (first.width, first.height);
-    let labelled = labelled || view == View::Steps;
-    let label = if labelled { Canvas::label_height(w) } else { 0 };
-    let columns = frames.len().min(COLUMNS);
-    let rows = frames.len().div_ceil(COLUMNS);
-    let bar = if view == View::Steps { BAR_HEIGHT } else { 0 };
-    let mut canvas = Canvas::new(columns * w, rows * (h + label) + bar, [24, 26, 30, 255]);
-    for (i, (name, frame)) in frames.iter().enumerate() {
-        let (x, y) = ((i % COLUMNS) * w, (i / COLUMNS) * (h + label));
-        if labelled {
-            canvas.label(x, y, w, name, frame.step_summary());
-        }
-        match view {
-            View::Shaded => canvas.draw_shaded(frame, x, y + label),
-            View::Steps => canvas.draw_steps(frame, steps_max, x, y + label),
-        }
-    }
-    if bar > 0 {
-        canvas.colour_bar(0, rows * (h + label), columns * w, steps_max, clipped);
-    }
-    canvas
 }

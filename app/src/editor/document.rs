@@ -1,0 +1,251 @@
+//! The edited scene, its file and its history (DESIGN.md, "Editor": every scene change is a
+//! command on an undo stack, drags coalesced).
+//!
+//! An [`Edit`] names what changed; applying one records the scene before it, so undo and redo
+//! restore whole scenes (scenes are small next to what the tracer does with them). Every edited
+//! scene goes through the file loader's own validation (a RON round trip) before it replaces
+//! the current one, so the editor can never hold a scene that would not load back.
+
+use std::path::{Path, PathBuf};
+
+use skeletrace_core::Scene;
+
+/// Undo steps kept.
+const HISTORY: usize = 200;
+
+/// One change of the scene, as the history names it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Edit {
+    /// What the user did, for the status bar and the Edit menu ("move 2 vertices").
+    pub label: String,
+    /// Edits with the same key inside one gesture (a drag, a slider) coalesce into one step.
+    pub coalesce: Option<String>,
+}
+
+impl Edit {
+    /// A single step.
+    #[must_use]
+    pub fn new(label: impl Into<String>) -> Self {
+        Self {
+            label: label.into(),
+            coalesce: None,
+        }
+    }
+
+    /// A step that merges with the previous edit of the same key until the gesture ends.
+    #[must_use]
+    pub fn gesture(label: impl Into<String>, key: impl Into<String>) -> Self {
+        Self {
+            label: label.into(),
+            coalesce: Some(key.into()),
+        }
+    }
+}
+
+struct Step {
+    label: String,
+    before: Scene,
+}
+
+/// The scene being edited.
+pub struct Document {
+    scene: Scene,
+    path: Option<PathBuf>,
+    saved: Scene,
+    undo: Vec<Step>,
+    redo: Vec<Step>,
+    open_gesture: Option<String>,
+    revision: u64,
+}
+
+impl Document {
+    /// A document on `scene`, read from `path` if any.
+    #[must_use]
+    pub fn new(scene: Scene, path: Option<PathBuf>) -> Self {
+        Self {
+            saved: scene.clone(),
+            scene,
+            path,
+            undo: Vec::new(),
+            redo: Vec::new(),
+            open_gesture: None,
+            revision: 0,
+        }
+    }
+
+    /// Opens a scene file.
+    ///
+    /// # Errors
+    /// The loader's message: file, line:column and the offending value.
+    pub fn open(path: &Path) -> Result<Self, String> {
+        let scene = Scene::load(path).map_err(|e| e.to_string())?;
+        Ok(Self::new(scene, Some(path.to_path_buf())))
+    }
+
+    /// The current scene.
+    #[must_use]
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The file the scene was read from or last saved to.
+    #[must_use]
+    pub fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    /// Increases with every change of the scene (edits, undo, redo).
+    #[must_use]
+    pub fn revision(&self) -> u64 {
+        self.revision
+    }
+
+    /// The scene differs from the file.
+    #[must_use]
+    pub fn is_dirty(&self) -> bool {
+        self.scene != self.saved
+    }
+
+    /// Applies `change` to a copy of the scene and keeps it if the loader accepts it.
+    ///
+    /// # Errors
+    /// Why the edited scene is invalid (for instance a radius slope a SCALIS kernel cannot
+    /// take); the scene is then unchanged.
+    pub fn apply(&mut self, edit: Edit, change: impl FnOnce(&mut Scene)) -> Result<(), String> {
+        let mut next = self.scene.clone();
+        change(&mut next);
+        if next == self.scene {
+            return Ok(());
+        }
+        Scene::from_ron(&next.to_ron(), &edit.label).map_err(|e| e.to_string())?;
+        let merges = edit.coalesce.is_some() && edit.coalesce == self.open_gesture;
+        if !merges {
+            let before = std::mem::replace(&mut self.scene, next);
+            self.undo.push(Step {
+                label: edit.label,
+                before,
+            });
+            if self.undo.len() > HISTORY {
+                self.undo.remove(0);
+            }
+        } else {
+            self.scene = next;
+        }
+        self.open_gesture = edit.coalesce;
+        self.redo.clear();
+        self.revision += 1;
+        Ok(())
+    }
+
+    /// Ends the current gesture: the next edit starts a new undo step.
+    pub fn end_gesture(&mut self) {
+        self.open_gesture = None;
+    }
+
+    /// Label of the step [`Document::undo`] would revert.
+    #[must_use]
+    pub fn undo_label(&self) -> Option<&str> {
+        self.undo.last().map(|s| s.label.as_str())
+    }
+
+    /// Label of the step [`Document::redo`] would re-apply.
+    #[must_use]
+    pub fn redo_label(&self) -> Option<&str> {
+        self.redo.last().map(|s| s.label.as_str())
+    }
+
+    /// Reverts the last step; false when there is none.
+    pub fn undo(&mut self) -> bool {
+        self.travel(true)
+    }
+
+    /// Re-applies the last undone step; false when there is none.
+    pub fn redo(&mut self) -> bool {
+        self.travel(false)
+    }
+
+    fn travel(&mut self, back: bool) -> bool {
+        let (from, to) = if back {
+            (&mut self.undo, &mut self.redo)
+        } else {
+            (&mut self.redo, &mut self.undo)
+        };
+        let Some(step) = from.pop() else {
+            return false;
+        };
+        let current = std::mem::replace(&mut self.scene, step.before);
+        to.push(Step {
+            label: step.label,
+            before: current,
+        });
+        self.open_gesture = None;
+        self.revision += 1;
+        true
+    }
+
+    /// Saves atomically to `path`, which becomes the document's file.
+    ///
+    /// # Errors
+    /// The file system's message, naming the file.
+    pub fn save_as(&mut self, path: &Path) -> Result<(), String> {
+        self.scene.save(path).map_err(|e| e.to_string())?;
+        self.path = Some(path.to_path_buf());
+        self.saved = self.scene.clone();
+        Ok(())
+    }
+
+    /// Replaces the scene wholesale (restoring a recovery file): one undo step, dirty.
+    pub fn replace(&mut self, scene: Scene, label: &str) {
+        let before = std::mem::replace(&mut self.scene, scene);
+        self.undo.push(Step {
+            label: label.to_owned(),
+            before,
+        });
+        self.redo.clear();
+        self.open_gesture = None;
+        self.revision += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene() -> Scene {
+        Scene::from_ron(crate::DEFAULT_SCENE, "creature").unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn a_gesture_is_one_undo_step_and_redo_restores_it() {
+        let mut doc = Document::new(scene(), None);
+        let start = doc.scene().clone();
+        for i in 1..=5 {
+            doc.apply(Edit::gesture("move", "drag"), |s| {
+                s.groups[0].skeletons[0].vertices[0].position[0] += 0.01 * f64::from(i);
+            })
+            .unwrap_or_else(|e| panic!("{e}"));
+        }
+        doc.end_gesture();
+        assert!(doc.is_dirty());
+        let moved = doc.scene().clone();
+        assert!(doc.undo());
+        assert_eq!(doc.scene(), &start);
+        assert!(!doc.undo(), "five drag updates are one step");
+        assert!(doc.redo());
+        assert_eq!(doc.scene(), &moved);
+    }
+
+    #[test]
+    fn an_invalid_edit_is_refused_and_leaves_the_scene() {
+        let mut doc = Document::new(scene(), None);
+        let start = doc.scene().clone();
+        let Err(err) = doc.apply(Edit::new("radius"), |s| {
+            s.groups[0].skeletons[0].vertices[0].radius = -1.0;
+        }) else {
+            panic!("a negative radius must be refused");
+        };
+        assert!(err.contains("radius"), "{err}");
+        assert_eq!(doc.scene(), &start);
+        assert!(doc.undo_label().is_none());
+    }
+}

@@ -1,0 +1,564 @@
+//! The panels around the viewport: menu bar, inspector (file, selection, the active group's
+//! field type, kernel, material, and the scene's isovalue and blend), method choice, status
+//! bar, and the dialogs (help, unsaved changes, recovery). Every change is an [`Edit`] and is
+//! live: the next frame is traced from the edited scene.
+
+use eframe::egui;
+use skeletrace_core::kernel::Kernel;
+use skeletrace_core::methods;
+use skeletrace_core::scene::{Blend, SkeletonField};
+use skeletrace_render::GpuMethod;
+
+use super::selection::{self, Item};
+use super::worker::Backend;
+use super::{Edit, Editor, ViewMode};
+
+/// Shortcuts listed by the help overlay.
+pub const SHORTCUTS: [(&str, &str); 22] = [
+    ("Left drag", "orbit (on a handle: move it)"),
+    ("Right / middle drag", "pan"),
+    ("Wheel", "zoom; over a selected handle: radius"),
+    ("Click / Shift+click", "select / add to selection"),
+    ("Shift+drag", "box selection"),
+    ("Gizmo axis / centre", "move along an axis / in the view plane"),
+    ("Arrows, + / -", "orbit, zoom"),
+    ("F", "frame the selection"),
+    ("A or Home", "frame everything"),
+    ("S", "sketch mode: click adds a vertex joined to the selection"),
+    ("C", "connect the two selected vertices"),
+    ("X", "disconnect the selected vertices"),
+    ("B", "add a point blob"),
+    ("Delete", "delete the selection"),
+    ("Ctrl+D", "duplicate the selection"),
+    ("Ctrl+Z", "undo"),
+    ("Ctrl+Shift+Z / Ctrl+Y", "redo"),
+    ("Ctrl+S", "save"),
+    ("Tab", "shaded view / method comparison"),
+    ("Esc", "clear the selection, leave sketch mode"),
+    ("F1 or ?", "this help"),
+    ("Drop a .ron file", "open it"),
+];
+
+impl Editor {
+    pub(super) fn menu_bar(&mut self, ui: &mut egui::Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            ui.menu_button("File", |ui| {
+                if ui.button("New").clicked() {
+                    self.new_scene();
+                }
+                if ui.button("Open (path field)").clicked() {
+                    let path = std::path::PathBuf::from(self.path_field.trim());
+                    self.open_path(&path);
+                }
+                if ui.button("Save").clicked() {
+                    self.save(None);
+                }
+                if ui.button("Save As (path field)").clicked() {
+                    let path = std::path::PathBuf::from(self.path_field.trim());
+                    self.save(Some(path));
+                }
+                ui.separator();
+                if ui.button("Screenshot").clicked() {
+                    let path = self.screenshot_path();
+                    self.screenshot(&path);
+                }
+                ui.separator();
+                let recent = self.ui_state.recent.clone();
+                ui.menu_button("Recent", |ui| {
+                    if recent.is_empty() {
+                        ui.label("(none)");
+                    }
+                    for p in recent {
+                        if ui.button(p.display().to_string()).clicked() {
+                            self.open_path(&p);
+                        }
+                    }
+                });
+            });
+            ui.menu_button("Edit", |ui| {
+                let undo = self.doc.undo_label().map(|l| format!("Undo {l}"));
+                if ui
+                    .add_enabled(undo.is_some(), egui::Button::new(undo.unwrap_or("Undo".into())))
+                    .clicked()
+                {
+                    self.undo();
+                }
+                let redo = self.doc.redo_label().map(|l| format!("Redo {l}"));
+                if ui
+                    .add_enabled(redo.is_some(), egui::Button::new(redo.unwrap_or("Redo".into())))
+                    .clicked()
+                {
+                    self.redo();
+                }
+                ui.separator();
+                if ui.button("Duplicate").clicked() {
+                    self.duplicate();
+                }
+                if ui.button("Delete").clicked() {
+                    self.delete();
+                }
+                if ui.button("Connect").clicked() {
+                    self.connect();
+                }
+                if ui.button("Disconnect").clicked() {
+                    self.disconnect();
+                }
+                if ui.button("Add blob").clicked() {
+                    self.add_blob();
+                }
+            });
+            ui.menu_button("View", |ui| {
+                if ui.button("Frame all").clicked() {
+                    self.frame_all();
+                }
+                if ui.button("Frame selection").clicked() {
+                    self.frame_selection();
+                }
+            });
+            ui.separator();
+            ui.selectable_value(&mut self.ui_state.view, ViewMode::Shaded, "Shaded");
+            ui.selectable_value(&mut self.ui_state.view, ViewMode::Compare, "Compare methods");
+            ui.separator();
+            ui.toggle_value(&mut self.sketch, "Sketch");
+            if ui.button("Help").clicked() {
+                self.help = !self.help;
+            }
+        });
+    }
+
+    fn screenshot_path(&self) -> std::path::PathBuf {
+        let stem = self
+            .doc
+            .path()
+            .and_then(|p| p.file_stem())
+            .map_or_else(|| "skeletrace".to_owned(), |s| s.to_string_lossy().into_owned());
+        let suffix = match self.ui_state.view {
+            ViewMode::Shaded => "shaded",
+            ViewMode::Compare => "compare",
+        };
+        let dir = self
+            .doc
+            .path()
+            .and_then(|p| p.parent())
+            .map_or_else(|| std::path::PathBuf::from("."), std::path::Path::to_path_buf);
+        dir.join(format!("{stem}-{suffix}.png"))
+    }
+
+    pub(super) fn inspector(&mut self, ui: &mut egui::Ui) {
+        ui.heading("File");
+        ui.horizontal(|ui| {
+            ui.label("Path");
+            ui.add(
+                egui::TextEdit::singleline(&mut self.path_field)
+                    .hint_text("scene.ron")
+                    .desired_width(f32::INFINITY),
+            );
+        });
+        ui.horizontal(|ui| {
+            if ui.button("Open").clicked() {
+                let path = std::path::PathBuf::from(self.path_field.trim());
+                self.open_path(&path);
+            }
+            if ui.button("Save As").clicked() {
+                let path = std::path::PathBuf::from(self.path_field.trim());
+                self.save(Some(path));
+            }
+            let dirty = if self.doc.is_dirty() { "modified" } else { "saved" };
+            ui.weak(dirty);
+        });
+        ui.separator();
+        self.methods_panel(ui);
+        ui.separator();
+        self.selection_panel(ui);
+        ui.separator();
+        self.group_panel(ui);
+        ui.separator();
+        self.scene_panel(ui);
+    }
+
+    fn methods_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Methods");
+        let program = skeletrace_core::FieldProgram::new(self.doc.scene());
+        let names: Vec<(&'static str, bool, bool)> = methods::all()
+            .iter()
+            .map(|m| {
+                let applies = m.supports(&program).is_ok();
+                let gpu = GpuMethod::by_name(m.name()).is_some_and(|g| g.supports(&program).is_ok());
+                (m.name(), applies, gpu)
+            })
+            .collect();
+        let tag = |gpu: bool| if gpu { "GPU+CPU" } else { "CPU only" };
+        egui::ComboBox::from_label("shaded view")
+            .selected_text(self.ui_state.shaded_method.clone())
+            .show_ui(ui, |ui| {
+                for &(name, applies, gpu) in &names {
+                    if applies {
+                        ui.selectable_value(
+                            &mut self.ui_state.shaded_method,
+                            name.to_owned(),
+                            format!("{name}  ({})", tag(gpu)),
+                        );
+                    }
+                }
+            });
+        ui.label("comparison grid:");
+        egui::Grid::new("compare-methods").num_columns(2).show(ui, |ui| {
+            for (k, &(name, applies, gpu)) in names.iter().enumerate() {
+                let mut on = self.ui_state.compare_methods.iter().any(|m| m == name);
+                let label = format!("{name} ({})", tag(gpu));
+                if ui
+                    .add_enabled(applies, egui::Checkbox::new(&mut on, label))
+                    .changed()
+                {
+                    if on {
+                        self.ui_state.compare_methods.push(name.to_owned());
+                    } else {
+                        self.ui_state.compare_methods.retain(|m| m != name);
+                    }
+                }
+                if k % 2 == 1 {
+                    ui.end_row();
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("backend");
+            ui.selectable_value(&mut self.ui_state.backend, Backend::Auto, "auto");
+            ui.selectable_value(&mut self.ui_state.backend, Backend::Gpu, "GPU");
+            ui.selectable_value(&mut self.ui_state.backend, Backend::Cpu, "CPU");
+        });
+        ui.checkbox(&mut self.ui_state.shadows, "shadows (CPU tracer)");
+    }
+
+    fn selection_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Selection");
+        let scene = self.doc.scene().clone();
+        match self.selection.len() {
+            0 => {
+                ui.weak("click a handle; Shift+drag for a box");
+            }
+            1 => {
+                let Some(&item) = self.selection.iter().next() else {
+                    return;
+                };
+                let Some((mut position, mut radius)) = item.ball(&scene) else {
+                    return;
+                };
+                let what = match item {
+                    Item::Vertex {
+                        skeleton, vertex, ..
+                    } => format!(
+                        "vertex {vertex} of skeleton '{}'",
+                        scene.groups[item.group()].skeletons[skeleton].name
+                    ),
+                    Item::Blob { blob, .. } => format!("blob {blob}"),
+                };
+                ui.label(format!("{what}, group '{}'", scene.groups[item.group()].name));
+                let mut changed = false;
+                ui.horizontal(|ui| {
+                    for (axis, v) in ["x", "y", "z"].iter().zip(position.iter_mut()) {
+                        ui.label(*axis);
+                        changed |= ui.add(egui::DragValue::new(v).speed(0.01)).changed();
+                    }
+                });
+                ui.horizontal(|ui| {
+                    ui.label("radius");
+                    changed |= ui
+                        .add(egui::DragValue::new(&mut radius).speed(0.005).range(1e-3..=1e3))
+                        .changed();
+                });
+                if changed {
+                    let chosen = self.selection.clone();
+                    self.apply(Edit::gesture("edit vertex", "inspector-item"), |s| {
+                        let Some((old, old_r)) = item.ball(s) else {
+                            return;
+                        };
+                        let delta = [
+                            position[0] - old[0],
+                            position[1] - old[1],
+                            position[2] - old[2],
+                        ];
+                        selection::translate(s, &chosen, delta);
+                        selection::scale_radius(s, &chosen, radius / old_r);
+                    });
+                }
+            }
+            n => {
+                ui.label(format!("{n} items"));
+            }
+        }
+        if !self.selection.is_empty() && scene.groups.len() > 1 {
+            let mut target = self.selection.iter().next().map_or(0, |i| i.group());
+            let before = target;
+            egui::ComboBox::from_label("group of selection")
+                .selected_text(scene.groups[target].name.clone())
+                .show_ui(ui, |ui| {
+                    for (k, g) in scene.groups.iter().enumerate() {
+                        ui.selectable_value(&mut target, k, g.name.clone());
+                    }
+                });
+            if target != before {
+                let chosen = self.selection.clone();
+                let mut moved = selection::Selection::new();
+                if self.apply(Edit::new("assign group"), |s| {
+                    moved = selection::assign_group(s, &chosen, target);
+                }) {
+                    self.selection = moved;
+                    self.active_group = target;
+                }
+            }
+        }
+    }
+
+    fn group_panel(&mut self, ui: &mut egui::Ui) {
+        let scene = self.doc.scene().clone();
+        if scene.groups.is_empty() {
+            return;
+        }
+        let g = self.active_group.min(scene.groups.len() - 1);
+        ui.heading("Group");
+        egui::ComboBox::from_label("edited group")
+            .selected_text(scene.groups[g].name.clone())
+            .show_ui(ui, |ui| {
+                for (k, group) in scene.groups.iter().enumerate() {
+                    ui.selectable_value(&mut self.active_group, k, group.name.clone());
+                }
+            });
+        let group = &scene.groups[g];
+        // Field type and correctors of the group's skeletons.
+        if !group.skeletons.is_empty() {
+            let mut field = group.skeletons[0].field;
+            let mut correctors = group.skeletons[0].end_correctors;
+            ui.horizontal(|ui| {
+                ui.label("field");
+                ui.selectable_value(&mut field, SkeletonField::Distance, "distance");
+                ui.selectable_value(&mut field, SkeletonField::Scalis, "SCALIS");
+            });
+            ui.checkbox(&mut correctors, "end-point correctors");
+            if field != group.skeletons[0].field || correctors != group.skeletons[0].end_correctors
+            {
+                self.apply(Edit::new("field type"), |s| {
+                    for sk in &mut s.groups[g].skeletons {
+                        sk.field = field;
+                        sk.end_correctors = correctors;
+                    }
+                });
+            }
+        }
+        // Kernel.
+        let mut kernel = group.kernel;
+        let family = match kernel {
+            Kernel::CompactPolynomial { .. } => 0,
+            Kernel::Cauchy { .. } => 1,
+            Kernel::Gaussian { .. } => 2,
+        };
+        let mut chosen = family;
+        ui.horizontal(|ui| {
+            ui.label("kernel");
+            ui.selectable_value(&mut chosen, 0, "compact");
+            ui.selectable_value(&mut chosen, 1, "Cauchy");
+            ui.selectable_value(&mut chosen, 2, "Gaussian");
+        });
+        let scale_of = |k: Kernel| match k {
+            Kernel::CompactPolynomial { scale, .. }
+            | Kernel::Cauchy { scale, .. }
+            | Kernel::Gaussian { scale } => scale,
+        };
+        if chosen != family {
+            let scale = scale_of(kernel);
+            kernel = match chosen {
+                0 => Kernel::CompactPolynomial {
+                    degree: 6,
+                    scale: scale.max(1.1),
+                },
+                1 => Kernel::Cauchy { degree: 4, scale },
+                _ => Kernel::Gaussian { scale },
+            };
+        }
+        match &mut kernel {
+            Kernel::CompactPolynomial { degree, scale } => {
+                ui.add(egui::Slider::new(degree, 2..=12).step_by(2.0).text("degree"));
+                ui.add(egui::Slider::new(scale, 1.05..=6.0).text("scale σ"));
+            }
+            Kernel::Cauchy { degree, scale } => {
+                ui.add(egui::Slider::new(degree, 1..=12).text("degree"));
+                ui.add(egui::Slider::new(scale, 0.05..=6.0).text("scale σ"));
+            }
+            Kernel::Gaussian { scale } => {
+                ui.add(egui::Slider::new(scale, 0.05..=6.0).text("scale σ"));
+            }
+        }
+        if kernel != group.kernel {
+            self.apply(Edit::gesture("kernel", format!("kernel-{g}")), |s| {
+                s.groups[g].kernel = kernel;
+            });
+        }
+        // Material.
+        let mut material = group.material;
+        let shown_rgb = material.color.map(|c| c as f32);
+        let mut rgb = shown_rgb;
+        ui.horizontal(|ui| {
+            ui.label("colour");
+            ui.color_edit_button_rgb(&mut rgb);
+        });
+        // Only a real change goes back: f64 → f32 → f64 would edit the scene every frame.
+        if rgb != shown_rgb {
+            material.color = rgb.map(f64::from);
+        }
+        ui.add(egui::Slider::new(&mut material.opacity, 0.05..=1.0).text("opacity"));
+        ui.add(egui::Slider::new(&mut material.ior, 1.0..=2.5).text("index of refraction"));
+        if material != group.material {
+            self.apply(Edit::gesture("material", format!("material-{g}")), |s| {
+                s.groups[g].material = material;
+            });
+        }
+    }
+
+    fn scene_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Scene");
+        let scene = self.doc.scene().clone();
+        let mut isovalue = scene.isovalue;
+        ui.add(egui::Slider::new(&mut isovalue, 0.05..=2.0).text("isovalue"));
+        if isovalue != scene.isovalue {
+            self.apply(Edit::gesture("isovalue", "isovalue"), |s| s.isovalue = isovalue);
+        }
+        // The blend operator over all groups (flat blend trees; nested ones are shown only).
+        let n = scene.groups.len() as u32;
+        let leaves = || (0..n).map(Blend::Group).collect::<Vec<_>>();
+        let (mut op, mut p) = match &scene.blend {
+            None | Some(Blend::Sum(_)) => (0, 2.0),
+            Some(Blend::Max(_)) => (1, 2.0),
+            Some(Blend::Min(_)) => (2, 2.0),
+            Some(Blend::Difference(..)) => (3, 2.0),
+            Some(Blend::Ricci { p, .. }) => (4, *p),
+            Some(Blend::Group(_)) => (0, 2.0),
+        };
+        let flat = match &scene.blend {
+            None | Some(Blend::Group(_)) => true,
+            Some(Blend::Sum(v) | Blend::Max(v) | Blend::Min(v) | Blend::Ricci { of: v, .. }) => {
+                v.iter().all(|b| matches!(b, Blend::Group(_)))
+            }
+            Some(Blend::Difference(a, b)) => {
+                matches!(**a, Blend::Group(_)) && matches!(**b, Blend::Group(_))
+            }
+        };
+        let before = (op, p);
+        ui.add_enabled_ui(flat && n > 0, |ui| {
+            ui.horizontal_wrapped(|ui| {
+                ui.label("blend");
+                ui.selectable_value(&mut op, 0, "sum");
+                ui.selectable_value(&mut op, 1, "max");
+                ui.selectable_value(&mut op, 2, "min");
+                ui.add_enabled(n >= 2, egui::Button::selectable(op == 3, "difference"))
+                    .clicked()
+                    .then(|| op = 3);
+                ui.selectable_value(&mut op, 4, "Ricci");
+            });
+            if op == 4 {
+                ui.add(egui::Slider::new(&mut p, 1.0..=32.0).text("Ricci p"));
+            }
+        });
+        if !flat {
+            ui.weak("nested blend tree: edit it in the file");
+        }
+        if (op, p) != before {
+            let blend = match op {
+                1 => Blend::Max(leaves()),
+                2 => Blend::Min(leaves()),
+                3 => Blend::Difference(Box::new(Blend::Group(0)), Box::new(Blend::Group(1))),
+                4 => Blend::Ricci { p, of: leaves() },
+                _ => Blend::Sum(leaves()),
+            };
+            self.apply(Edit::gesture("blend", "blend"), |s| s.blend = Some(blend));
+        }
+    }
+
+    pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal_wrapped(|ui| {
+            if let Some(shown) = &self.shown {
+                for f in &shown.frames {
+                    let backend = if f.on_gpu { "GPU" } else { "CPU" };
+                    ui.monospace(format!(
+                        "{} {:.0} ms ({backend}, {}x{})",
+                        f.method, f.ms, f.frame.width, f.frame.height
+                    ));
+                }
+                ui.separator();
+                ui.weak(&shown.adapter);
+                if !shown.refined {
+                    ui.weak("(preview)");
+                }
+                for s in &shown.skipped {
+                    ui.colored_label(egui::Color32::from_rgb(240, 180, 90), s);
+                }
+            }
+            if let Some(n) = &self.notice {
+                ui.separator();
+                let colour = if n.error {
+                    egui::Color32::from_rgb(255, 120, 110)
+                } else {
+                    egui::Color32::LIGHT_GREEN
+                };
+                ui.colored_label(colour, &n.text);
+            }
+        });
+    }
+
+    pub(super) fn dialogs(&mut self, ctx: &egui::Context) {
+        if self.help {
+            let mut open = true;
+            egui::Window::new("Shortcuts")
+                .open(&mut open)
+                .collapsible(false)
+                .show(ctx, |ui| {
+                    egui::Grid::new("shortcuts").striped(true).show(ui, |ui| {
+                        for (keys, what) in SHORTCUTS {
+                            ui.strong(keys);
+                            ui.label(what);
+                            ui.end_row();
+                        }
+                    });
+                });
+            self.help = open;
+        }
+        if let Some(scene) = self.recovery_offer.clone() {
+            egui::Modal::new(egui::Id::unique("recovery")).show(ctx, |ui| {
+                ui.heading("Restore unsaved work?");
+                ui.label("skeletrace did not close cleanly last time. A recovery copy of the scene was kept.");
+                ui.horizontal(|ui| {
+                    if ui.button("Restore").clicked() {
+                        self.doc.replace(scene, "restore recovery");
+                        self.recovery_offer = None;
+                        self.tell("restored the recovery copy (not yet saved)");
+                    }
+                    if ui.button("Discard").clicked() {
+                        if let Some(p) = &self.recovery_path {
+                            let _ = std::fs::remove_file(p);
+                        }
+                        self.recovery_offer = None;
+                    }
+                });
+            });
+        }
+        if self.close_prompt {
+            egui::Modal::new(egui::Id::unique("close")).show(ctx, |ui| {
+                ui.heading("Save changes before closing?");
+                ui.horizontal(|ui| {
+                    if ui.button("Save").clicked() && self.save(None) {
+                        self.close_prompt = false;
+                        self.allow_close = true;
+                        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                    }
+                    if ui.button("Discard").clicked() {
+                        self.close_prompt = false;
+                        self.allow_close = true;
+                        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                    }
+                    if ui.button("Cancel").clicked() {
+                        self.close_prompt = false;
+                    }
+                });
+            });
+        }
+    }
+}

@@ -1,0 +1,1037 @@
+//! The editor (DESIGN.md, "Editor"): a skeleton overlay on the ray-traced surface, the
+//! inspector, the method comparison grid, files, undo/redo, autosave and recovery.
+//!
+//! Layout: menu bar (top), inspector (left: file, selection, group kernel and material, scene
+//! blend), viewport or comparison grid (centre), status bar (bottom: frame time per method,
+//! adapter, where each method ran). [`Editor::ui`] draws one frame; eframe calls it through
+//! [`EditorApp`] and the kittest tests call it directly.
+
+mod document;
+mod inspector;
+mod selection;
+mod view;
+mod viewport;
+mod worker;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use eframe::egui;
+use serde::{Deserialize, Serialize};
+use skeletrace_core::Scene;
+use skeletrace_core::render::Frame;
+
+pub use document::{Document, Edit};
+pub use selection::{Item, Selection};
+pub use view::OrbitCamera;
+pub use worker::Backend;
+
+use crate::picture::{Canvas, Panels, compose, shared_scale};
+use worker::{Reply, RenderWorker, Request};
+
+/// What the centre of the window shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ViewMode {
+    /// The shaded surface of one method with the skeleton overlay.
+    Shaded,
+    /// The step-count heat maps of the chosen methods, one shared scale.
+    Compare,
+}
+
+/// UI state kept between runs (eframe persistence), apart from anything on the GPU.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UiState {
+    /// Method of the shaded view.
+    pub shaded_method: String,
+    /// Methods of the comparison grid.
+    pub compare_methods: Vec<String>,
+    /// Shaded view or comparison grid.
+    pub view: ViewMode,
+    /// Where frames are traced.
+    pub backend: Backend,
+    /// Shadow rays in the shaded view (CPU tracer).
+    pub shadows: bool,
+    /// Recently opened or saved files, newest first.
+    pub recent: Vec<PathBuf>,
+    /// Screenshot size in pixels.
+    pub screenshot_size: (usize, usize),
+}
+
+impl Default for UiState {
+    fn default() -> Self {
+        Self {
+            shaded_method: "quadratic-taylor".to_owned(),
+            compare_methods: ["sphere", "segment", "quadratic-taylor", "bottom-up-quadratic"]
+                .map(str::to_owned)
+                .to_vec(),
+            view: ViewMode::Shaded,
+            backend: Backend::Auto,
+            shadows: false,
+            recent: Vec::new(),
+            screenshot_size: (1280, 960),
+        }
+    }
+}
+
+/// Key of the persisted [`UiState`].
+pub const UI_STATE_KEY: &str = "skeletrace-ui";
+/// Seconds between autosaves of a dirty scene to the recovery file.
+const AUTOSAVE_SECONDS: u64 = 20;
+/// Preview resolution divisor while the user drags or orbits.
+const PREVIEW_DIVISOR: usize = 4;
+/// Idle time after which the full-resolution frame is requested.
+const REFINE_AFTER: Duration = Duration::from_millis(250);
+
+/// A traced frame ready to draw.
+struct ShownFrame {
+    method: String,
+    frame: Frame,
+    texture: egui::TextureHandle,
+    on_gpu: bool,
+    ms: f64,
+}
+
+/// The latest reply from the renderer thread.
+struct Shown {
+    id: u64,
+    frames: Vec<ShownFrame>,
+    skipped: Vec<String>,
+    adapter: String,
+    steps_max: u32,
+    /// The reply was traced at full resolution.
+    refined: bool,
+}
+
+/// What was last asked of the renderer; a change triggers a new request.
+#[derive(Clone, PartialEq)]
+struct RenderKey {
+    revision: u64,
+    camera: [u64; 7],
+    size: (usize, usize),
+    methods: Vec<String>,
+    backend: Backend,
+    shadows: bool,
+}
+
+/// A message in the status bar.
+struct Notice {
+    text: String,
+    error: bool,
+}
+
+/// The editor's state.
+pub struct Editor {
+    doc: Document,
+    selection: Selection,
+    orbit: OrbitCamera,
+    ui_state: UiState,
+    worker: RenderWorker,
+    next_request: u64,
+    requested: Option<(RenderKey, bool)>,
+    /// Id of the request that refines the current view, once sent.
+    shown: Option<Shown>,
+    gesture: viewport::Gesture,
+    sketch: bool,
+    notice: Option<Notice>,
+    help: bool,
+    close_prompt: bool,
+    allow_close: bool,
+    recovery_offer: Option<Scene>,
+    recovery_path: Option<PathBuf>,
+    path_field: String,
+    last_interaction: Instant,
+    last_autosave: Instant,
+    active_group: usize,
+    hovered_pixel: Option<(usize, usize)>,
+    /// Where the shaded viewport was last drawn.
+    viewport_rect: Option<egui::Rect>,
+}
+
+impl Editor {
+    /// An editor on `doc`. `recovery_path` is where autosaves go (none in tests); a recovery
+    /// file found there is offered for restore.
+    #[must_use]
+    pub fn new(
+        doc: Document,
+        ui_state: UiState,
+        recovery_path: Option<PathBuf>,
+        wake: impl Fn() + Send + 'static,
+    ) -> Self {
+        let recovery_offer = recovery_path
+            .as_deref()
+            .filter(|p| p.exists())
+            .and_then(|p| Scene::load(p).ok());
+        let orbit = OrbitCamera::from_camera(&doc.scene().camera);
+        let path_field = doc
+            .path()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default();
+        Self {
+            doc,
+            selection: Selection::new(),
+            orbit,
+            ui_state,
+            worker: RenderWorker::start(wake),
+            next_request: 1,
+            requested: None,
+            shown: None,
+            gesture: viewport::Gesture::None,
+            sketch: false,
+            notice: None,
+            help: false,
+            close_prompt: false,
+            allow_close: false,
+            recovery_offer,
+            recovery_path,
+            path_field,
+            last_interaction: Instant::now(),
+            last_autosave: Instant::now(),
+            active_group: 0,
+            hovered_pixel: None,
+            viewport_rect: None,
+        }
+    }
+
+    /// The document (tests inspect the scene through it).
+    #[must_use]
+    pub fn document(&self) -> &Document {
+        &self.doc
+    }
+
+    /// The selection.
+    #[must_use]
+    pub fn selection(&self) -> &Selection {
+        &self.selection
+    }
+
+    /// The persisted UI state.
+    #[must_use]
+    pub fn ui_state(&self) -> &UiState {
+        &self.ui_state
+    }
+
+    /// The viewport camera.
+    #[must_use]
+    pub fn orbit(&self) -> &OrbitCamera {
+        &self.orbit
+    }
+
+    /// Frames currently shown, with their method names.
+    #[must_use]
+    pub fn shown_frames(&self) -> Vec<(&str, &Frame)> {
+        self.shown
+            .as_ref()
+            .map(|s| {
+                s.frames
+                    .iter()
+                    .map(|f| (f.method.as_str(), &f.frame))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Blocks until the renderer has answered every request sent so far and shows the answer
+    /// (tests: the frame then reflects the current scene).
+    pub fn wait_for_frames(&mut self, ctx: &egui::Context) {
+        let Some(last) = self.next_request.checked_sub(1).filter(|&id| id > 0) else {
+            return;
+        };
+        if self.shown.as_ref().is_some_and(|s| s.id >= last) {
+            return;
+        }
+        if let Some(reply) = self.worker.wait_for(last) {
+            self.show_reply(ctx, reply);
+        }
+    }
+
+    /// Where `item`'s handle is drawn in the shaded viewport (window points), if visible.
+    #[must_use]
+    pub fn screen_position(&self, item: Item) -> Option<egui::Pos2> {
+        let rect = self.viewport_rect?;
+        let (centre, _) = item.ball(self.doc.scene())?;
+        let projection = view::Projection::new(
+            &self.orbit.camera(),
+            f64::from(rect.width()),
+            f64::from(rect.height()),
+        );
+        let (x, y, _) = projection.project(centre)?;
+        Some(egui::pos2(rect.left() + x as f32, rect.top() + y as f32))
+    }
+
+    /// The message in the status bar, if any.
+    #[must_use]
+    pub fn notice(&self) -> Option<&str> {
+        self.notice.as_ref().map(|n| n.text.as_str())
+    }
+
+    fn tell(&mut self, text: impl Into<String>) {
+        self.notice = Some(Notice {
+            text: text.into(),
+            error: false,
+        });
+    }
+
+    fn complain(&mut self, text: impl Into<String>) {
+        self.notice = Some(Notice {
+            text: text.into(),
+            error: true,
+        });
+    }
+
+    /// Applies an edit, reporting a refused one in the status bar.
+    fn apply(&mut self, edit: Edit, change: impl FnOnce(&mut Scene)) -> bool {
+        match self.doc.apply(edit, change) {
+            Ok(()) => true,
+            Err(why) => {
+                self.complain(why);
+                false
+            }
+        }
+    }
+
+    /// Draws one frame of the whole window.
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        if let Some(reply) = self.worker.latest() {
+            self.show_reply(&ctx, reply);
+        }
+        self.handle_dropped_files(&ctx);
+        self.handle_shortcuts(&ctx);
+        self.handle_close(&ctx);
+        egui::Panel::top("menu").show(ui, |ui| self.menu_bar(ui));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::left("inspector")
+            .default_size(290.0)
+            .resizable(true)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.inspector(ui));
+            });
+        egui::CentralPanel::default().show(ui, |ui| match self.ui_state.view {
+            ViewMode::Shaded => self.viewport(ui),
+            ViewMode::Compare => self.comparison(ui),
+        });
+        self.dialogs(&ctx);
+        self.autosave();
+        if ui.input(|i| i.pointer.any_released()) {
+            self.doc.end_gesture();
+        }
+    }
+
+    fn show_reply(&mut self, ctx: &egui::Context, reply: Reply) {
+        let refined = self
+            .requested
+            .as_ref()
+            .is_some_and(|(k, full)| *full && k.size == reply.size);
+        let named: Vec<(&str, Frame)> = reply
+            .frames
+            .iter()
+            .map(|t| (t.method.as_str(), t.frame.clone()))
+            .collect();
+        let steps_max = shared_scale(&named).max(1);
+        let frames = reply
+            .frames
+            .into_iter()
+            .map(|t| {
+                let image = frame_image(&t.frame, self.ui_state.view, steps_max);
+                let texture = ctx.load_texture(
+                    format!("frame-{}", t.method),
+                    image,
+                    egui::TextureOptions::LINEAR,
+                );
+                ShownFrame {
+                    method: t.method,
+                    frame: t.frame,
+                    texture,
+                    on_gpu: t.on_gpu,
+                    ms: t.ms,
+                }
+            })
+            .collect();
+        self.shown = Some(Shown {
+            id: reply.id,
+            frames,
+            skipped: reply.skipped,
+            adapter: reply.adapter,
+            steps_max,
+            refined,
+        });
+    }
+
+    /// Sends a render request when the scene, camera, size or methods changed; at preview
+    /// resolution while the user interacts, at full resolution once idle.
+    fn request_frames(&mut self, ctx: &egui::Context, pixels: (usize, usize)) {
+        let methods = match self.ui_state.view {
+            ViewMode::Shaded => vec![self.ui_state.shaded_method.clone()],
+            ViewMode::Compare => self.ui_state.compare_methods.clone(),
+        };
+        let interacting = self.gesture.is_active() || self.last_interaction.elapsed() < REFINE_AFTER;
+        let divisor = if interacting { PREVIEW_DIVISOR } else { 1 };
+        let size = (
+            (pixels.0 / divisor).max(8),
+            (pixels.1 / divisor).max(8),
+        );
+        let camera = self.orbit.camera();
+        let bits = |v: f64| v.to_bits();
+        let key = RenderKey {
+            revision: self.doc.revision(),
+            camera: [
+                bits(camera.position[0]),
+                bits(camera.position[1]),
+                bits(camera.position[2]),
+                bits(camera.target[0]),
+                bits(camera.target[1]),
+                bits(camera.target[2]),
+                bits(camera.fov_degrees),
+            ],
+            size,
+            methods: methods.clone(),
+            backend: self.ui_state.backend,
+            shadows: self.ui_state.shadows && self.ui_state.view == ViewMode::Shaded,
+        };
+        if self.requested.as_ref().is_some_and(|(k, _)| *k == key) {
+            if interacting {
+                ctx.request_repaint_after(REFINE_AFTER);
+            }
+            return;
+        }
+        let id = self.next_request;
+        self.next_request += 1;
+        let mut scene = self.doc.scene().clone();
+        scene.camera = camera;
+        self.worker.request(Request {
+            id,
+            scene: Arc::new(scene),
+            camera,
+            size,
+            methods,
+            backend: key.backend,
+            shadows: key.shadows,
+        });
+        self.requested = Some((key, !interacting));
+        if interacting {
+            ctx.request_repaint_after(REFINE_AFTER);
+        }
+    }
+
+    fn touch(&mut self) {
+        self.last_interaction = Instant::now();
+    }
+
+    // ---- files ----
+
+    fn open_path(&mut self, path: &Path) {
+        match Document::open(path) {
+            Ok(doc) => {
+                self.orbit = OrbitCamera::from_camera(&doc.scene().camera);
+                self.doc = doc;
+                self.selection.clear();
+                self.active_group = 0;
+                self.path_field = path.display().to_string();
+                self.remember(path);
+                self.tell(format!("opened {}", path.display()));
+            }
+            Err(why) => self.complain(why),
+        }
+    }
+
+    fn new_scene(&mut self) {
+        let scene = default_scene();
+        self.orbit = OrbitCamera::from_camera(&scene.camera);
+        self.doc = Document::new(scene, None);
+        self.selection.clear();
+        self.path_field.clear();
+        self.tell("new scene (the embedded creature)");
+    }
+
+    /// Saves to `path` (the path field when `None` is given and the document has no file).
+    fn save(&mut self, path: Option<PathBuf>) -> bool {
+        let target = path
+            .or_else(|| self.doc.path().map(Path::to_path_buf))
+            .or_else(|| {
+                let typed = self.path_field.trim();
+                (!typed.is_empty()).then(|| PathBuf::from(typed))
+            });
+        let Some(target) = target else {
+            self.complain("type a file name in the path field, then Save As");
+            return false;
+        };
+        match self.doc.save_as(&target) {
+            Ok(()) => {
+                self.path_field = target.display().to_string();
+                self.remember(&target);
+                if let Some(p) = &self.recovery_path {
+                    let _ = std::fs::remove_file(p);
+                }
+                self.tell(format!("saved {}", target.display()));
+                true
+            }
+            Err(why) => {
+                self.complain(why);
+                false
+            }
+        }
+    }
+
+    fn remember(&mut self, path: &Path) {
+        let path = path.to_path_buf();
+        self.ui_state.recent.retain(|p| *p != path);
+        self.ui_state.recent.insert(0, path);
+        self.ui_state.recent.truncate(8);
+    }
+
+    fn handle_dropped_files(&mut self, ctx: &egui::Context) {
+        let dropped: Vec<PathBuf> =
+            ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).collect());
+        if let Some(path) = dropped
+            .iter()
+            .find(|p| p.extension().is_some_and(|e| e == "ron"))
+        {
+            self.open_path(path);
+        } else if !dropped.is_empty() {
+            self.complain("only .ron scene files can be dropped here");
+        }
+    }
+
+    fn autosave(&mut self) {
+        if self.last_autosave.elapsed() < Duration::from_secs(AUTOSAVE_SECONDS) {
+            return;
+        }
+        self.last_autosave = Instant::now();
+        let Some(path) = self.recovery_path.clone() else {
+            return;
+        };
+        if !self.doc.is_dirty() || self.recovery_offer.is_some() {
+            return;
+        }
+        if let Some(dir) = path.parent() {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        let origin = self
+            .doc
+            .path()
+            .map_or_else(|| "an unsaved scene".to_owned(), |p| p.display().to_string());
+        if let Err(why) = self
+            .doc
+            .scene()
+            .save_with_comment(&path, &format!("skeletrace recovery of {origin}"))
+        {
+            self.complain(format!("autosave failed: {why}"));
+        }
+    }
+
+    /// A clean exit: the recovery file is no longer needed.
+    pub fn on_exit(&mut self) {
+        if let Some(p) = &self.recovery_path {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+
+    fn handle_close(&mut self, ctx: &egui::Context) {
+        if ctx.input(|i| i.viewport().close_requested()) && !self.allow_close && self.doc.is_dirty()
+        {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.close_prompt = true;
+        }
+    }
+
+    // ---- keyboard ----
+
+    fn handle_shortcuts(&mut self, ctx: &egui::Context) {
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        let shortcut = |m: Modifiers, k: Key| {
+            ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
+        };
+        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z)
+            || shortcut(Modifiers::COMMAND, Key::Y)
+        {
+            self.redo();
+        }
+        if shortcut(Modifiers::COMMAND, Key::Z) {
+            self.undo();
+        }
+        if shortcut(Modifiers::COMMAND, Key::S) {
+            self.save(None);
+        }
+        if shortcut(Modifiers::COMMAND, Key::D) {
+            self.duplicate();
+        }
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        let pressed = |k: Key| ctx.input(|i| i.key_pressed(k) && i.modifiers.is_none());
+        if pressed(Key::Delete) || pressed(Key::Backspace) {
+            self.delete();
+        }
+        if pressed(Key::F1) || ctx.input(|i| i.events.contains(&egui::Event::Text("?".into())))
+        {
+            self.help = !self.help;
+        }
+        if pressed(Key::F) {
+            self.frame_selection();
+        }
+        if pressed(Key::Home) || pressed(Key::A) {
+            self.frame_all();
+        }
+        if pressed(Key::S) {
+            self.sketch = !self.sketch;
+        }
+        if pressed(Key::C) {
+            self.connect();
+        }
+        if pressed(Key::X) {
+            self.disconnect();
+        }
+        if pressed(Key::B) {
+            self.add_blob();
+        }
+        if pressed(Key::Tab) {
+            self.ui_state.view = match self.ui_state.view {
+                ViewMode::Shaded => ViewMode::Compare,
+                ViewMode::Compare => ViewMode::Shaded,
+            };
+        }
+        if pressed(Key::Escape) {
+            self.selection.clear();
+            self.sketch = false;
+        }
+        let step = 0.08;
+        let mut turned = false;
+        for (key, dx, dy) in [
+            (Key::ArrowLeft, -1.0, 0.0),
+            (Key::ArrowRight, 1.0, 0.0),
+            (Key::ArrowUp, 0.0, -1.0),
+            (Key::ArrowDown, 0.0, 1.0),
+        ] {
+            if pressed(key) {
+                self.orbit.orbit(dx * step * 100.0, dy * step * 100.0);
+                turned = true;
+            }
+        }
+        if pressed(Key::Plus) || pressed(Key::Equals) {
+            self.orbit.zoom(0.85);
+            turned = true;
+        }
+        if pressed(Key::Minus) {
+            self.orbit.zoom(1.0 / 0.85);
+            turned = true;
+        }
+        if turned {
+            self.touch();
+        }
+    }
+
+    fn undo(&mut self) {
+        let label = self.doc.undo_label().map(str::to_owned);
+        if self.doc.undo() {
+            self.prune_selection();
+            self.tell(format!("undid {}", label.unwrap_or_default()));
+        }
+    }
+
+    fn redo(&mut self) {
+        let label = self.doc.redo_label().map(str::to_owned);
+        if self.doc.redo() {
+            self.prune_selection();
+            self.tell(format!("redid {}", label.unwrap_or_default()));
+        }
+    }
+
+    fn prune_selection(&mut self) {
+        let scene = self.doc.scene().clone();
+        self.selection.retain(|i| i.ball(&scene).is_some());
+        self.active_group = self.active_group.min(scene.groups.len().saturating_sub(1));
+    }
+
+    // ---- selection commands ----
+
+    fn delete(&mut self) {
+        if self.selection.is_empty() {
+            return;
+        }
+        let chosen = self.selection.clone();
+        let label = format!("delete {} items", chosen.len());
+        if self.apply(Edit::new(label), |s| selection::delete(s, &chosen)) {
+            self.selection.clear();
+        }
+    }
+
+    fn duplicate(&mut self) {
+        if self.selection.is_empty() {
+            return;
+        }
+        let chosen = self.selection.clone();
+        let offset = 0.15 * self.typical_radius();
+        let mut copies = Selection::new();
+        let label = format!("duplicate {} items", chosen.len());
+        if self.apply(Edit::new(label), |s| {
+            copies = selection::duplicate(s, &chosen, [offset, offset, 0.0]);
+        }) {
+            self.selection = copies;
+        }
+    }
+
+    fn connect(&mut self) {
+        let chosen = self.selection.clone();
+        let mut outcome = Ok(());
+        let applied = self.apply(Edit::new("connect"), |s| {
+            outcome = selection::connect(s, &chosen);
+        });
+        match outcome {
+            Err(why) => self.complain(why),
+            Ok(()) if applied => self.tell("connected two vertices"),
+            Ok(()) => {}
+        }
+    }
+
+    fn disconnect(&mut self) {
+        let chosen = self.selection.clone();
+        self.apply(Edit::new("disconnect"), |s| {
+            selection::disconnect(s, &chosen);
+        });
+    }
+
+    fn add_blob(&mut self) {
+        let group = self.active_group;
+        let centre = selection::centroid(self.doc.scene(), &self.selection)
+            .unwrap_or(self.orbit.target);
+        let radius = self.typical_radius();
+        let mut added = None;
+        let applied = self.apply(Edit::new("add blob"), |s| {
+            if let Some(g) = s.groups.get_mut(group) {
+                g.blobs.push(skeletrace_core::scene::Blob {
+                    center: [centre[0] + radius, centre[1], centre[2]],
+                    radius,
+                });
+                added = Some(Item::Blob {
+                    group,
+                    blob: g.blobs.len() - 1,
+                });
+            }
+        });
+        if let (true, Some(item)) = (applied, added) {
+            self.selection = Selection::from([item]);
+        }
+    }
+
+    fn typical_radius(&self) -> f64 {
+        let balls: Vec<f64> = self
+            .selection
+            .iter()
+            .filter_map(|i| i.ball(self.doc.scene()))
+            .map(|(_, r)| r)
+            .collect();
+        if balls.is_empty() {
+            let all = view::scene_balls(self.doc.scene());
+            let n = all.len().max(1) as f64;
+            let mean = all.iter().map(|(_, r)| r).sum::<f64>() / n;
+            if mean > 0.0 { mean } else { 0.2 }
+        } else {
+            balls.iter().sum::<f64>() / balls.len() as f64
+        }
+    }
+
+    fn frame_all(&mut self) {
+        self.orbit.frame(view::scene_balls(self.doc.scene()));
+        self.touch();
+    }
+
+    fn frame_selection(&mut self) {
+        let balls: Vec<_> = self
+            .selection
+            .iter()
+            .filter_map(|i| i.ball(self.doc.scene()))
+            .collect();
+        if balls.is_empty() {
+            self.frame_all();
+        } else {
+            self.orbit.frame(balls);
+            self.touch();
+        }
+    }
+
+    // ---- comparison grid ----
+
+    fn comparison(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        let n = self.ui_state.compare_methods.len().max(1);
+        let columns = n.min(crate::picture::COLUMNS);
+        let rows = n.div_ceil(columns);
+        let bar = 44.0;
+        let label = 34.0;
+        let cell_w = rect.width() / columns as f32;
+        let cell_h = ((rect.height() - bar) / rows as f32 - label).max(16.0);
+        let ppp = ui.ctx().pixels_per_point();
+        // Heat maps trace every chosen method: half resolution keeps the grid responsive.
+        let pixels = (
+            ((cell_w * ppp) as usize / 2).max(8),
+            ((cell_h * ppp) as usize / 2).max(8),
+        );
+        self.request_frames(ui.ctx(), pixels);
+        let response = ui.allocate_rect(rect, egui::Sense::hover());
+        let painter = ui.painter_at(rect);
+        self.hovered_pixel = None;
+        let Some(shown) = &self.shown else {
+            painter.text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                "tracing…",
+                egui::FontId::proportional(16.0),
+                egui::Color32::GRAY,
+            );
+            return;
+        };
+        let mut hover_lines = Vec::new();
+        for (i, f) in shown.frames.iter().enumerate() {
+            let x = rect.left() + (i % columns) as f32 * cell_w;
+            let y = rect.top() + (i / columns) as f32 * (cell_h + label);
+            let s = f.frame.step_summary();
+            let backend = if f.on_gpu { "GPU" } else { "CPU" };
+            painter.text(
+                egui::pos2(x + 4.0, y + 2.0),
+                egui::Align2::LEFT_TOP,
+                format!("{} ({backend})", f.method),
+                egui::FontId::proportional(14.0),
+                egui::Color32::WHITE,
+            );
+            painter.text(
+                egui::pos2(x + 4.0, y + 18.0),
+                egui::Align2::LEFT_TOP,
+                format!("avg {:.2}  median {}  max {}", s.average, s.median, s.max),
+                egui::FontId::monospace(11.0),
+                egui::Color32::LIGHT_GRAY,
+            );
+            let image_rect = fit_rect(
+                egui::Rect::from_min_size(
+                    egui::pos2(x, y + label),
+                    egui::vec2(cell_w - 4.0, cell_h),
+                ),
+                f.frame.width as f32 / f.frame.height.max(1) as f32,
+            );
+            painter.image(
+                f.texture.id(),
+                image_rect,
+                egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0)),
+                egui::Color32::WHITE,
+            );
+            if let Some(p) = response.hover_pos().filter(|p| image_rect.contains(*p)) {
+                let u = ((p.x - image_rect.left()) / image_rect.width() * f.frame.width as f32)
+                    as usize;
+                let v = ((p.y - image_rect.top()) / image_rect.height() * f.frame.height as f32)
+                    as usize;
+                self.hovered_pixel = Some((u, v));
+            }
+        }
+        if let Some((u, v)) = self.hovered_pixel {
+            for f in &shown.frames {
+                let i = v.min(f.frame.height - 1) * f.frame.width + u.min(f.frame.width - 1);
+                hover_lines.push(format!("{}: {} steps", f.method, f.frame.steps[i]));
+            }
+        }
+        // Colour bar with the shared scale.
+        let bar_rect = egui::Rect::from_min_size(
+            egui::pos2(rect.left() + 8.0, rect.bottom() - bar + 6.0),
+            egui::vec2(rect.width() - 16.0, 14.0),
+        );
+        let segments = 64;
+        for k in 0..segments {
+            let t = k as f64 / f64::from(segments - 1);
+            let [r, g, b] = skeletrace_core::render::heat_colour(t);
+            let byte = |c: f32| (c * 255.0 + 0.5) as u8;
+            let w = bar_rect.width() / segments as f32;
+            painter.rect_filled(
+                egui::Rect::from_min_size(
+                    egui::pos2(bar_rect.left() + k as f32 * w, bar_rect.top()),
+                    egui::vec2(w + 0.5, bar_rect.height()),
+                ),
+                0.0,
+                egui::Color32::from_rgb(byte(r), byte(g), byte(b)),
+            );
+        }
+        let clipped = shown
+            .frames
+            .iter()
+            .any(|f| f.frame.step_summary().max > shown.steps_max);
+        painter.text(
+            egui::pos2(bar_rect.left(), bar_rect.bottom() + 2.0),
+            egui::Align2::LEFT_TOP,
+            "0 steps",
+            egui::FontId::proportional(12.0),
+            egui::Color32::LIGHT_GRAY,
+        );
+        painter.text(
+            egui::pos2(bar_rect.right(), bar_rect.bottom() + 2.0),
+            egui::Align2::RIGHT_TOP,
+            format!("{}{} steps", if clipped { ">=" } else { "" }, shown.steps_max),
+            egui::FontId::proportional(12.0),
+            egui::Color32::LIGHT_GRAY,
+        );
+        if !hover_lines.is_empty() {
+            response.on_hover_text(hover_lines.join("\n"));
+        }
+    }
+
+    // ---- screenshots ----
+
+    /// Renders the current view (the shaded method, or the comparison grid) offscreen at the
+    /// screenshot size and writes a PNG.
+    fn screenshot(&mut self, path: &Path) {
+        let (width, height) = self.ui_state.screenshot_size;
+        let (methods, view) = match self.ui_state.view {
+            ViewMode::Shaded => (vec![self.ui_state.shaded_method.clone()], ViewMode::Shaded),
+            ViewMode::Compare => (self.ui_state.compare_methods.clone(), ViewMode::Compare),
+        };
+        let per_panel = if view == ViewMode::Compare {
+            let n = methods.len().clamp(1, crate::picture::COLUMNS);
+            (width / n, height * methods.len().div_ceil(n).max(1) / methods.len().max(1))
+        } else {
+            (width, height)
+        };
+        let camera = self.orbit.camera();
+        let mut scene = self.doc.scene().clone();
+        scene.camera = camera;
+        let id = self.next_request;
+        self.next_request += 1;
+        let offscreen = RenderWorker::start(|| {});
+        offscreen.request(Request {
+            id,
+            scene: Arc::new(scene),
+            camera,
+            size: (per_panel.0.max(8), per_panel.1.max(8)),
+            methods,
+            backend: self.ui_state.backend,
+            shadows: self.ui_state.shadows,
+        });
+        let Some(reply) = offscreen.wait_for(id) else {
+            self.complain("the renderer stopped before the screenshot was traced");
+            return;
+        };
+        let named: Vec<(&str, Frame)> = reply
+            .frames
+            .iter()
+            .map(|t| (t.method.as_str(), t.frame.clone()))
+            .collect();
+        let panels = match view {
+            ViewMode::Shaded => Panels::Shaded { labelled: false },
+            ViewMode::Compare => {
+                let steps_max = shared_scale(&named).max(1);
+                let clipped = named.iter().any(|(_, f)| f.step_summary().max > steps_max);
+                Panels::Steps { steps_max, clipped }
+            }
+        };
+        let canvas: Canvas = compose(&named, panels);
+        match canvas.save_png(path) {
+            Ok(()) => self.tell(format!(
+                "screenshot {} ({}x{})",
+                path.display(),
+                canvas.width,
+                canvas.height
+            )),
+            Err(why) => self.complain(why),
+        }
+    }
+}
+
+/// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]`.
+fn frame_image(frame: &Frame, view: ViewMode, steps_max: u32) -> egui::ColorImage {
+    let mut canvas = Canvas::new(frame.width, frame.height, [0, 0, 0, 255]);
+    match view {
+        ViewMode::Shaded => canvas.draw_shaded(frame, 0, 0),
+        ViewMode::Compare => canvas.draw_steps(frame, steps_max, 0, 0),
+    }
+    egui::ColorImage::from_rgba_unmultiplied([frame.width, frame.height], canvas.bytes())
+}
+
+/// The largest rectangle of aspect `aspect` centred in `outer`.
+fn fit_rect(outer: egui::Rect, aspect: f32) -> egui::Rect {
+    let (w, h) = (outer.width(), outer.height());
+    let size = if w / h.max(1.0) > aspect {
+        egui::vec2(h * aspect, h)
+    } else {
+        egui::vec2(w, w / aspect.max(1e-3))
+    };
+    egui::Rect::from_center_size(outer.center(), size)
+}
+
+/// The embedded default scene.
+#[must_use]
+pub fn default_scene() -> Scene {
+    // The embedded file is checked by the asset tests; a failure here is a build defect.
+    Scene::from_ron(crate::DEFAULT_SCENE, crate::DEFAULT_SCENE_NAME)
+        .unwrap_or_else(|e| unreachable!("embedded scene: {e}"))
+}
+
+/// eframe's side of the editor: persistence and the window.
+pub struct EditorApp {
+    editor: Editor,
+}
+
+impl eframe::App for EditorApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.editor.ui(ui);
+    }
+
+    fn save(&mut self, storage: &mut dyn eframe::Storage) {
+        eframe::set_value(storage, UI_STATE_KEY, &self.editor.ui_state);
+    }
+
+    fn on_exit(&mut self) {
+        self.editor.on_exit();
+    }
+}
+
+/// Where the recovery file lives: `$XDG_STATE_HOME/skeletrace` or `~/.local/state/skeletrace`.
+fn recovery_file() -> Option<PathBuf> {
+    let base = std::env::var_os("XDG_STATE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state")))?;
+    Some(base.join("skeletrace").join("recovery.ron"))
+}
+
+/// Opens the editor window on `path`, or on the embedded scene.
+///
+/// # Errors
+/// A scene that does not load, or no window (no display).
+pub fn run(path: Option<&Path>) -> Result<(), String> {
+    let doc = match path {
+        Some(p) => Document::open(p)?,
+        None => Document::new(default_scene(), None),
+    };
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("skeletrace")
+            .with_inner_size([1280.0, 800.0])
+            .with_drag_and_drop(true),
+        ..Default::default()
+    };
+    eframe::run_native(
+        "skeletrace",
+        options,
+        Box::new(move |cc| {
+            let ui_state: UiState = cc
+                .storage
+                .and_then(|s| eframe::get_value(s, UI_STATE_KEY))
+                .unwrap_or_default();
+            let ctx = cc.egui_ctx.clone();
+            let mut editor = Editor::new(doc, ui_state, recovery_file(), move || {
+                ctx.request_repaint();
+            });
+            if let Some(p) = path_recent(&editor) {
+                editor.path_field = p;
+            }
+            Ok(Box::new(EditorApp { editor }))
+        }),
+    )
+    .map_err(|e| format!("cannot open the editor window: {e}"))
+}
+
+fn path_recent(editor: &Editor) -> Option<String> {
+    if editor.doc.path().is_some() {
+        return None;
+    }
+    editor
+        .ui_state
+        .recent
+        .first()
+        .map(|p| p.display().to_string())
+}

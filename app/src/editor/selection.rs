@@ -1,0 +1,433 @@
+//! What the user has selected, and the scene edits that act on a selection (move, radius,
+//! delete, duplicate, connect, disconnect, sketch a vertex, add a blob, change group). Each
+//! edit is a pure function of the scene so the document can validate and record it.
+
+use std::collections::BTreeSet;
+
+use skeletrace_core::Scene;
+use skeletrace_core::scene::{Blob, Skeleton, SkeletonField, Vertex};
+
+/// A pickable item of the skeleton overlay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Item {
+    /// A skeleton vertex.
+    Vertex {
+        /// Group index.
+        group: usize,
+        /// Skeleton index in the group.
+        skeleton: usize,
+        /// Vertex index in the skeleton.
+        vertex: usize,
+    },
+    /// A point blob.
+    Blob {
+        /// Group index.
+        group: usize,
+        /// Blob index in the group.
+        blob: usize,
+    },
+}
+
+impl Item {
+    /// Group the item belongs to.
+    #[must_use]
+    pub fn group(self) -> usize {
+        match self {
+            Self::Vertex { group, .. } | Self::Blob { group, .. } => group,
+        }
+    }
+
+    /// `(centre, radius)` in `scene`, `None` when the item no longer exists.
+    #[must_use]
+    pub fn ball(self, scene: &Scene) -> Option<([f64; 3], f64)> {
+        match self {
+            Self::Vertex {
+                group,
+                skeleton,
+                vertex,
+            } => {
+                let v = scene
+                    .groups
+                    .get(group)?
+                    .skeletons
+                    .get(skeleton)?
+                    .vertices
+                    .get(vertex)?;
+                Some((v.position, v.radius))
+            }
+            Self::Blob { group, blob } => {
+                let b = scene.groups.get(group)?.blobs.get(blob)?;
+                Some((b.center, b.radius))
+            }
+        }
+    }
+}
+
+/// Every item of the scene.
+#[must_use]
+pub fn all_items(scene: &Scene) -> Vec<Item> {
+    let mut items = Vec::new();
+    for (group, g) in scene.groups.iter().enumerate() {
+        for (skeleton, s) in g.skeletons.iter().enumerate() {
+            items.extend((0..s.vertices.len()).map(|vertex| Item::Vertex {
+                group,
+                skeleton,
+                vertex,
+            }));
+        }
+        items.extend((0..g.blobs.len()).map(|blob| Item::Blob { group, blob }));
+    }
+    items
+}
+
+/// The selection.
+pub type Selection = BTreeSet<Item>;
+
+/// Centroid of the selected items.
+#[must_use]
+pub fn centroid(scene: &Scene, selection: &Selection) -> Option<[f64; 3]> {
+    let balls: Vec<_> = selection.iter().filter_map(|i| i.ball(scene)).collect();
+    if balls.is_empty() {
+        return None;
+    }
+    let n = balls.len() as f64;
+    let mut c = [0.0; 3];
+    for (p, _) in &balls {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    Some(c)
+}
+
+/// Moves the selected items by `delta`.
+pub fn translate(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
+    for &item in selection {
+        let p = match item {
+            Item::Vertex {
+                group,
+                skeleton,
+                vertex,
+            } => &mut scene.groups[group].skeletons[skeleton].vertices[vertex].position,
+            Item::Blob { group, blob } => &mut scene.groups[group].blobs[blob].center,
+        };
+        for k in 0..3 {
+            p[k] += delta[k];
+        }
+    }
+}
+
+/// Multiplies the selected items' radii by `factor`.
+pub fn scale_radius(scene: &mut Scene, selection: &Selection, factor: f64) {
+    for &item in selection {
+        match item {
+            Item::Vertex {
+                group,
+                skeleton,
+                vertex,
+            } => scene.groups[group].skeletons[skeleton].vertices[vertex].radius *= factor,
+            Item::Blob { group, blob } => scene.groups[group].blobs[blob].radius *= factor,
+        }
+    }
+}
+
+/// Removes the selected items (and the segments that touch removed vertices).
+pub fn delete(scene: &mut Scene, selection: &Selection) {
+    for (group, g) in scene.groups.iter_mut().enumerate() {
+        let mut index = 0;
+        g.blobs.retain(|_| {
+            let keep = !selection.contains(&Item::Blob { group, blob: index });
+            index += 1;
+            keep
+        });
+        for (skeleton, s) in g.skeletons.iter_mut().enumerate() {
+            let removed: Vec<bool> = (0..s.vertices.len())
+                .map(|vertex| {
+                    selection.contains(&Item::Vertex {
+                        group,
+                        skeleton,
+                        vertex,
+                    })
+                })
+                .collect();
+            keep_vertices(s, &removed);
+        }
+        g.skeletons.retain(|s| !s.vertices.is_empty());
+    }
+}
+
+fn keep_vertices(s: &mut Skeleton, removed: &[bool]) {
+    let mut new_index = Vec::with_capacity(removed.len());
+    let mut next = 0u32;
+    for &r in removed {
+        new_index.push(if r { None } else { Some(next) });
+        next += u32::from(!r);
+    }
+    s.edges = s
+        .edges
+        .iter()
+        .filter_map(|&[a, b]| Some([new_index[a as usize]?, new_index[b as usize]?]))
+        .collect();
+    let mut i = 0;
+    s.vertices.retain(|_| {
+        let keep = !removed[i];
+        i += 1;
+        keep
+    });
+}
+
+/// Copies the selected items (with the segments between selected vertices) offset by
+/// `offset`; returns the copies, to be selected.
+pub fn duplicate(scene: &mut Scene, selection: &Selection, offset: [f64; 3]) -> Selection {
+    let shifted = |p: [f64; 3]| [p[0] + offset[0], p[1] + offset[1], p[2] + offset[2]];
+    let mut copies = Selection::new();
+    for (group, g) in scene.groups.iter_mut().enumerate() {
+        let blobs: Vec<Blob> = g
+            .blobs
+            .iter()
+            .enumerate()
+            .filter(|(blob, _)| selection.contains(&Item::Blob { group, blob: *blob }))
+            .map(|(_, b)| Blob {
+                center: shifted(b.center),
+                ..*b
+            })
+            .collect();
+        for b in blobs {
+            copies.insert(Item::Blob {
+                group,
+                blob: g.blobs.len(),
+            });
+            g.blobs.push(b);
+        }
+        for (skeleton, s) in g.skeletons.iter_mut().enumerate() {
+            let chosen: Vec<usize> = (0..s.vertices.len())
+                .filter(|&vertex| {
+                    selection.contains(&Item::Vertex {
+                        group,
+                        skeleton,
+                        vertex,
+                    })
+                })
+                .collect();
+            let first = s.vertices.len();
+            for (k, &v) in chosen.iter().enumerate() {
+                let copy = Vertex {
+                    position: shifted(s.vertices[v].position),
+                    ..s.vertices[v]
+                };
+                s.vertices.push(copy);
+                copies.insert(Item::Vertex {
+                    group,
+                    skeleton,
+                    vertex: first + k,
+                });
+            }
+            let copy_of = |v: u32| {
+                chosen
+                    .iter()
+                    .position(|&c| c == v as usize)
+                    .map(|k| (first + k) as u32)
+            };
+            let new_edges: Vec<[u32; 2]> = s
+                .edges
+                .iter()
+                .filter_map(|&[a, b]| Some([copy_of(a)?, copy_of(b)?]))
+                .collect();
+            s.edges.extend(new_edges);
+        }
+    }
+    copies
+}
+
+/// Joins two selected vertices of one skeleton by a segment; `Err` says why not.
+///
+/// # Errors
+/// Not exactly two vertices of the same skeleton, or already joined.
+pub fn connect(scene: &mut Scene, selection: &Selection) -> Result<(), String> {
+    let vertices: Vec<(usize, usize, usize)> = selection
+        .iter()
+        .filter_map(|i| match *i {
+            Item::Vertex {
+                group,
+                skeleton,
+                vertex,
+            } => Some((group, skeleton, vertex)),
+            Item::Blob { .. } => None,
+        })
+        .collect();
+    let [(g, s, a), (g2, s2, b)] = vertices[..] else {
+        return Err("select exactly two vertices to connect".to_owned());
+    };
+    if (g, s) != (g2, s2) {
+        return Err("the two vertices belong to different skeletons".to_owned());
+    }
+    let edges = &mut scene.groups[g].skeletons[s].edges;
+    let (a, b) = (a as u32, b as u32);
+    if edges.iter().any(|&e| e == [a, b] || e == [b, a]) {
+        return Err("these vertices are already connected".to_owned());
+    }
+    edges.push([a, b]);
+    Ok(())
+}
+
+/// Removes the segments whose two ends are selected.
+pub fn disconnect(scene: &mut Scene, selection: &Selection) {
+    for (group, g) in scene.groups.iter_mut().enumerate() {
+        for (skeleton, s) in g.skeletons.iter_mut().enumerate() {
+            let selected = |v: u32| {
+                selection.contains(&Item::Vertex {
+                    group,
+                    skeleton,
+                    vertex: v as usize,
+                })
+            };
+            s.edges.retain(|&[a, b]| !(selected(a) && selected(b)));
+        }
+    }
+}
+
+/// Sketch mode: adds a vertex at `position`, joined to the one selected vertex if there is
+/// one (same radius), or starting a new skeleton in `group`. Returns the new vertex.
+pub fn sketch_vertex(
+    scene: &mut Scene,
+    selection: &Selection,
+    group: usize,
+    position: [f64; 3],
+    radius: f64,
+) -> Item {
+    let from = match selection.iter().collect::<Vec<_>>()[..] {
+        [
+            &Item::Vertex {
+                group,
+                skeleton,
+                vertex,
+            },
+        ] => Some((group, skeleton, vertex)),
+        _ => None,
+    };
+    if let Some((group, skeleton, vertex)) = from {
+        let s = &mut scene.groups[group].skeletons[skeleton];
+        let radius = s.vertices[vertex].radius;
+        s.vertices.push(Vertex { position, radius });
+        let new = s.vertices.len() - 1;
+        s.edges.push([vertex as u32, new as u32]);
+        return Item::Vertex {
+            group,
+            skeleton,
+            vertex: new,
+        };
+    }
+    let g = &mut scene.groups[group];
+    g.skeletons.push(Skeleton {
+        name: format!("sketch {}", g.skeletons.len() + 1),
+        field: SkeletonField::Scalis,
+        end_correctors: false,
+        vertices: vec![Vertex { position, radius }],
+        edges: Vec::new(),
+    });
+    Item::Vertex {
+        group,
+        skeleton: g.skeletons.len() - 1,
+        vertex: 0,
+    }
+}
+
+/// Moves the selected blobs, and the skeletons holding selected vertices, to `target`.
+/// Returns the moved items' new identities.
+pub fn assign_group(scene: &mut Scene, selection: &Selection, target: usize) -> Selection {
+    let mut moved = Selection::new();
+    let skeletons: BTreeSet<(usize, usize)> = selection
+        .iter()
+        .filter_map(|i| match *i {
+            Item::Vertex {
+                group, skeleton, ..
+            } if group != target => Some((group, skeleton)),
+            _ => None,
+        })
+        .collect();
+    let blobs: BTreeSet<(usize, usize)> = selection
+        .iter()
+        .filter_map(|i| match *i {
+            Item::Blob { group, blob } if group != target => Some((group, blob)),
+            _ => None,
+        })
+        .collect();
+    // Remove from the back so earlier indices stay valid.
+    for &(group, skeleton) in skeletons.iter().rev() {
+        let s = scene.groups[group].skeletons.remove(skeleton);
+        let n = s.vertices.len();
+        scene.groups[target].skeletons.push(s);
+        let skeleton = scene.groups[target].skeletons.len() - 1;
+        moved.extend((0..n).map(|vertex| Item::Vertex {
+            group: target,
+            skeleton,
+            vertex,
+        }));
+    }
+    for &(group, blob) in blobs.iter().rev() {
+        let b = scene.groups[group].blobs.remove(blob);
+        scene.groups[target].blobs.push(b);
+        moved.insert(Item::Blob {
+            group: target,
+            blob: scene.groups[target].blobs.len() - 1,
+        });
+    }
+    moved
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene() -> Scene {
+        Scene::from_ron(crate::DEFAULT_SCENE, "creature").unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn deleting_a_vertex_drops_its_segments_and_renumbers_the_rest() {
+        let mut s = scene();
+        let before = s.groups[0].skeletons[0].clone();
+        let selection = Selection::from([Item::Vertex {
+            group: 0,
+            skeleton: 0,
+            vertex: 0,
+        }]);
+        delete(&mut s, &selection);
+        let after = &s.groups[0].skeletons[0];
+        assert_eq!(after.vertices.len(), before.vertices.len() - 1);
+        let touching = before.edges.iter().filter(|e| e.contains(&0)).count();
+        assert_eq!(after.edges.len(), before.edges.len() - touching);
+        assert!(
+            after
+                .edges
+                .iter()
+                .all(|e| e.iter().all(|&v| (v as usize) < after.vertices.len()))
+        );
+    }
+
+    #[test]
+    fn duplicate_then_connect_and_disconnect() {
+        let mut s = scene();
+        let pair = Selection::from([
+            Item::Vertex {
+                group: 0,
+                skeleton: 0,
+                vertex: 0,
+            },
+            Item::Vertex {
+                group: 0,
+                skeleton: 0,
+                vertex: 1,
+            },
+        ]);
+        let edges = s.groups[0].skeletons[0].edges.len();
+        let copies = duplicate(&mut s, &pair, [0.0, 1.0, 0.0]);
+        assert_eq!(copies.len(), 2);
+        disconnect(&mut s, &copies);
+        let after_cut = s.groups[0].skeletons[0].edges.len();
+        connect(&mut s, &copies).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.groups[0].skeletons[0].edges.len(), after_cut + 1);
+        assert!(connect(&mut s, &copies).is_err(), "already connected");
+        assert!(after_cut >= edges);
+    }
+}

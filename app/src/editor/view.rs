@@ -1,0 +1,220 @@
+//! The viewport's camera (orbit, pan, zoom, framing) and the mapping between the scene and the
+//! viewport's pixels that the skeleton overlay, picking and the gizmo share with the tracer's
+//! pinhole camera (core `render::PinholeCamera`).
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use skeletrace_core::Scene;
+use skeletrace_core::scene::Camera;
+
+/// An orbit camera around a target point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OrbitCamera {
+    /// The point orbited.
+    pub target: [f64; 3],
+    /// Turn about the vertical axis, radians.
+    pub yaw: f64,
+    /// Elevation, radians, within ±89°.
+    pub pitch: f64,
+    /// Distance from the target.
+    pub distance: f64,
+    /// Vertical field of view, degrees.
+    pub fov_degrees: f64,
+}
+
+const MAX_PITCH: f64 = 89.0_f64.to_radians();
+
+impl OrbitCamera {
+    /// The orbit that sees what the scene camera sees.
+    #[must_use]
+    pub fn from_camera(camera: &Camera) -> Self {
+        let target = DVec3::from_array(camera.target);
+        let offset = DVec3::from_array(camera.position) - target;
+        let distance = offset.length().max(1e-6);
+        Self {
+            target: camera.target,
+            yaw: offset.x.atan2(offset.z),
+            pitch: (offset.y / distance).clamp(-1.0, 1.0).asin(),
+            distance,
+            fov_degrees: camera.fov_degrees,
+        }
+    }
+
+    /// The pinhole camera of the scene format.
+    #[must_use]
+    pub fn camera(&self) -> Camera {
+        let (sy, cy) = self.yaw.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        let offset = DVec3::new(sy * cp, sp, cy * cp) * self.distance;
+        Camera {
+            position: (DVec3::from_array(self.target) + offset).to_array(),
+            target: self.target,
+            up: [0.0, 1.0, 0.0],
+            fov_degrees: self.fov_degrees,
+        }
+    }
+
+    /// Turns by a mouse drag of `(dx, dy)` points.
+    pub fn orbit(&mut self, dx: f64, dy: f64) {
+        self.yaw -= dx * 0.01;
+        self.pitch = (self.pitch + dy * 0.01).clamp(-MAX_PITCH, MAX_PITCH);
+    }
+
+    /// Moves the target with the view plane by a drag of `(dx, dy)` points in a viewport
+    /// `height` points high.
+    pub fn pan(&mut self, dx: f64, dy: f64, height: f64) {
+        let projection = Projection::new(&self.camera(), 1.0, height);
+        let scale = self.distance / projection.focal;
+        let target = DVec3::from_array(self.target) - projection.right * dx * scale
+            + projection.up * dy * scale;
+        self.target = target.to_array();
+    }
+
+    /// Zooms by `factor` (< 1 moves closer).
+    pub fn zoom(&mut self, factor: f64) {
+        self.distance = (self.distance * factor).clamp(1e-3, 1e6);
+    }
+
+    /// Frames the points `(centre, radius)`: target at their bounding box centre, distance
+    /// so that the box's bounding sphere fits the view.
+    pub fn frame(&mut self, balls: impl IntoIterator<Item = ([f64; 3], f64)>) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for (c, r) in balls {
+            let c = DVec3::from_array(c);
+            lo = lo.min(c - DVec3::splat(r));
+            hi = hi.max(c + DVec3::splat(r));
+        }
+        if !lo.is_finite() || !hi.is_finite() {
+            return;
+        }
+        let radius = (0.5 * (hi - lo).length()).max(1e-3);
+        self.target = (0.5 * (lo + hi)).to_array();
+        let half = (0.5 * self.fov_degrees.to_radians()).tan().max(1e-3);
+        self.distance = 1.15 * radius / half.atan().sin();
+    }
+}
+
+/// Every skeleton vertex and blob as `(centre, radius)`: what frame-all frames.
+pub fn scene_balls(scene: &Scene) -> Vec<([f64; 3], f64)> {
+    let mut balls = Vec::new();
+    for g in &scene.groups {
+        for s in &g.skeletons {
+            balls.extend(s.vertices.iter().map(|v| (v.position, v.radius)));
+        }
+        balls.extend(g.blobs.iter().map(|b| (b.center, b.radius)));
+    }
+    balls
+}
+
+/// World ↔ viewport pixels for one camera and viewport size (pixels from the top-left).
+#[derive(Clone, Copy, Debug)]
+pub struct Projection {
+    eye: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    /// Pixels per unit of the image plane at distance 1.
+    focal: f64,
+    centre: (f64, f64),
+}
+
+impl Projection {
+    /// The projection of `camera` onto a `width × height` viewport.
+    #[must_use]
+    pub fn new(camera: &Camera, width: f64, height: f64) -> Self {
+        let pinhole = skeletrace_core::render::PinholeCamera::new(camera);
+        let (forward, right, up) = pinhole.axes();
+        let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
+        Self {
+            eye: DVec3::from_array(camera.position),
+            forward,
+            right,
+            up,
+            focal: 0.5 * height / tan_half,
+            centre: (0.5 * width, 0.5 * height),
+        }
+    }
+
+    /// Pixel position and depth of a world point; `None` behind the eye.
+    #[must_use]
+    pub fn project(&self, p: [f64; 3]) -> Option<(f64, f64, f64)> {
+        let d = DVec3::from_array(p) - self.eye;
+        let z = d.dot(self.forward);
+        if z <= 1e-6 {
+            return None;
+        }
+        Some((
+            self.centre.0 + self.focal * d.dot(self.right) / z,
+            self.centre.1 - self.focal * d.dot(self.up) / z,
+            z,
+        ))
+    }
+
+    /// Pixels covered by a length `r` at depth `z`.
+    #[must_use]
+    pub fn pixels(&self, r: f64, z: f64) -> f64 {
+        self.focal * r / z.max(1e-9)
+    }
+
+    /// The world point at pixel `(x, y)` on the plane through `anchor` facing the camera.
+    #[must_use]
+    pub fn unproject_on_plane(&self, x: f64, y: f64, anchor: [f64; 3]) -> [f64; 3] {
+        let z = (DVec3::from_array(anchor) - self.eye).dot(self.forward).max(1e-6);
+        let u = (x - self.centre.0) / self.focal;
+        let v = (self.centre.1 - y) / self.focal;
+        (self.eye + z * (self.forward + u * self.right + v * self.up)).to_array()
+    }
+
+    /// The world displacement of a screen drag `(dx, dy)` pixels at depth `z`, in the plane
+    /// facing the camera.
+    #[must_use]
+    pub fn drag_in_view_plane(&self, dx: f64, dy: f64, z: f64) -> [f64; 3] {
+        let s = z / self.focal;
+        (self.right * dx * s - self.up * dy * s).to_array()
+    }
+
+    /// The world displacement along `axis` (unit) of a screen drag `(dx, dy)` pixels applied
+    /// to a handle at `anchor`: the drag projected on the axis' screen direction.
+    #[must_use]
+    pub fn drag_along_axis(&self, dx: f64, dy: f64, anchor: [f64; 3], axis: [f64; 3]) -> [f64; 3] {
+        let a = DVec3::from_array(anchor);
+        let dir = DVec3::from_array(axis);
+        let (Some(p0), Some(p1)) = (self.project(anchor), self.project((a + dir).to_array()))
+        else {
+            return [0.0; 3];
+        };
+        let (sx, sy) = (p1.0 - p0.0, p1.1 - p0.1);
+        let len2 = sx * sx + sy * sy;
+        if len2 < 1e-9 {
+            return [0.0; 3];
+        }
+        (dir * ((dx * sx + dy * sy) / len2)).to_array()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_orbit_camera_reproduces_the_scene_camera_and_projects_its_target_to_the_centre() {
+        let camera = Camera {
+            position: [3.0, 2.0, 5.0],
+            target: [0.5, 0.25, -1.0],
+            up: [0.0, 1.0, 0.0],
+            fov_degrees: 40.0,
+        };
+        let orbit = OrbitCamera::from_camera(&camera);
+        let back = orbit.camera();
+        for i in 0..3 {
+            assert!((back.position[i] - camera.position[i]).abs() < 1e-9, "{back:?}");
+        }
+        let p = Projection::new(&back, 800.0, 600.0);
+        let (x, y, _) = p.project(camera.target).unwrap_or_default();
+        assert!((x - 400.0).abs() < 1e-6 && (y - 300.0).abs() < 1e-6);
+        let q = p.unproject_on_plane(123.0, 45.0, [0.0, 0.0, 0.0]);
+        let (qx, qy, _) = p.project(q).unwrap_or_default();
+        assert!((qx - 123.0).abs() < 1e-6 && (qy - 45.0).abs() < 1e-6);
+    }
+}

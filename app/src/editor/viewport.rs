@@ -1,0 +1,360 @@
+//! The shaded viewport: the traced frame, the skeleton overlay (vertex handles, segments,
+//! radius circles, blobs, hover and selection highlights), the translate gizmo (three axis
+//! handles and a view-plane handle), click and box selection, sketch mode, and the mouse
+//! camera (left drag orbit, right or middle drag pan, wheel zoom; wheel over a selected
+//! handle scales its radius).
+
+use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, StrokeKind, Vec2};
+
+use super::selection::{self, Item, Selection};
+use super::view::Projection;
+use super::{Edit, Editor};
+
+/// What a mouse drag in the viewport is doing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Gesture {
+    /// Nothing.
+    None,
+    /// Turning the camera.
+    Orbit,
+    /// Moving the camera target.
+    Pan,
+    /// Moving the selection along a world axis (0 x, 1 y, 2 z).
+    Axis(usize),
+    /// Moving the selection in the plane facing the camera.
+    ViewPlane,
+    /// Box selection from this corner.
+    Box(Pos2),
+}
+
+impl Gesture {
+    /// A drag is under way.
+    #[must_use]
+    pub fn is_active(self) -> bool {
+        self != Self::None
+    }
+}
+
+/// Length of the gizmo's axis handles, points.
+const GIZMO: f32 = 70.0;
+/// Pick distance, points.
+const PICK: f32 = 9.0;
+const AXIS_COLOURS: [Color32; 3] = [
+    Color32::from_rgb(230, 80, 80),
+    Color32::from_rgb(110, 200, 90),
+    Color32::from_rgb(90, 140, 240),
+];
+const SELECTED: Color32 = Color32::from_rgb(255, 200, 60);
+
+/// An item as drawn: screen position (points), radius on screen, depth.
+struct Drawn {
+    item: Item,
+    at: Pos2,
+    radius: f32,
+}
+
+impl Editor {
+    pub(super) fn viewport(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        self.viewport_rect = Some(rect);
+        let ppp = ui.ctx().pixels_per_point();
+        self.request_frames(
+            ui.ctx(),
+            ((rect.width() * ppp) as usize, (rect.height() * ppp) as usize),
+        );
+        let response = ui.allocate_rect(rect, Sense::click_and_drag());
+        let painter = ui.painter_at(rect);
+        painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
+        if let Some(f) = self.shown.as_ref().and_then(|s| s.frames.first()) {
+            painter.image(
+                f.texture.id(),
+                rect,
+                Rect::from_min_max(Pos2::ZERO, egui::pos2(1.0, 1.0)),
+                Color32::WHITE,
+            );
+        } else {
+            painter.text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                "tracing…",
+                egui::FontId::proportional(16.0),
+                Color32::GRAY,
+            );
+        }
+        let projection = Projection::new(
+            &self.orbit.camera(),
+            f64::from(rect.width()),
+            f64::from(rect.height()),
+        );
+        let to_screen =
+            |x: f64, y: f64| egui::pos2(rect.left() + x as f32, rect.top() + y as f32);
+        let drawn = self.draw_overlay(&painter, &projection, &to_screen);
+        let pointer = response.hover_pos();
+        let hovered = pointer.and_then(|p| nearest(&drawn, p));
+        if let Some(d) = hovered.and_then(|h| drawn.iter().find(|d| d.item == h)) {
+            painter.circle_stroke(d.at, 7.0, Stroke::new(2.0, Color32::WHITE));
+        }
+        let gizmo = selection::centroid(self.doc.scene(), &self.selection).and_then(|c| {
+            let (x, y, z) = projection.project(c)?;
+            Some((c, to_screen(x, y), z))
+        });
+        let mut axis_tips = [Pos2::ZERO; 3];
+        if let Some((c, at, _)) = gizmo {
+            for (k, tip) in axis_tips.iter_mut().enumerate() {
+                let mut axis = [0.0; 3];
+                axis[k] = 1.0;
+                // Screen direction of the axis: project a point one unit along it.
+                let dir = projection
+                    .project([c[0] + axis[0], c[1] + axis[1], c[2] + axis[2]])
+                    .map(|(x, y, _)| to_screen(x, y) - at)
+                    .unwrap_or(Vec2::ZERO);
+                *tip = at + dir.normalized() * GIZMO;
+                let active = self.gesture == Gesture::Axis(k);
+                painter.line_segment(
+                    [at, *tip],
+                    Stroke::new(if active { 4.0 } else { 2.5 }, AXIS_COLOURS[k]),
+                );
+                painter.circle_filled(*tip, 6.0, AXIS_COLOURS[k]);
+            }
+            painter.rect_stroke(
+                Rect::from_center_size(at, Vec2::splat(14.0)),
+                2.0,
+                Stroke::new(2.0, SELECTED),
+                StrokeKind::Middle,
+            );
+        }
+        if self.sketch {
+            painter.text(
+                rect.left_top() + Vec2::new(10.0, 10.0),
+                egui::Align2::LEFT_TOP,
+                "SKETCH: click to add a vertex joined to the selected one (S or Esc to leave)",
+                egui::FontId::proportional(14.0),
+                SELECTED,
+            );
+        }
+        // ---- mouse ----
+        let shift = ui.input(|i| i.modifiers.shift);
+        if response.drag_started() {
+            let start = response.interact_pointer_pos().unwrap_or_default();
+            let secondary = ui.input(|i| {
+                i.pointer.button_down(egui::PointerButton::Secondary)
+                    || i.pointer.button_down(egui::PointerButton::Middle)
+            });
+            self.gesture = if secondary {
+                Gesture::Pan
+            } else if let Some(k) = gizmo
+                .is_some()
+                .then(|| (0..3).find(|&k| near_segment(start, gizmo_at(gizmo), axis_tips[k])))
+                .flatten()
+            {
+                Gesture::Axis(k)
+            } else if gizmo.is_some_and(|(_, at, _)| (start - at).length() < PICK) {
+                Gesture::ViewPlane
+            } else if let Some(item) = nearest(&drawn, start) {
+                if !self.selection.contains(&item) {
+                    if !shift {
+                        self.selection.clear();
+                    }
+                    self.selection.insert(item);
+                }
+                Gesture::ViewPlane
+            } else if shift {
+                Gesture::Box(start)
+            } else {
+                Gesture::Orbit
+            };
+        }
+        if response.dragged() {
+            let delta = response.drag_delta();
+            let (dx, dy) = (f64::from(delta.x), f64::from(delta.y));
+            match self.gesture {
+                Gesture::Orbit => self.orbit.orbit(dx, dy),
+                Gesture::Pan => self.orbit.pan(dx, dy, f64::from(rect.height())),
+                Gesture::Axis(k) => {
+                    if let Some((c, _, _)) = gizmo {
+                        let mut axis = [0.0; 3];
+                        axis[k] = 1.0;
+                        let moved = projection.drag_along_axis(dx, dy, c, axis);
+                        self.move_selection(moved);
+                    }
+                }
+                Gesture::ViewPlane => {
+                    if let Some((_, _, z)) = gizmo {
+                        let moved = projection.drag_in_view_plane(dx, dy, z);
+                        self.move_selection(moved);
+                    }
+                }
+                Gesture::Box(start) => {
+                    if let Some(now) = response.interact_pointer_pos() {
+                        painter.rect_stroke(
+                            Rect::from_two_pos(start, now),
+                            0.0,
+                            Stroke::new(1.0, SELECTED),
+                            StrokeKind::Middle,
+                        );
+                    }
+                }
+                Gesture::None => {}
+            }
+            self.touch();
+        }
+        if response.drag_stopped() {
+            if let (Gesture::Box(start), Some(end)) =
+                (self.gesture, response.interact_pointer_pos())
+            {
+                let area = Rect::from_two_pos(start, end);
+                if !shift {
+                    self.selection.clear();
+                }
+                self.selection
+                    .extend(drawn.iter().filter(|d| area.contains(d.at)).map(|d| d.item));
+            }
+            self.gesture = Gesture::None;
+            self.doc.end_gesture();
+            self.touch();
+        }
+        if response.clicked() {
+            let at = response.interact_pointer_pos().unwrap_or_default();
+            if self.sketch && hovered.is_none() {
+                let anchor = selection::centroid(self.doc.scene(), &self.selection)
+                    .unwrap_or(self.orbit.target);
+                let position = projection.unproject_on_plane(
+                    f64::from(at.x - rect.left()),
+                    f64::from(at.y - rect.top()),
+                    anchor,
+                );
+                self.sketch_at(position);
+            } else {
+                match hovered {
+                    Some(item) if shift => {
+                        if !self.selection.remove(&item) {
+                            self.selection.insert(item);
+                        }
+                    }
+                    Some(item) => self.selection = Selection::from([item]),
+                    None if !shift => self.selection.clear(),
+                    None => {}
+                }
+                if let Some(item) = hovered {
+                    self.active_group = item.group();
+                }
+            }
+        }
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if response.hovered() && scroll != 0.0 {
+            let factor = (f64::from(scroll) * 0.002).exp();
+            if hovered.is_some_and(|h| self.selection.contains(&h)) {
+                let chosen = self.selection.clone();
+                self.apply(Edit::gesture("radius", "scroll-radius"), |s| {
+                    selection::scale_radius(s, &chosen, factor);
+                });
+            } else {
+                self.orbit.zoom(1.0 / factor);
+            }
+            self.touch();
+        }
+    }
+
+    fn move_selection(&mut self, delta: [f64; 3]) {
+        if self.selection.is_empty() || delta == [0.0; 3] {
+            return;
+        }
+        let chosen = self.selection.clone();
+        let label = format!("move {} items", chosen.len());
+        self.apply(Edit::gesture(label, "move"), |s| {
+            selection::translate(s, &chosen, delta);
+        });
+    }
+
+    pub(super) fn sketch_at(&mut self, position: [f64; 3]) {
+        let radius = self.typical_radius();
+        let group = self.active_group;
+        let chosen = self.selection.clone();
+        let mut added = None;
+        if self.apply(Edit::new("sketch vertex"), |s| {
+            added = Some(selection::sketch_vertex(
+                s, &chosen, group, position, radius,
+            ));
+        }) && let Some(item) = added
+        {
+            self.selection = Selection::from([item]);
+        }
+    }
+
+    /// Draws segments, radius circles, handles and blobs; returns what can be picked.
+    fn draw_overlay(
+        &self,
+        painter: &egui::Painter,
+        projection: &Projection,
+        to_screen: &dyn Fn(f64, f64) -> Pos2,
+    ) -> Vec<Drawn> {
+        let scene = self.doc.scene();
+        let mut drawn = Vec::new();
+        let line = Stroke::new(1.5, Color32::from_rgba_unmultiplied(235, 235, 245, 170));
+        let ring = Stroke::new(1.0, Color32::from_rgba_unmultiplied(140, 190, 255, 90));
+        for item in selection::all_items(scene) {
+            let Some((c, r)) = item.ball(scene) else {
+                continue;
+            };
+            let Some((x, y, z)) = projection.project(c) else {
+                continue;
+            };
+            drawn.push(Drawn {
+                item,
+                at: to_screen(x, y),
+                radius: projection.pixels(r, z) as f32,
+            });
+        }
+        for g in &scene.groups {
+            for s in &g.skeletons {
+                for &[a, b] in &s.edges {
+                    let pa = projection.project(s.vertices[a as usize].position);
+                    let pb = projection.project(s.vertices[b as usize].position);
+                    if let (Some(pa), Some(pb)) = (pa, pb) {
+                        painter.line_segment([to_screen(pa.0, pa.1), to_screen(pb.0, pb.1)], line);
+                    }
+                }
+            }
+        }
+        for d in &drawn {
+            let selected = self.selection.contains(&d.item);
+            painter.circle_stroke(d.at, d.radius, ring);
+            let (fill, size) = match d.item {
+                Item::Vertex { .. } => (Color32::from_rgb(240, 240, 250), 4.0),
+                Item::Blob { .. } => (Color32::from_rgb(120, 220, 200), 4.5),
+            };
+            if selected {
+                painter.circle_filled(d.at, size + 1.5, SELECTED);
+                painter.circle_stroke(d.at, d.radius, Stroke::new(1.5, SELECTED));
+            } else {
+                painter.circle_filled(d.at, size, fill);
+            }
+        }
+        drawn
+    }
+}
+
+fn gizmo_at(gizmo: Option<([f64; 3], Pos2, f64)>) -> Pos2 {
+    gizmo.map_or(Pos2::ZERO, |(_, at, _)| at)
+}
+
+/// The drawn item nearest to `p` within the pick distance.
+fn nearest(drawn: &[Drawn], p: Pos2) -> Option<Item> {
+    drawn
+        .iter()
+        .map(|d| (d, (d.at - p).length()))
+        .filter(|(_, dist)| *dist <= PICK)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(d, _)| d.item)
+}
+
+/// `p` lies near the segment `a`–`b` (an axis handle), away from its start.
+fn near_segment(p: Pos2, a: Pos2, b: Pos2) -> bool {
+    let ab = b - a;
+    let len2 = ab.length_sq();
+    if len2 < 1.0 {
+        return false;
+    }
+    let t = ((p - a).dot(ab) / len2).clamp(0.0, 1.0);
+    t > 0.25 && (a + ab * t - p).length() < 6.0
+}

@@ -1,0 +1,10 @@
+//! skeletrace's editor and picture composition, shared by the `skeletrace` binary (editor and
+//! command line) and the editor workflow tests in `tests/`.
+
+pub mod editor;
+pub mod picture;
+
+/// The scene opened when no file is given: a hand-made creature.
+pub const DEFAULT_SCENE: &str = include_str!("../../assets/scenes/creature.ron");
+/// How messages name the embedded scene.
+pub const DEFAULT_SCENE_NAME: &str = "<embedded creature.ron>";

@@ -1,0 +1,158 @@
+//! Editor workflows (issue: "the editor"), driven through egui_kittest with the wgpu test
+//! renderer (lavapipe in CI): open an asset, select a vertex by clicking its handle, drag the
+//! gizmo, undo, change σ with its slider, switch to the comparison grid, save and reload. Each
+//! step asserts on the scene and on what was rendered: the traced frames behind the viewport
+//! and the window image kittest renders.
+
+use std::path::{Path, PathBuf};
+
+use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2};
+use egui_kittest::kittest::Queryable;
+use egui_kittest::Harness;
+use skeletrace::editor::{Backend, Document, Editor, Item, UiState, ViewMode};
+use skeletrace_core::kernel::Kernel;
+
+fn asset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"))
+}
+
+fn harness(editor: Editor) -> Harness<'static, Editor> {
+    Harness::builder()
+        .with_size(egui::vec2(1280.0, 800.0))
+        .wgpu()
+        .build_ui_state(|ui, editor: &mut Editor| editor.ui(ui), editor)
+}
+
+/// Runs frames until the renderer has answered and its frames are on screen.
+fn settle(h: &mut Harness<'static, Editor>) {
+    h.step();
+    let ctx = h.ctx.clone();
+    h.state_mut().wait_for_frames(&ctx);
+    h.step();
+    h.step();
+}
+
+fn press(h: &mut Harness<'static, Editor>, pos: Pos2, pressed: bool) {
+    h.event(Event::PointerButton {
+        pos,
+        button: PointerButton::Primary,
+        pressed,
+        modifiers: Modifiers::NONE,
+    });
+    h.step();
+}
+
+fn hit_fraction(editor: &Editor) -> f64 {
+    let frames = editor.shown_frames();
+    let Some((_, frame)) = frames.first() else {
+        return 0.0;
+    };
+    let hits = (0..frame.depth.len()).filter(|&i| frame.is_hit(i)).count();
+    hits as f64 / frame.depth.len() as f64
+}
+
+/// Distinct colours in a window image region: a blank panel has one or two.
+fn distinct_colours(image: &image::RgbaImage, x0: u32, y0: u32, x1: u32, y1: u32) -> usize {
+    let mut seen = std::collections::HashSet::new();
+    for y in (y0..y1.min(image.height())).step_by(3) {
+        for x in (x0..x1.min(image.width())).step_by(3) {
+            seen.insert(image.get_pixel(x, y).0);
+        }
+    }
+    seen.len()
+}
+
+#[test]
+fn open_select_drag_undo_tune_compare_save_and_reload() {
+    let ui_state = UiState {
+        backend: Backend::Cpu,
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    assert!(hit_fraction(h.state()) > 0.05, "the creature covers the viewport");
+
+    // Select a vertex by clicking its handle.
+    let item = Item::Vertex {
+        group: 0,
+        skeleton: 0,
+        vertex: 0,
+    };
+    let at = h
+        .state()
+        .screen_position(item)
+        .unwrap_or_else(|| panic!("vertex 0 is on screen"));
+    h.hover_at(at);
+    h.step();
+    press(&mut h, at, true);
+    press(&mut h, at, false);
+    assert_eq!(h.state().selection().iter().copied().collect::<Vec<_>>(), vec![item]);
+
+    // Drag the gizmo's view-plane handle 60 points to the right: one undo step.
+    let before = h.state().document().scene().clone();
+    let start = h.state().screen_position(item).unwrap_or_default();
+    h.hover_at(start);
+    h.step();
+    press(&mut h, start, true);
+    for k in 1..=6 {
+        h.hover_at(start + egui::vec2(10.0 * k as f32, 0.0));
+        h.step();
+    }
+    press(&mut h, start + egui::vec2(60.0, 0.0), false);
+    let moved = h.state().document().scene().groups[0].skeletons[0].vertices[0].position;
+    let original = before.groups[0].skeletons[0].vertices[0].position;
+    let shift: f64 = (0..3).map(|k| (moved[k] - original[k]).powi(2)).sum::<f64>().sqrt();
+    assert!(shift > 1e-3, "the drag moved the vertex ({original:?} -> {moved:?})");
+    let now = h.state().screen_position(item).unwrap_or_default();
+    assert!((now.x - start.x - 60.0).abs() < 3.0 && (now.y - start.y).abs() < 3.0, "the handle follows the mouse: {start:?} -> {now:?}");
+
+    // Undo restores the scene in one step.
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(h.state().document().scene(), &before);
+
+    // σ with the slider: the kernel changes and the traced surface grows.
+    settle(&mut h);
+    let covered = hit_fraction(h.state());
+    let scale = |e: &Editor| match e.document().scene().groups[0].kernel {
+        Kernel::CompactPolynomial { scale, .. } | Kernel::Cauchy { scale, .. } | Kernel::Gaussian { scale } => scale,
+    };
+    let sigma = scale(h.state());
+    h.get_by_label("scale σ").set_value_accesskit(sigma * 1.3);
+    h.step();
+    assert!((scale(h.state()) - sigma * 1.3).abs() < 1e-6, "σ {sigma} -> {}", scale(h.state()));
+    settle(&mut h);
+    let grown = hit_fraction(h.state());
+    assert!(grown > covered, "a larger σ covers more pixels: {covered} -> {grown}");
+
+    // The comparison grid: one heat map per chosen method, drawn.
+    h.get_by_label("Compare methods").click();
+    h.step();
+    assert_eq!(h.state().ui_state().view, ViewMode::Compare);
+    settle(&mut h);
+    let names: Vec<String> = h.state().shown_frames().iter().map(|(n, _)| (*n).to_owned()).collect();
+    assert_eq!(names, h.state().ui_state().compare_methods, "every chosen method is traced");
+    let image = h.render().unwrap_or_else(|e| panic!("{e}"));
+    assert!(distinct_colours(&image, 320, 80, 1270, 700) > 40, "the grid shows heat maps");
+
+    // Save As to a new file, then open it again.
+    let dir = std::env::temp_dir().join(format!("skeletrace-editor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let path = dir.join("edited.ron");
+    let field = h.get_by_role(egui::accesskit::Role::TextInput);
+    field.focus();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::A);
+    h.get_by_role(egui::accesskit::Role::TextInput).type_text(&path.display().to_string());
+    h.step();
+    h.get_by_label("Save As").click();
+    h.step();
+    assert!(!h.state().document().is_dirty(), "{:?}", h.state().notice());
+    let saved = h.state().document().scene().clone();
+    h.get_by_label("Open").click();
+    h.step();
+    assert_eq!(h.state().document().path(), Some(path.as_path()));
+    assert_eq!(h.state().document().scene(), &saved);
+    let _ = std::fs::remove_dir_all(&dir);
+}
