@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2};
-use egui_kittest::kittest::Queryable;
 use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
 use skeletrace::editor::{Backend, Document, Editor, Item, UiState, ViewMode};
 use skeletrace_core::kernel::Kernel;
 
@@ -71,7 +71,10 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
     let mut h = harness(Editor::new(doc, ui_state, None, || {}));
     settle(&mut h);
-    assert!(hit_fraction(h.state()) > 0.05, "the creature covers the viewport");
+    assert!(
+        hit_fraction(h.state()) > 0.05,
+        "the creature covers the viewport"
+    );
 
     // Select a vertex by clicking its handle.
     let item = Item::Vertex {
@@ -87,7 +90,10 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     h.step();
     press(&mut h, at, true);
     press(&mut h, at, false);
-    assert_eq!(h.state().selection().iter().copied().collect::<Vec<_>>(), vec![item]);
+    assert_eq!(
+        h.state().selection().iter().copied().collect::<Vec<_>>(),
+        vec![item]
+    );
 
     // Drag the gizmo's view-plane handle 60 points to the right: one undo step.
     let before = h.state().document().scene().clone();
@@ -102,10 +108,19 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     press(&mut h, start + egui::vec2(60.0, 0.0), false);
     let moved = h.state().document().scene().groups[0].skeletons[0].vertices[0].position;
     let original = before.groups[0].skeletons[0].vertices[0].position;
-    let shift: f64 = (0..3).map(|k| (moved[k] - original[k]).powi(2)).sum::<f64>().sqrt();
-    assert!(shift > 1e-3, "the drag moved the vertex ({original:?} -> {moved:?})");
+    let shift: f64 = (0..3)
+        .map(|k| (moved[k] - original[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        shift > 1e-3,
+        "the drag moved the vertex ({original:?} -> {moved:?})"
+    );
     let now = h.state().screen_position(item).unwrap_or_default();
-    assert!((now.x - start.x - 60.0).abs() < 3.0 && (now.y - start.y).abs() < 3.0, "the handle follows the mouse: {start:?} -> {now:?}");
+    assert!(
+        (now.x - start.x - 60.0).abs() < 3.0 && (now.y - start.y).abs() < 3.0,
+        "the handle follows the mouse: {start:?} -> {now:?}"
+    );
 
     // Undo restores the scene in one step.
     h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
@@ -116,25 +131,47 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     settle(&mut h);
     let covered = hit_fraction(h.state());
     let scale = |e: &Editor| match e.document().scene().groups[0].kernel {
-        Kernel::CompactPolynomial { scale, .. } | Kernel::Cauchy { scale, .. } | Kernel::Gaussian { scale } => scale,
+        Kernel::CompactPolynomial { scale, .. }
+        | Kernel::Cauchy { scale, .. }
+        | Kernel::Gaussian { scale } => scale,
     };
     let sigma = scale(h.state());
-    h.get_by_label("scale σ").set_value_accesskit(sigma * 1.3);
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "scale σ")
+        .set_value_accesskit(sigma * 1.3);
     h.step();
-    assert!((scale(h.state()) - sigma * 1.3).abs() < 1e-6, "σ {sigma} -> {}", scale(h.state()));
+    assert!(
+        (scale(h.state()) - sigma * 1.3).abs() < 1e-6,
+        "σ {sigma} -> {}",
+        scale(h.state())
+    );
     settle(&mut h);
     let grown = hit_fraction(h.state());
-    assert!(grown > covered, "a larger σ covers more pixels: {covered} -> {grown}");
+    assert!(
+        grown > covered,
+        "a larger σ covers more pixels: {covered} -> {grown}"
+    );
 
     // The comparison grid: one heat map per chosen method, drawn.
     h.get_by_label("Compare methods").click();
     h.step();
     assert_eq!(h.state().ui_state().view, ViewMode::Compare);
     settle(&mut h);
-    let names: Vec<String> = h.state().shown_frames().iter().map(|(n, _)| (*n).to_owned()).collect();
-    assert_eq!(names, h.state().ui_state().compare_methods, "every chosen method is traced");
+    let names: Vec<String> = h
+        .state()
+        .shown_frames()
+        .iter()
+        .map(|(n, _)| (*n).to_owned())
+        .collect();
+    assert_eq!(
+        names,
+        h.state().ui_state().compare_methods,
+        "every chosen method is traced"
+    );
     let image = h.render().unwrap_or_else(|e| panic!("{e}"));
-    assert!(distinct_colours(&image, 320, 80, 1270, 700) > 40, "the grid shows heat maps");
+    assert!(
+        distinct_colours(&image, 320, 80, 1270, 700) > 40,
+        "the grid shows heat maps"
+    );
 
     // Save As to a new file, then open it again.
     let dir = std::env::temp_dir().join(format!("skeletrace-editor-{}", std::process::id()));
@@ -144,7 +181,8 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     field.focus();
     h.step();
     h.key_press_modifiers(Modifiers::COMMAND, egui::Key::A);
-    h.get_by_role(egui::accesskit::Role::TextInput).type_text(&path.display().to_string());
+    h.get_by_role(egui::accesskit::Role::TextInput)
+        .type_text(&path.display().to_string());
     h.step();
     h.get_by_label("Save As").click();
     h.step();

@@ -20,11 +20,17 @@ pub const SHORTCUTS: [(&str, &str); 22] = [
     ("Wheel", "zoom; over a selected handle: radius"),
     ("Click / Shift+click", "select / add to selection"),
     ("Shift+drag", "box selection"),
-    ("Gizmo axis / centre", "move along an axis / in the view plane"),
+    (
+        "Gizmo axis / centre",
+        "move along an axis / in the view plane",
+    ),
     ("Arrows, + / -", "orbit, zoom"),
     ("F", "frame the selection"),
     ("A or Home", "frame everything"),
-    ("S", "sketch mode: click adds a vertex joined to the selection"),
+    (
+        "S",
+        "sketch mode: click adds a vertex joined to the selection",
+    ),
     ("C", "connect the two selected vertices"),
     ("X", "disconnect the selected vertices"),
     ("B", "add a point blob"),
@@ -78,14 +84,20 @@ impl Editor {
             ui.menu_button("Edit", |ui| {
                 let undo = self.doc.undo_label().map(|l| format!("Undo {l}"));
                 if ui
-                    .add_enabled(undo.is_some(), egui::Button::new(undo.unwrap_or("Undo".into())))
+                    .add_enabled(
+                        undo.is_some(),
+                        egui::Button::new(undo.unwrap_or("Undo".into())),
+                    )
                     .clicked()
                 {
                     self.undo();
                 }
                 let redo = self.doc.redo_label().map(|l| format!("Redo {l}"));
                 if ui
-                    .add_enabled(redo.is_some(), egui::Button::new(redo.unwrap_or("Redo".into())))
+                    .add_enabled(
+                        redo.is_some(),
+                        egui::Button::new(redo.unwrap_or("Redo".into())),
+                    )
                     .clicked()
                 {
                     self.redo();
@@ -117,7 +129,11 @@ impl Editor {
             });
             ui.separator();
             ui.selectable_value(&mut self.ui_state.view, ViewMode::Shaded, "Shaded");
-            ui.selectable_value(&mut self.ui_state.view, ViewMode::Compare, "Compare methods");
+            ui.selectable_value(
+                &mut self.ui_state.view,
+                ViewMode::Compare,
+                "Compare methods",
+            );
             ui.separator();
             ui.toggle_value(&mut self.sketch, "Sketch");
             if ui.button("Help").clicked() {
@@ -127,20 +143,18 @@ impl Editor {
     }
 
     fn screenshot_path(&self) -> std::path::PathBuf {
-        let stem = self
-            .doc
-            .path()
-            .and_then(|p| p.file_stem())
-            .map_or_else(|| "skeletrace".to_owned(), |s| s.to_string_lossy().into_owned());
+        let stem = self.doc.path().and_then(|p| p.file_stem()).map_or_else(
+            || "skeletrace".to_owned(),
+            |s| s.to_string_lossy().into_owned(),
+        );
         let suffix = match self.ui_state.view {
             ViewMode::Shaded => "shaded",
             ViewMode::Compare => "compare",
         };
-        let dir = self
-            .doc
-            .path()
-            .and_then(|p| p.parent())
-            .map_or_else(|| std::path::PathBuf::from("."), std::path::Path::to_path_buf);
+        let dir = self.doc.path().and_then(|p| p.parent()).map_or_else(
+            || std::path::PathBuf::from("."),
+            std::path::Path::to_path_buf,
+        );
         dir.join(format!("{stem}-{suffix}.png"))
     }
 
@@ -163,7 +177,11 @@ impl Editor {
                 let path = std::path::PathBuf::from(self.path_field.trim());
                 self.save(Some(path));
             }
-            let dirty = if self.doc.is_dirty() { "modified" } else { "saved" };
+            let dirty = if self.doc.is_dirty() {
+                "modified"
+            } else {
+                "saved"
+            };
             ui.weak(dirty);
         });
         ui.separator();
@@ -183,7 +201,8 @@ impl Editor {
             .iter()
             .map(|m| {
                 let applies = m.supports(&program).is_ok();
-                let gpu = GpuMethod::by_name(m.name()).is_some_and(|g| g.supports(&program).is_ok());
+                let gpu =
+                    GpuMethod::by_name(m.name()).is_some_and(|g| g.supports(&program).is_ok());
                 (m.name(), applies, gpu)
             })
             .collect();
@@ -202,25 +221,27 @@ impl Editor {
                 }
             });
         ui.label("comparison grid:");
-        egui::Grid::new("compare-methods").num_columns(2).show(ui, |ui| {
-            for (k, &(name, applies, gpu)) in names.iter().enumerate() {
-                let mut on = self.ui_state.compare_methods.iter().any(|m| m == name);
-                let label = format!("{name} ({})", tag(gpu));
-                if ui
-                    .add_enabled(applies, egui::Checkbox::new(&mut on, label))
-                    .changed()
-                {
-                    if on {
-                        self.ui_state.compare_methods.push(name.to_owned());
-                    } else {
-                        self.ui_state.compare_methods.retain(|m| m != name);
+        egui::Grid::new("compare-methods")
+            .num_columns(2)
+            .show(ui, |ui| {
+                for (k, &(name, applies, gpu)) in names.iter().enumerate() {
+                    let mut on = self.ui_state.compare_methods.iter().any(|m| m == name);
+                    let label = format!("{name} ({})", tag(gpu));
+                    if ui
+                        .add_enabled(applies, egui::Checkbox::new(&mut on, label))
+                        .changed()
+                    {
+                        if on {
+                            self.ui_state.compare_methods.push(name.to_owned());
+                        } else {
+                            self.ui_state.compare_methods.retain(|m| m != name);
+                        }
+                    }
+                    if k % 2 == 1 {
+                        ui.end_row();
                     }
                 }
-                if k % 2 == 1 {
-                    ui.end_row();
-                }
-            }
-        });
+            });
         ui.horizontal(|ui| {
             ui.label("backend");
             ui.selectable_value(&mut self.ui_state.backend, Backend::Auto, "auto");
@@ -253,7 +274,10 @@ impl Editor {
                     ),
                     Item::Blob { blob, .. } => format!("blob {blob}"),
                 };
-                ui.label(format!("{what}, group '{}'", scene.groups[item.group()].name));
+                ui.label(format!(
+                    "{what}, group '{}'",
+                    scene.groups[item.group()].name
+                ));
                 let mut changed = false;
                 ui.horizontal(|ui| {
                     for (axis, v) in ["x", "y", "z"].iter().zip(position.iter_mut()) {
@@ -264,7 +288,11 @@ impl Editor {
                 ui.horizontal(|ui| {
                     ui.label("radius");
                     changed |= ui
-                        .add(egui::DragValue::new(&mut radius).speed(0.005).range(1e-3..=1e3))
+                        .add(
+                            egui::DragValue::new(&mut radius)
+                                .speed(0.005)
+                                .range(1e-3..=1e3),
+                        )
                         .changed();
                 });
                 if changed {
@@ -377,7 +405,11 @@ impl Editor {
         }
         match &mut kernel {
             Kernel::CompactPolynomial { degree, scale } => {
-                ui.add(egui::Slider::new(degree, 2..=12).step_by(2.0).text("degree"));
+                ui.add(
+                    egui::Slider::new(degree, 2..=12)
+                        .step_by(2.0)
+                        .text("degree"),
+                );
                 ui.add(egui::Slider::new(scale, 1.05..=6.0).text("scale σ"));
             }
             Kernel::Cauchy { degree, scale } => {
@@ -420,7 +452,9 @@ impl Editor {
         let mut isovalue = scene.isovalue;
         ui.add(egui::Slider::new(&mut isovalue, 0.05..=2.0).text("isovalue"));
         if isovalue != scene.isovalue {
-            self.apply(Edit::gesture("isovalue", "isovalue"), |s| s.isovalue = isovalue);
+            self.apply(Edit::gesture("isovalue", "isovalue"), |s| {
+                s.isovalue = isovalue
+            });
         }
         // The blend operator over all groups (flat blend trees; nested ones are shown only).
         let n = scene.groups.len() as u32;

@@ -28,7 +28,7 @@ pub use view::OrbitCamera;
 pub use worker::Backend;
 
 use crate::picture::{Canvas, Panels, compose, shared_scale};
-use worker::{Reply, RenderWorker, Request};
+use worker::{RenderWorker, Reply, Request};
 
 /// What the centre of the window shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -62,9 +62,14 @@ impl Default for UiState {
     fn default() -> Self {
         Self {
             shaded_method: "quadratic-taylor".to_owned(),
-            compare_methods: ["sphere", "segment", "quadratic-taylor", "bottom-up-quadratic"]
-                .map(str::to_owned)
-                .to_vec(),
+            compare_methods: [
+                "sphere",
+                "segment",
+                "quadratic-taylor",
+                "bottom-up-quadratic",
+            ]
+            .map(str::to_owned)
+            .to_vec(),
             view: ViewMode::Shaded,
             backend: Backend::Auto,
             shadows: false,
@@ -128,8 +133,8 @@ pub struct Editor {
     ui_state: UiState,
     worker: RenderWorker,
     next_request: u64,
-    requested: Option<(RenderKey, bool)>,
-    /// Id of the request that refines the current view, once sent.
+    /// The last request: its key, id, and whether it was at full resolution.
+    requested: Option<(RenderKey, u64, bool)>,
     shown: Option<Shown>,
     gesture: viewport::Gesture,
     sketch: bool,
@@ -322,7 +327,7 @@ impl Editor {
         let refined = self
             .requested
             .as_ref()
-            .is_some_and(|(k, full)| *full && k.size == reply.size);
+            .is_some_and(|(_, id, full)| *full && *id == reply.id);
         let named: Vec<(&str, Frame)> = reply
             .frames
             .iter()
@@ -365,12 +370,10 @@ impl Editor {
             ViewMode::Shaded => vec![self.ui_state.shaded_method.clone()],
             ViewMode::Compare => self.ui_state.compare_methods.clone(),
         };
-        let interacting = self.gesture.is_active() || self.last_interaction.elapsed() < REFINE_AFTER;
+        let interacting =
+            self.gesture.is_active() || self.last_interaction.elapsed() < REFINE_AFTER;
         let divisor = if interacting { PREVIEW_DIVISOR } else { 1 };
-        let size = (
-            (pixels.0 / divisor).max(8),
-            (pixels.1 / divisor).max(8),
-        );
+        let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
         let camera = self.orbit.camera();
         let bits = |v: f64| v.to_bits();
         let key = RenderKey {
@@ -389,7 +392,7 @@ impl Editor {
             backend: self.ui_state.backend,
             shadows: self.ui_state.shadows && self.ui_state.view == ViewMode::Shaded,
         };
-        if self.requested.as_ref().is_some_and(|(k, _)| *k == key) {
+        if self.requested.as_ref().is_some_and(|(k, _, _)| *k == key) {
             if interacting {
                 ctx.request_repaint_after(REFINE_AFTER);
             }
@@ -408,7 +411,7 @@ impl Editor {
             backend: key.backend,
             shadows: key.shadows,
         });
-        self.requested = Some((key, !interacting));
+        self.requested = Some((key, id, !interacting));
         if interacting {
             ctx.request_repaint_after(REFINE_AFTER);
         }
@@ -481,8 +484,13 @@ impl Editor {
     }
 
     fn handle_dropped_files(&mut self, ctx: &egui::Context) {
-        let dropped: Vec<PathBuf> =
-            ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).collect());
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_path_buf())
+                .collect()
+        });
         if let Some(path) = dropped
             .iter()
             .find(|p| p.extension().is_some_and(|e| e == "ron"))
@@ -507,10 +515,10 @@ impl Editor {
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
-        let origin = self
-            .doc
-            .path()
-            .map_or_else(|| "an unsaved scene".to_owned(), |p| p.display().to_string());
+        let origin = self.doc.path().map_or_else(
+            || "an unsaved scene".to_owned(),
+            |p| p.display().to_string(),
+        );
         if let Err(why) = self
             .doc
             .scene()
@@ -563,8 +571,7 @@ impl Editor {
         if pressed(Key::Delete) || pressed(Key::Backspace) {
             self.delete();
         }
-        if pressed(Key::F1) || ctx.input(|i| i.events.contains(&egui::Event::Text("?".into())))
-        {
+        if pressed(Key::F1) || ctx.input(|i| i.events.contains(&egui::Event::Text("?".into()))) {
             self.help = !self.help;
         }
         if pressed(Key::F) {
@@ -693,8 +700,8 @@ impl Editor {
 
     fn add_blob(&mut self) {
         let group = self.active_group;
-        let centre = selection::centroid(self.doc.scene(), &self.selection)
-            .unwrap_or(self.orbit.target);
+        let centre =
+            selection::centroid(self.doc.scene(), &self.selection).unwrap_or(self.orbit.target);
         let radius = self.typical_radius();
         let mut added = None;
         let applied = self.apply(Edit::new("add blob"), |s| {
@@ -862,7 +869,11 @@ impl Editor {
         painter.text(
             egui::pos2(bar_rect.right(), bar_rect.bottom() + 2.0),
             egui::Align2::RIGHT_TOP,
-            format!("{}{} steps", if clipped { ">=" } else { "" }, shown.steps_max),
+            format!(
+                "{}{} steps",
+                if clipped { ">=" } else { "" },
+                shown.steps_max
+            ),
             egui::FontId::proportional(12.0),
             egui::Color32::LIGHT_GRAY,
         );
@@ -883,7 +894,10 @@ impl Editor {
         };
         let per_panel = if view == ViewMode::Compare {
             let n = methods.len().clamp(1, crate::picture::COLUMNS);
-            (width / n, height * methods.len().div_ceil(n).max(1) / methods.len().max(1))
+            (
+                width / n,
+                height * methods.len().div_ceil(n).max(1) / methods.len().max(1),
+            )
         } else {
             (width, height)
         };

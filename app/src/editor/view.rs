@@ -160,7 +160,9 @@ impl Projection {
     /// The world point at pixel `(x, y)` on the plane through `anchor` facing the camera.
     #[must_use]
     pub fn unproject_on_plane(&self, x: f64, y: f64, anchor: [f64; 3]) -> [f64; 3] {
-        let z = (DVec3::from_array(anchor) - self.eye).dot(self.forward).max(1e-6);
+        let z = (DVec3::from_array(anchor) - self.eye)
+            .dot(self.forward)
+            .max(1e-6);
         let u = (x - self.centre.0) / self.focal;
         let v = (self.centre.1 - y) / self.focal;
         (self.eye + z * (self.forward + u * self.right + v * self.up)).to_array()
@@ -208,7 +210,10 @@ mod tests {
         let orbit = OrbitCamera::from_camera(&camera);
         let back = orbit.camera();
         for i in 0..3 {
-            assert!((back.position[i] - camera.position[i]).abs() < 1e-9, "{back:?}");
+            assert!(
+                (back.position[i] - camera.position[i]).abs() < 1e-9,
+                "{back:?}"
+            );
         }
         let p = Projection::new(&back, 800.0, 600.0);
         let (x, y, _) = p.project(camera.target).unwrap_or_default();

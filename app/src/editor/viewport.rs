@@ -60,7 +60,10 @@ impl Editor {
         let ppp = ui.ctx().pixels_per_point();
         self.request_frames(
             ui.ctx(),
-            ((rect.width() * ppp) as usize, (rect.height() * ppp) as usize),
+            (
+                (rect.width() * ppp) as usize,
+                (rect.height() * ppp) as usize,
+            ),
         );
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
         let painter = ui.painter_at(rect);
@@ -86,8 +89,7 @@ impl Editor {
             f64::from(rect.width()),
             f64::from(rect.height()),
         );
-        let to_screen =
-            |x: f64, y: f64| egui::pos2(rect.left() + x as f32, rect.top() + y as f32);
+        let to_screen = |x: f64, y: f64| egui::pos2(rect.left() + x as f32, rect.top() + y as f32);
         let drawn = self.draw_overlay(&painter, &projection, &to_screen);
         let pointer = response.hover_pos();
         let hovered = pointer.and_then(|p| nearest(&drawn, p));
@@ -135,7 +137,11 @@ impl Editor {
         // ---- mouse ----
         let shift = ui.input(|i| i.modifiers.shift);
         if response.drag_started() {
-            let start = response.interact_pointer_pos().unwrap_or_default();
+            // Where the button went down: the drag is recognised only after some movement.
+            let start = ui
+                .input(|i| i.pointer.press_origin())
+                .or(response.interact_pointer_pos())
+                .unwrap_or_default();
             let secondary = ui.input(|i| {
                 i.pointer.button_down(egui::PointerButton::Secondary)
                     || i.pointer.button_down(egui::PointerButton::Middle)
@@ -226,11 +232,10 @@ impl Editor {
                 self.sketch_at(position);
             } else {
                 match hovered {
-                    Some(item) if shift => {
-                        if !self.selection.remove(&item) {
-                            self.selection.insert(item);
-                        }
+                    Some(item) if shift && !self.selection.remove(&item) => {
+                        self.selection.insert(item);
                     }
+                    Some(_) if shift => {}
                     Some(item) => self.selection = Selection::from([item]),
                     None if !shift => self.selection.clear(),
                     None => {}

@@ -65,8 +65,6 @@ pub struct Traced {
 pub struct Reply {
     /// The request's id.
     pub id: u64,
-    /// Its size.
-    pub size: (usize, usize),
     /// One entry per method that applies, in request order.
     pub frames: Vec<Traced>,
     /// Methods that do not apply to the scene, with why.
@@ -225,7 +223,6 @@ fn trace(request: &Request, gpu: &mut Option<Result<GpuRenderer, String>>) -> Re
     }
     Reply {
         id: request.id,
-        size: request.size,
         frames,
         skipped,
         adapter,
