@@ -137,10 +137,36 @@ fn bad_input_gets_one_line_and_a_failure_status() {
 }
 
 #[test]
-fn no_argument_uses_the_embedded_default_scene() {
-    let o = skeletrace(&[]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-    assert!(text(&o.stdout).contains("embedded creature.ron"));
+fn the_editor_reports_a_bad_scene_or_a_missing_display_in_one_line() {
+    // A broken file is reported by the loader before any window opens.
+    let dir = temp_dir("editor");
+    let broken = dir.join("broken.ron");
+    std::fs::write(
+        &broken,
+        "(version: 1, groups: [(name: \"g\", blobs: [(center: (0, 0, 0), radius: -1)])])",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let o = skeletrace(&[broken.to_str().unwrap_or_default()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o.stderr).contains("broken.ron"),
+        "{}",
+        text(&o.stderr)
+    );
+    // No display at all: one clear message, not a panic (the window itself is checked by
+    // scripts/smoke-editor under Xvfb).
+    let o = Command::new(env!("CARGO_BIN_EXE_skeletrace"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run skeletrace: {e}"));
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("cannot open the editor window"),
+        "{}",
+        text(&o.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
