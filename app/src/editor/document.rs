@@ -7,11 +7,20 @@
 //! the current one, so the editor can never hold a scene that would not load back.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use skeletrace_core::Scene;
 
 /// Undo steps kept.
 const HISTORY: usize = 200;
+
+/// Revisions are unique across documents, so that what is cached for one revision (a traced
+/// frame, the methods that apply) is never taken for another document's scene.
+static NEXT_REVISION: AtomicU64 = AtomicU64::new(1);
+
+fn next_revision() -> u64 {
+    NEXT_REVISION.fetch_add(1, Ordering::Relaxed)
+}
 
 /// One change of the scene, as the history names it.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -69,7 +78,7 @@ impl Document {
             undo: Vec::new(),
             redo: Vec::new(),
             open_gesture: None,
-            revision: 0,
+            revision: next_revision(),
         }
     }
 
@@ -94,7 +103,8 @@ impl Document {
         self.path.as_deref()
     }
 
-    /// Increases with every change of the scene (edits, undo, redo).
+    /// Changes with every change of the scene (edits, undo, redo) and differs between
+    /// documents.
     #[must_use]
     pub fn revision(&self) -> u64 {
         self.revision
@@ -133,7 +143,7 @@ impl Document {
         }
         self.open_gesture = edit.coalesce;
         self.redo.clear();
-        self.revision += 1;
+        self.revision = next_revision();
         Ok(())
     }
 
@@ -179,7 +189,7 @@ impl Document {
             before: current,
         });
         self.open_gesture = None;
-        self.revision += 1;
+        self.revision = next_revision();
         true
     }
 
@@ -203,7 +213,7 @@ impl Document {
         });
         self.redo.clear();
         self.open_gesture = None;
-        self.revision += 1;
+        self.revision = next_revision();
     }
 }
 

@@ -196,16 +196,31 @@ impl Editor {
 
     fn methods_panel(&mut self, ui: &mut egui::Ui) {
         ui.heading("Methods");
-        let program = skeletrace_core::FieldProgram::new(self.doc.scene());
-        let names: Vec<(&'static str, bool, bool)> = methods::all()
-            .iter()
-            .map(|m| {
-                let applies = m.supports(&program).is_ok();
-                let gpu =
-                    GpuMethod::by_name(m.name()).is_some_and(|g| g.supports(&program).is_ok());
-                (m.name(), applies, gpu)
-            })
-            .collect();
+        let revision = self.doc.revision();
+        if self
+            .method_tags
+            .as_ref()
+            .is_none_or(|(r, _)| *r != revision)
+        {
+            // Which methods apply depends only on the scene: built once per revision, not
+            // once per UI frame (a FieldProgram builds a BVH).
+            let program = skeletrace_core::FieldProgram::new(self.doc.scene());
+            let tags = methods::all()
+                .iter()
+                .map(|m| {
+                    let applies = m.supports(&program).is_ok();
+                    let gpu =
+                        GpuMethod::by_name(m.name()).is_some_and(|g| g.supports(&program).is_ok());
+                    (m.name(), applies, gpu)
+                })
+                .collect();
+            self.method_tags = Some((revision, tags));
+        }
+        let names = self
+            .method_tags
+            .as_ref()
+            .map(|(_, tags)| tags.clone())
+            .unwrap_or_default();
         let tag = |gpu: bool| if gpu { "GPU+CPU" } else { "CPU only" };
         egui::ComboBox::from_label("shaded view")
             .selected_text(self.ui_state.shaded_method.clone())

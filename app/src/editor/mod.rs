@@ -119,6 +119,9 @@ struct RenderKey {
     shadows: bool,
 }
 
+/// A method's name, whether it applies to the scene, and whether it runs on the GPU.
+type MethodTag = (&'static str, bool, bool);
+
 /// A message in the status bar.
 struct Notice {
     text: String,
@@ -151,6 +154,8 @@ pub struct Editor {
     hovered_pixel: Option<(usize, usize)>,
     /// Where the shaded viewport was last drawn.
     viewport_rect: Option<egui::Rect>,
+    /// The methods' tags for one scene revision.
+    method_tags: Option<(u64, Vec<MethodTag>)>,
 }
 
 impl Editor {
@@ -195,6 +200,7 @@ impl Editor {
             active_group: 0,
             hovered_pixel: None,
             viewport_rect: None,
+            method_tags: None,
         }
     }
 
