@@ -1,20 +1,21 @@
 //! The panels around the viewport: menu bar, inspector (file, selection, the active group's
-//! field type, kernel, material, and the scene's isovalue and blend), method choice, status
+//! field type, kernel, material and shapes, and the scene's isovalue and blend), method choice, status
 //! bar, and the dialogs (help, unsaved changes, recovery). Every change is an [`Edit`] and is
 //! live: the next frame is traced from the edited scene.
 
 use eframe::egui;
 use skeletrace_core::kernel::Kernel;
 use skeletrace_core::methods;
-use skeletrace_core::scene::{Blend, SkeletonField};
+use skeletrace_core::scene::{Blend, Shape, SkeletonField};
 use skeletrace_render::GpuMethod;
 
 use super::selection::{self, Item};
+use super::shapes;
 use super::worker::Backend;
 use super::{Edit, Editor, ViewMode};
 
 /// Shortcuts listed by the help overlay.
-pub const SHORTCUTS: [(&str, &str); 22] = [
+pub const SHORTCUTS: [(&str, &str); 24] = [
     ("Left drag", "orbit (on a handle: move it)"),
     ("Right / middle drag", "pan"),
     ("Wheel", "zoom; over a selected handle: radius"),
@@ -24,6 +25,8 @@ pub const SHORTCUTS: [(&str, &str); 22] = [
         "Gizmo axis / centre",
         "move along an axis / in the view plane",
     ),
+    ("Gizmo squares", "move in the yz, zx or xy plane"),
+    ("Drag a selected circle", "scale the selection's radii"),
     ("Arrows, + / -", "orbit, zoom"),
     ("F", "frame the selection"),
     ("A or Home", "frame everything"),
@@ -64,10 +67,16 @@ impl Editor {
                     self.save(Some(path));
                 }
                 ui.separator();
-                if ui.button("Screenshot").clicked() {
-                    let path = self.screenshot_path();
-                    self.screenshot(&path);
-                }
+                ui.horizontal(|ui| {
+                    if ui.button("Screenshot").clicked() {
+                        let path = self.screenshot_path();
+                        self.screenshot(&path);
+                    }
+                    let (w, h) = &mut self.ui_state.screenshot_size;
+                    ui.add(egui::DragValue::new(w).range(16..=8192).suffix(" px"));
+                    ui.label("×");
+                    ui.add(egui::DragValue::new(h).range(16..=8192).suffix(" px"));
+                });
                 ui.separator();
                 let recent = self.ui_state.recent.clone();
                 ui.menu_button("Recent", |ui| {
@@ -459,6 +468,48 @@ impl Editor {
                 s.groups[g].material = material;
             });
         }
+        self.shapes_panel(ui, g, &group.shapes);
+    }
+
+    /// The group's distance primitives: add one of each kind at the orbit target, edit every
+    /// field, remove.
+    fn shapes_panel(&mut self, ui: &mut egui::Ui, g: usize, current: &[Shape]) {
+        ui.horizontal(|ui| {
+            ui.strong(format!("Shapes ({})", current.len()));
+            ui.menu_button("Add shape", |ui| {
+                for (kind, name) in shapes::KINDS.iter().enumerate() {
+                    if ui.button(*name).clicked() {
+                        let radius = self.typical_radius();
+                        let shape =
+                            shapes::new_shape(kind, self.orbit.target, 6.0 * radius, 0.5 * radius);
+                        self.apply(Edit::new(format!("add {name}")), |s| {
+                            s.groups[g].shapes.push(shape);
+                        });
+                    }
+                }
+            });
+        });
+        for (k, shape) in current.iter().enumerate() {
+            let mut edited = *shape;
+            let mut remove = false;
+            egui::CollapsingHeader::new(format!("{} {k}", shapes::kind_name(shape)))
+                .id_salt(("shape", g, k))
+                .show(ui, |ui| {
+                    shapes::edit_fields(ui, &mut edited);
+                    remove = ui.button("Remove").clicked();
+                });
+            if remove {
+                self.apply(Edit::new("remove shape"), |s| {
+                    s.groups[g].shapes.remove(k);
+                });
+                break;
+            }
+            if edited != *shape {
+                self.apply(Edit::gesture("shape", format!("shape-{g}-{k}")), |s| {
+                    s.groups[g].shapes[k] = edited;
+                });
+            }
+        }
     }
 
     fn scene_panel(&mut self, ui: &mut egui::Ui) {
@@ -535,7 +586,7 @@ impl Editor {
                 ui.separator();
                 ui.weak(&shown.adapter);
                 if !shown.refined {
-                    ui.weak("(preview)");
+                    ui.weak(format!("(preview, 1/{} resolution)", self.preview_divisor));
                 }
                 for s in &shown.skipped {
                     ui.colored_label(egui::Color32::from_rgb(240, 180, 90), s);

@@ -9,6 +9,7 @@
 mod document;
 mod inspector;
 mod selection;
+mod shapes;
 mod view;
 mod viewport;
 mod worker;
@@ -83,8 +84,12 @@ impl Default for UiState {
 pub const UI_STATE_KEY: &str = "skeletrace-ui";
 /// Seconds between autosaves of a dirty scene to the recovery file.
 const AUTOSAVE_SECONDS: u64 = 20;
-/// Preview resolution divisor while the user drags or orbits.
+/// Preview resolution divisor at start, before any preview was timed.
 const PREVIEW_DIVISOR: usize = 4;
+/// Time one preview reply should take, all its methods together: what keeps a drag fluid.
+const PREVIEW_TARGET_MS: f64 = 60.0;
+/// The coarsest preview: 1/16 of the viewport's width and height.
+const PREVIEW_DIVISOR_MAX: usize = 16;
 /// Idle time after which the full-resolution frame is requested.
 const REFINE_AFTER: Duration = Duration::from_millis(250);
 
@@ -156,6 +161,8 @@ pub struct Editor {
     viewport_rect: Option<egui::Rect>,
     /// The methods' tags for one scene revision.
     method_tags: Option<(u64, Vec<MethodTag>)>,
+    /// Resolution divisor while interacting, adapted to the last preview's trace time.
+    preview_divisor: usize,
 }
 
 impl Editor {
@@ -201,6 +208,7 @@ impl Editor {
             hovered_pixel: None,
             viewport_rect: None,
             method_tags: None,
+            preview_divisor: PREVIEW_DIVISOR,
         }
     }
 
@@ -334,6 +342,10 @@ impl Editor {
             .requested
             .as_ref()
             .is_some_and(|(_, id, full)| *full && *id == reply.id);
+        if !refined {
+            let ms = reply.frames.iter().map(|t| t.ms).sum();
+            self.preview_divisor = adapted_divisor(self.preview_divisor, ms);
+        }
         let named: Vec<(&str, Frame)> = reply
             .frames
             .iter()
@@ -378,7 +390,7 @@ impl Editor {
         };
         let interacting =
             self.gesture.is_active() || self.last_interaction.elapsed() < REFINE_AFTER;
-        let divisor = if interacting { PREVIEW_DIVISOR } else { 1 };
+        let divisor = if interacting { self.preview_divisor } else { 1 };
         let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
         let camera = self.orbit.camera();
         let bits = |v: f64| v.to_bits();
@@ -952,6 +964,18 @@ impl Editor {
     }
 }
 
+/// The preview divisor that makes the next preview take about [`PREVIEW_TARGET_MS`], given
+/// that the last one took `ms` at `divisor`: trace time goes with the pixel count, 1/divisor².
+/// It changes by at most a factor of two per reply, so one slow frame does not swing it.
+fn adapted_divisor(divisor: usize, ms: f64) -> usize {
+    if !ms.is_finite() || ms <= 0.0 {
+        return divisor;
+    }
+    let ideal = divisor as f64 * (ms / PREVIEW_TARGET_MS).sqrt();
+    let bounded = ideal.clamp(divisor as f64 / 2.0, divisor as f64 * 2.0);
+    (bounded.round() as usize).clamp(1, PREVIEW_DIVISOR_MAX)
+}
+
 /// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]`.
 fn frame_image(frame: &Frame, view: ViewMode, steps_max: u32) -> egui::ColorImage {
     let mut canvas = Canvas::new(frame.width, frame.height, [0, 0, 0, 255]);
@@ -1054,4 +1078,26 @@ fn path_recent(editor: &Editor) -> Option<String> {
         .recent
         .first()
         .map(|p| p.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_preview_divisor_follows_the_trace_time_by_at_most_a_factor_of_two() {
+        // 4× the target at divisor 4: twice as coarse makes the pixels a quarter.
+        assert_eq!(adapted_divisor(4, 4.0 * PREVIEW_TARGET_MS), 8);
+        // 100× the target: capped at doubling.
+        assert_eq!(adapted_divisor(4, 100.0 * PREVIEW_TARGET_MS), 8);
+        assert_eq!(
+            adapted_divisor(12, 100.0 * PREVIEW_TARGET_MS),
+            PREVIEW_DIVISOR_MAX
+        );
+        // Much faster than needed: finer, down to full resolution.
+        assert_eq!(adapted_divisor(4, 0.01), 2);
+        assert_eq!(adapted_divisor(1, 0.01), 1);
+        assert_eq!(adapted_divisor(4, PREVIEW_TARGET_MS), 4);
+        assert_eq!(adapted_divisor(4, f64::NAN), 4);
+    }
 }

@@ -176,6 +176,46 @@ impl Projection {
         (self.right * dx * s - self.up * dy * s).to_array()
     }
 
+    /// Where the eye ray through pixel `(x, y)` meets the plane through `point` with normal
+    /// `normal`; `None` when the ray runs parallel to it or meets it behind the eye.
+    #[must_use]
+    pub fn unproject_on_world_plane(
+        &self,
+        (x, y): (f64, f64),
+        point: [f64; 3],
+        normal: [f64; 3],
+    ) -> Option<DVec3> {
+        let u = (x - self.centre.0) / self.focal;
+        let v = (self.centre.1 - y) / self.focal;
+        let dir = self.forward + u * self.right + v * self.up;
+        let n = DVec3::from_array(normal);
+        let along = dir.dot(n);
+        if along.abs() < 1e-9 {
+            return None;
+        }
+        let t = (DVec3::from_array(point) - self.eye).dot(n) / along;
+        (t > 0.0).then(|| self.eye + t * dir)
+    }
+
+    /// The world displacement, within the plane through `anchor` with normal `normal`, of a
+    /// pointer moving from pixel `from` to pixel `to`: the handle stays under the pointer.
+    #[must_use]
+    pub fn drag_in_plane(
+        &self,
+        from: (f64, f64),
+        to: (f64, f64),
+        anchor: [f64; 3],
+        normal: [f64; 3],
+    ) -> [f64; 3] {
+        match (
+            self.unproject_on_world_plane(from, anchor, normal),
+            self.unproject_on_world_plane(to, anchor, normal),
+        ) {
+            (Some(a), Some(b)) => (b - a).to_array(),
+            _ => [0.0; 3],
+        }
+    }
+
     /// The world displacement along `axis` (unit) of a screen drag `(dx, dy)` pixels applied
     /// to a handle at `anchor`: the drag projected on the axis' screen direction.
     #[must_use]
@@ -218,6 +258,13 @@ mod tests {
         let p = Projection::new(&back, 800.0, 600.0);
         let (x, y, _) = p.project(camera.target).unwrap_or_default();
         assert!((x - 400.0).abs() < 1e-6 && (y - 300.0).abs() < 1e-6);
+        // A drag in the ground plane keeps y and lands under the pointer.
+        let anchor = [0.5, 0.25, -1.0];
+        let moved = p.drag_in_plane((400.0, 300.0), (480.0, 340.0), anchor, [0.0, 1.0, 0.0]);
+        assert!(moved[1].abs() < 1e-9, "{moved:?}");
+        let landed = [anchor[0] + moved[0], anchor[1], anchor[2] + moved[2]];
+        let (lx, ly, _) = p.project(landed).unwrap_or_default();
+        assert!((lx - 480.0).abs() < 1e-6 && (ly - 340.0).abs() < 1e-6);
         let q = p.unproject_on_plane(123.0, 45.0, [0.0, 0.0, 0.0]);
         let (qx, qy, _) = p.project(q).unwrap_or_default();
         assert!((qx - 123.0).abs() < 1e-6 && (qy - 45.0).abs() < 1e-6);

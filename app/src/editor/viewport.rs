@@ -1,8 +1,8 @@
 //! The shaded viewport: the traced frame, the skeleton overlay (vertex handles, segments,
 //! radius circles, blobs, hover and selection highlights), the translate gizmo (three axis
-//! handles and a view-plane handle), click and box selection, sketch mode, and the mouse
-//! camera (left drag orbit, right or middle drag pan, wheel zoom; wheel over a selected
-//! handle scales its radius).
+//! handles, three plane handles and a view-plane handle), click and box selection, sketch
+//! mode, radius editing (drag a selected item's radius circle, or the wheel over its handle)
+//! and the mouse camera (left drag orbit, right or middle drag pan, wheel zoom).
 
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, StrokeKind, Vec2};
 
@@ -21,8 +21,12 @@ pub enum Gesture {
     Pan,
     /// Moving the selection along a world axis (0 x, 1 y, 2 z).
     Axis(usize),
+    /// Moving the selection in the world plane normal to an axis (0 yz, 1 zx, 2 xy).
+    Plane(usize),
     /// Moving the selection in the plane facing the camera.
     ViewPlane,
+    /// Scaling the selection's radii by dragging a radius circle about this centre.
+    Radius(Pos2),
     /// Box selection from this corner.
     Box(Pos2),
 }
@@ -39,6 +43,10 @@ impl Gesture {
 const GIZMO: f32 = 70.0;
 /// Pick distance, points.
 const PICK: f32 = 9.0;
+/// Where a plane handle sits, as a fraction of the two axis handles it spans.
+const PLANE_HANDLE: f32 = 0.35;
+/// Half size of a plane handle, points.
+const PLANE_HANDLE_SIZE: f32 = 6.0;
 const AXIS_COLOURS: [Color32; 3] = [
     Color32::from_rgb(230, 80, 80),
     Color32::from_rgb(110, 200, 90),
@@ -101,6 +109,7 @@ impl Editor {
             Some((c, to_screen(x, y), z))
         });
         let mut axis_tips = [Pos2::ZERO; 3];
+        let mut plane_handles = [Pos2::ZERO; 3];
         if let Some((c, at, _)) = gizmo {
             for (k, tip) in axis_tips.iter_mut().enumerate() {
                 let mut axis = [0.0; 3];
@@ -117,6 +126,20 @@ impl Editor {
                     Stroke::new(if active { 4.0 } else { 2.5 }, AXIS_COLOURS[k]),
                 );
                 painter.circle_filled(*tip, 6.0, AXIS_COLOURS[k]);
+            }
+            for (k, handle) in plane_handles.iter_mut().enumerate() {
+                let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+                *handle = at + ((axis_tips[a] - at) + (axis_tips[b] - at)) * PLANE_HANDLE;
+                let colour = AXIS_COLOURS[k].gamma_multiply(if self.gesture == Gesture::Plane(k) {
+                    1.0
+                } else {
+                    0.6
+                });
+                painter.rect_filled(
+                    Rect::from_center_size(*handle, Vec2::splat(2.0 * PLANE_HANDLE_SIZE)),
+                    1.0,
+                    colour,
+                );
             }
             painter.rect_stroke(
                 Rect::from_center_size(at, Vec2::splat(14.0)),
@@ -154,6 +177,19 @@ impl Editor {
                 .flatten()
             {
                 Gesture::Axis(k)
+            } else if let Some(k) = gizmo
+                .is_some()
+                .then(|| {
+                    (0..3).find(|&k| {
+                        let d = start - plane_handles[k];
+                        d.x.abs() <= PLANE_HANDLE_SIZE + 2.0 && d.y.abs() <= PLANE_HANDLE_SIZE + 2.0
+                    })
+                })
+                .flatten()
+            {
+                Gesture::Plane(k)
+            } else if let Some(centre) = ring_under(&drawn, &self.selection, start) {
+                Gesture::Radius(centre)
             } else if gizmo.is_some_and(|(_, at, _)| (start - at).length() < PICK) {
                 Gesture::ViewPlane
             } else if let Some(item) = nearest(&drawn, start) {
@@ -182,6 +218,30 @@ impl Editor {
                         axis[k] = 1.0;
                         let moved = projection.drag_along_axis(dx, dy, c, axis);
                         self.move_selection(moved);
+                    }
+                }
+                Gesture::Plane(k) => {
+                    if let (Some((c, _, _)), Some(now)) = (gizmo, response.interact_pointer_pos()) {
+                        let pixel =
+                            |p: Pos2| (f64::from(p.x - rect.left()), f64::from(p.y - rect.top()));
+                        let mut normal = [0.0; 3];
+                        normal[k] = 1.0;
+                        let moved =
+                            projection.drag_in_plane(pixel(now - delta), pixel(now), c, normal);
+                        self.move_selection(moved);
+                    }
+                }
+                Gesture::Radius(centre) => {
+                    if let Some(now) = response.interact_pointer_pos() {
+                        let before = (now - delta - centre).length();
+                        let after = (now - centre).length();
+                        if before > 1.0 && after > 1.0 {
+                            let chosen = self.selection.clone();
+                            let factor = f64::from(after / before);
+                            self.apply(Edit::gesture("radius", "drag-radius"), |s| {
+                                selection::scale_radius(s, &chosen, factor);
+                            });
+                        }
                     }
                 }
                 Gesture::ViewPlane => {
@@ -351,6 +411,18 @@ fn nearest(drawn: &[Drawn], p: Pos2) -> Option<Item> {
         .filter(|(_, dist)| *dist <= PICK)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(d, _)| d.item)
+}
+
+/// The centre of the selected item whose radius circle passes within the pick distance of
+/// `p` (circles too small to tell from their handle do not count).
+fn ring_under(drawn: &[Drawn], selection: &Selection, p: Pos2) -> Option<Pos2> {
+    drawn
+        .iter()
+        .filter(|d| selection.contains(&d.item) && d.radius > 2.0 * PICK)
+        .map(|d| (d.at, ((p - d.at).length() - d.radius).abs()))
+        .filter(|(_, off)| *off <= PICK * 0.6)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(at, _)| at)
 }
 
 /// `p` lies near the segment `a`–`b` (an axis handle), away from its start.
