@@ -127,6 +127,59 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     h.step();
     assert_eq!(h.state().document().scene(), &before);
 
+    // Select the vertex with the largest circle on screen, and drag its radius circle
+    // outwards by half its radius: the radius follows the pointer's distance from the
+    // handle, and undo restores it.
+    let count = before.groups[0].skeletons[0].vertices.len();
+    let (big, (centre, ring)) = (0..count)
+        .map(|vertex| Item::Vertex {
+            group: 0,
+            skeleton: 0,
+            vertex,
+        })
+        .filter_map(|i| Some((i, h.state().screen_circle(i)?)))
+        .max_by(|a, b| a.1.1.total_cmp(&b.1.1))
+        .unwrap_or_else(|| panic!("the skeleton is on screen"));
+    assert!(
+        ring > 20.0,
+        "a radius circle is large enough to grab ({ring})"
+    );
+    h.hover_at(centre);
+    h.step();
+    press(&mut h, centre, true);
+    press(&mut h, centre, false);
+    assert_eq!(
+        h.state().selection().iter().copied().collect::<Vec<_>>(),
+        vec![big]
+    );
+    let Item::Vertex {
+        vertex: big_index, ..
+    } = big
+    else {
+        unreachable!("a vertex was chosen")
+    };
+    let radius_of =
+        |e: &Editor| e.document().scene().groups[0].skeletons[0].vertices[big_index].radius;
+    // Up and to the left of the handle, away from the gizmo's handles (right and above).
+    let direction = egui::vec2(-0.6, 0.8);
+    let grab = centre + direction * ring;
+    h.hover_at(grab);
+    h.step();
+    press(&mut h, grab, true);
+    for k in 1..=5 {
+        h.hover_at(grab + direction * (0.1 * ring * k as f32));
+        h.step();
+    }
+    press(&mut h, grab + direction * (0.5 * ring), false);
+    let ratio = radius_of(h.state()) / before.groups[0].skeletons[0].vertices[big_index].radius;
+    assert!(
+        (ratio - 1.5).abs() < 0.1,
+        "dragging the circle out by half its radius scales the radius by 1.5, got {ratio}"
+    );
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(h.state().document().scene(), &before);
+
     // σ with the slider: the kernel changes and the traced surface grows.
     settle(&mut h);
     let covered = hit_fraction(h.state());

@@ -267,15 +267,25 @@ impl Editor {
     /// Where `item`'s handle is drawn in the shaded viewport (window points), if visible.
     #[must_use]
     pub fn screen_position(&self, item: Item) -> Option<egui::Pos2> {
+        self.screen_circle(item).map(|(at, _)| at)
+    }
+
+    /// `item`'s handle and the radius of its radius circle in the shaded viewport (window
+    /// points), if visible.
+    #[must_use]
+    pub fn screen_circle(&self, item: Item) -> Option<(egui::Pos2, f32)> {
         let rect = self.viewport_rect?;
-        let (centre, _) = item.ball(self.doc.scene())?;
+        let (centre, radius) = item.ball(self.doc.scene())?;
         let projection = view::Projection::new(
             &self.orbit.camera(),
             f64::from(rect.width()),
             f64::from(rect.height()),
         );
-        let (x, y, _) = projection.project(centre)?;
-        Some(egui::pos2(rect.left() + x as f32, rect.top() + y as f32))
+        let (x, y, z) = projection.project(centre)?;
+        Some((
+            egui::pos2(rect.left() + x as f32, rect.top() + y as f32),
+            projection.pixels(radius, z) as f32,
+        ))
     }
 
     /// The message in the status bar, if any.
