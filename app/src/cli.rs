@@ -33,6 +33,21 @@ pub enum Command {
     Render(RenderArgs),
     /// Time full frames per method: median milliseconds over several frames.
     Bench(BenchArgs),
+    /// Export the isosurface as a glTF mesh (.glb, or .gltf with a .bin beside it).
+    Export(ExportArgs),
+}
+
+/// Arguments of `export`.
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// Scene file (.ron).
+    pub scene: PathBuf,
+    /// Output file: .glb or .gltf.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Grid cells along the longest side of the field's support box.
+    #[arg(long, default_value_t = 128)]
+    pub resolution: usize,
 }
 
 /// Arguments of `bench`.

@@ -2,6 +2,7 @@
 //! command line) and the editor workflow tests in `tests/`.
 
 pub mod editor;
+pub mod export;
 pub mod picture;
 
 /// The scene opened when no file is given: a hand-made creature.

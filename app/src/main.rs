@@ -31,6 +31,7 @@ fn main() -> ExitCode {
         Some(Command::Render(args)) => {
             load(Some(&args.scene)).and_then(|s| render_cmd::run(&args, &s))
         }
+        Some(Command::Export(args)) => load(Some(&args.scene)).and_then(|s| run_export(&args, &s)),
         Some(Command::Info { scene }) => {
             load(Some(&scene)).map(|s| print_info(&scene.display().to_string(), &s))
         }
@@ -55,6 +56,47 @@ fn load(path: Option<&Path>) -> Result<Scene, String> {
 /// Opens the editor window (DESIGN.md, "Editor") on `path` or the embedded scene.
 fn open_editor(path: Option<&Path>) -> Result<(), String> {
     skeletrace::editor::run(path)
+}
+
+/// `export`: extract, report, write; a progress bar on standard error when it is a terminal.
+fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
+    let started = std::time::Instant::now();
+    let terminal = std::io::stderr().is_terminal();
+    let progress = |fraction: f64| {
+        if terminal {
+            let filled = (fraction * 30.0).round() as usize;
+            eprint!(
+                "\rsampling the field [{}{}] {:3.0} %",
+                "#".repeat(filled),
+                " ".repeat(30 - filled.min(30)),
+                100.0 * fraction
+            );
+        }
+    };
+    let mesh = skeletrace::export::extract(scene, args.resolution, &progress)
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    if terminal {
+        eprintln!();
+    }
+    skeletrace::export::write_gltf(scene, &mesh, &args.output)?;
+    let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
+    if mesh.cut_at_box {
+        eprintln!(
+            "skeletrace: {}: a plane was cut at the box of the other primitives' supports; the mesh is open there",
+            args.scene.display()
+        );
+    }
+    println!(
+        "{}: {} vertices, {} triangles in {} group meshes, cell {:.4}, {} vertices off the surface, {:.1} s",
+        args.output.display(),
+        mesh.positions.len(),
+        triangles,
+        mesh.triangles.iter().filter(|t| !t.is_empty()).count(),
+        mesh.cell,
+        mesh.off_surface,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {

@@ -77,6 +77,9 @@ impl Editor {
                     ui.label("×");
                     ui.add(egui::DragValue::new(h).range(16..=8192).suffix(" px"));
                 });
+                if ui.button("Export mesh (.glb)").clicked() {
+                    self.export_mesh();
+                }
                 ui.separator();
                 let recent = self.ui_state.recent.clone();
                 ui.menu_button("Recent", |ui| {
@@ -149,6 +152,31 @@ impl Editor {
                 self.help = !self.help;
             }
         });
+    }
+
+    /// File → Export mesh: the isosurface at 128 cells to `NAME.glb` beside the scene (the UI
+    /// waits for it; about a second for the assets).
+    fn export_mesh(&mut self) {
+        let path = self.screenshot_path().with_file_name(format!(
+            "{}.glb",
+            self.doc
+                .path()
+                .and_then(|p| p.file_stem())
+                .map_or_else(|| "skeletrace".into(), |s| s.to_string_lossy())
+        ));
+        let scene = self.doc.scene();
+        let written = crate::export::extract(scene, 128, &|_| {})
+            .and_then(|mesh| crate::export::write_gltf(scene, &mesh, &path).map(|()| mesh));
+        match written {
+            Ok(mesh) => {
+                let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
+                self.tell(format!(
+                    "exported {} ({triangles} triangles)",
+                    path.display()
+                ));
+            }
+            Err(why) => self.complain(why),
+        }
     }
 
     fn screenshot_path(&self) -> std::path::PathBuf {

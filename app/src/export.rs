@@ -1,0 +1,509 @@
+//! Mesh export (DESIGN.md, "Command line": `export`): the isosurface `f = c` extracted with
+//! naive surface nets (the `fast-surface-nets` crate) on a grid over the field's support,
+//! each vertex then moved onto the surface by Newton steps along the analytic gradient, with
+//! the analytic normal. Coincident vertices are welded and the triangles they collapse
+//! dropped, so no triangle is degenerate and a closed surface gives a closed mesh. Each
+//! triangle goes to the group whose field is largest at its centre: one glTF mesh per
+//! material group, with its base colour and, for a transparent group, `KHR_materials_transmission`
+//! and `KHR_materials_ior`. Written with the gltf crate's JSON types, as `.glb` or as `.gltf`
+//! with a sibling `.bin`, atomically.
+
+use std::borrow::Cow;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+use fast_surface_nets::ndshape::{RuntimeShape, Shape};
+use fast_surface_nets::{SurfaceNetsBuffer, surface_nets};
+use glam::DVec3;
+use gltf::json;
+use json::validation::Checked::Valid;
+use json::validation::USize64;
+use rayon::prelude::*;
+use skeletrace_core::geometry::Ray;
+use skeletrace_core::{FieldProgram, Scene};
+
+/// Newton steps that move a surface-nets vertex onto the surface.
+const NEWTON_STEPS: usize = 8;
+
+/// The distance estimate `|f − c| / |∇f|` every exported vertex satisfies, as a fraction of
+/// the support's diagonal (vertices that cannot reach it stay where surface nets put them
+/// and are counted in [`Extracted::off_surface`]).
+pub const SURFACE_TOLERANCE: f64 = 1e-5;
+
+/// A triangle mesh of the isosurface, split by group.
+#[derive(Debug)]
+pub struct Extracted {
+    /// World positions.
+    pub positions: Vec<DVec3>,
+    /// Unit outward normals (−∇f/|∇f|).
+    pub normals: Vec<DVec3>,
+    /// Triangles, counter-clockwise seen from outside, per group.
+    pub triangles: Vec<Vec<[u32; 3]>>,
+    /// Vertices the Newton steps could not bring within [`SURFACE_TOLERANCE`].
+    pub off_surface: usize,
+    /// Grid cell size.
+    pub cell: f64,
+    /// An unbounded primitive (a plane) was cut at the box of the bounded ones' supports,
+    /// where the mesh is open.
+    pub cut_at_box: bool,
+}
+
+/// Extracts the isosurface of `scene` on a grid of `resolution` cells along the longest side
+/// of the box of the bounded primitives' supports (a plane is cut at that box). `progress`
+/// gets the fraction of the field sampled so far.
+///
+/// # Errors
+/// A field without bounded primitives cannot be meshed.
+pub fn extract(
+    scene: &Scene,
+    resolution: usize,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<Extracted, String> {
+    let program = FieldProgram::new(scene);
+    let bounds = program.support_bounds();
+    let (lo, hi) = (bounds.min, bounds.max);
+    let extent = hi - lo;
+    if extent.max_element().is_nan() || extent.max_element() <= 0.0 {
+        return Err("the field has no bounded primitive: nothing to mesh".into());
+    }
+    let resolution = resolution.clamp(8, 1024);
+    let cell = extent.max_element() / resolution as f64;
+    // One padding cell on each side, so the surface never touches the grid's border.
+    let origin = lo - DVec3::splat(cell);
+    let dims = ((extent / cell).ceil() + DVec3::splat(3.0))
+        .to_array()
+        .map(|n| n as u32);
+    let shape = RuntimeShape::<u32, 3>::new(dims);
+    let c = program.isovalue();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let slice = (dims[0] * dims[1]) as usize;
+    let mut sdf = vec![0.0f32; shape.usize()];
+    sdf.par_chunks_mut(slice)
+        .enumerate()
+        .for_each(|(z, plane)| {
+            for (i, value) in plane.iter_mut().enumerate() {
+                let (x, y) = (i % dims[0] as usize, i / dims[0] as usize);
+                let p = origin + DVec3::new(x as f64, y as f64, z as f64) * cell;
+                // Negative inside, as surface nets expects.
+                *value = (c - program.value(p)) as f32;
+            }
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(n as f64 / f64::from(dims[2]));
+        });
+    let mut buffer = SurfaceNetsBuffer::default();
+    surface_nets(&sdf, &shape, [0; 3], dims.map(|n| n - 1), &mut buffer);
+    let diagonal = extent.length();
+    let mut off_surface = 0;
+    let mut positions = Vec::with_capacity(buffer.positions.len());
+    let mut normals = Vec::with_capacity(buffer.positions.len());
+    for p in &buffer.positions {
+        let start = origin + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) * cell;
+        let (at, gradient, on) = onto_surface(&program, start, cell, diagonal);
+        off_surface += usize::from(!on);
+        positions.push(at);
+        normals.push(-gradient.normalize_or_zero());
+    }
+    let (positions, normals, triangles) = weld(positions, normals, &buffer.indices);
+    let triangles = orient_and_split(&program, &positions, &normals, triangles);
+    Ok(Extracted {
+        positions,
+        normals,
+        triangles,
+        off_surface,
+        cell,
+        cut_at_box: program.has_unbounded_support(),
+    })
+}
+
+/// Newton steps along the gradient from `start`, never further than one cell away; returns
+/// the point, the gradient there, and whether the distance estimate is within tolerance.
+fn onto_surface(
+    program: &FieldProgram,
+    start: DVec3,
+    cell: f64,
+    diagonal: f64,
+) -> (DVec3, DVec3, bool) {
+    let c = program.isovalue();
+    let mut p = start;
+    let (mut f, mut g) = program.value_gradient(p);
+    for _ in 0..NEWTON_STEPS {
+        let g2 = g.length_squared();
+        if g2 < 1e-300 || (f - c).abs() <= SURFACE_TOLERANCE * diagonal * g2.sqrt() {
+            break;
+        }
+        let next = p - g * ((f - c) / g2);
+        if (next - start).length() > cell {
+            break;
+        }
+        p = next;
+        (f, g) = program.value_gradient(p);
+    }
+    let within = |f: f64, g: DVec3| (f - c).abs() <= SURFACE_TOLERANCE * diagonal * g.length();
+    if within(f, g) {
+        return (p, g, true);
+    }
+    // Newton left the cell or stalled (a crease of a max blend, a thin feature): bisect on
+    // the line along the start's gradient, on the sign change nearest to the start.
+    let (_, g0) = program.value_gradient(start);
+    let direction = g0.normalize_or_zero();
+    let inside = |s: f64| program.value(start + s * direction) >= c;
+    let samples = 16;
+    let reach = 2.0 * cell;
+    let start_side = inside(0.0);
+    let bracket = (1..=samples)
+        .flat_map(|k| {
+            let s = reach * f64::from(k) / f64::from(samples);
+            [s, -s]
+        })
+        .find(|&s| inside(s) != start_side);
+    if let Some(end) = bracket {
+        let (mut near, mut far) = (0.0, end);
+        for _ in 0..60 {
+            let mid = 0.5 * (near + far);
+            if inside(mid) == start_side {
+                near = mid;
+            } else {
+                far = mid;
+            }
+        }
+        let q = start + 0.5 * (near + far) * direction;
+        let (fq, gq) = program.value_gradient(q);
+        if within(fq, gq) {
+            return (q, gq, true);
+        }
+    }
+    (p, g, false)
+}
+
+/// Merges vertices at the same position and drops the triangles that collapse.
+fn weld(
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    indices: &[u32],
+) -> (Vec<DVec3>, Vec<DVec3>, Vec<[u32; 3]>) {
+    let mut first: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut kept_positions = Vec::new();
+    let mut kept_normals = Vec::new();
+    let remap: Vec<u32> = positions
+        .iter()
+        .zip(&normals)
+        .map(|(p, n)| {
+            *first
+                .entry(p.to_array().map(f64::to_bits))
+                .or_insert_with(|| {
+                    kept_positions.push(*p);
+                    kept_normals.push(*n);
+                    (kept_positions.len() - 1) as u32
+                })
+        })
+        .collect();
+    let triangles = indices
+        .chunks_exact(3)
+        .map(|t| {
+            [
+                remap[t[0] as usize],
+                remap[t[1] as usize],
+                remap[t[2] as usize],
+            ]
+        })
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .collect();
+    (kept_positions, kept_normals, triangles)
+}
+
+/// Turns the triangles to face outwards (the side the normals point to, decided by the
+/// majority, as surface nets winds them consistently) and assigns each to the group whose
+/// field is largest at its centre.
+fn orient_and_split(
+    program: &FieldProgram,
+    positions: &[DVec3],
+    normals: &[DVec3],
+    triangles: Vec<[u32; 3]>,
+) -> Vec<Vec<[u32; 3]>> {
+    let facing = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let n = normals[t[0] as usize] + normals[t[1] as usize] + normals[t[2] as usize];
+        (b - a).cross(c - a).dot(n)
+    };
+    let outward = triangles.iter().filter(|t| facing(t) > 0.0).count();
+    let flip = outward * 2 < triangles.len();
+    let mut groups = vec![Vec::new(); program.group_count().max(1)];
+    for t in triangles {
+        let t = if flip { [t[0], t[2], t[1]] } else { t };
+        let centre =
+            (positions[t[0] as usize] + positions[t[1] as usize] + positions[t[2] as usize]) / 3.0;
+        let ray = Ray::new(centre, DVec3::X);
+        let g = program
+            .group_values_along_ray(&ray, 0.0)
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.0.total_cmp(&b.1.0))
+            .map_or(0, |(g, _)| g);
+        groups[g].push(t);
+    }
+    groups
+}
+
+/// Writes `mesh` to `path` (`.glb`, or `.gltf` with `NAME.bin` beside it), one mesh per group
+/// with its material; groups without triangles are left out.
+///
+/// # Errors
+/// An unknown extension, or a file that cannot be written (named in the message).
+pub fn write_gltf(scene: &Scene, mesh: &Extracted, path: &Path) -> Result<(), String> {
+    let binary = match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("glb") => true,
+        Some(e) if e.eq_ignore_ascii_case("gltf") => false,
+        _ => {
+            return Err(format!(
+                "{}: the output must end in .glb or .gltf",
+                path.display()
+            ));
+        }
+    };
+    let bin_name = path.with_extension("bin");
+    let mut root = json::Root {
+        asset: json::Asset {
+            generator: Some(format!("skeletrace {}", env!("CARGO_PKG_VERSION"))),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let mut bytes: Vec<u8> = Vec::new();
+    let mut nodes = Vec::new();
+    let mut transparent = false;
+    for (g, triangles) in mesh.triangles.iter().enumerate() {
+        if triangles.is_empty() {
+            continue;
+        }
+        // This group's vertices, renumbered.
+        let mut local: BTreeMap<u32, u32> = BTreeMap::new();
+        for &i in triangles.iter().flatten() {
+            let next = local.len() as u32;
+            local.entry(i).or_insert(next);
+        }
+        let mut order = vec![0u32; local.len()];
+        for (&global, &l) in &local {
+            order[l as usize] = global;
+        }
+        let positions: Vec<[f32; 3]> = order
+            .iter()
+            .map(|&i| mesh.positions[i as usize].as_vec3().to_array())
+            .collect();
+        let normals: Vec<[f32; 3]> = order
+            .iter()
+            .map(|&i| mesh.normals[i as usize].as_vec3().to_array())
+            .collect();
+        let indices: Vec<u32> = triangles.iter().flatten().map(|i| local[i]).collect();
+        let (min, max) = positions.iter().fold(
+            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), p| {
+                (
+                    [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
+                    [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
+                )
+            },
+        );
+        let position = push_accessor(
+            &mut root,
+            &mut bytes,
+            bytemuck_f32(&positions),
+            positions.len(),
+            json::accessor::Type::Vec3,
+            json::accessor::ComponentType::F32,
+            Some((min, max)),
+            json::buffer::Target::ArrayBuffer,
+        );
+        let normal = push_accessor(
+            &mut root,
+            &mut bytes,
+            bytemuck_f32(&normals),
+            normals.len(),
+            json::accessor::Type::Vec3,
+            json::accessor::ComponentType::F32,
+            None,
+            json::buffer::Target::ArrayBuffer,
+        );
+        let index = push_accessor(
+            &mut root,
+            &mut bytes,
+            indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+            indices.len(),
+            json::accessor::Type::Scalar,
+            json::accessor::ComponentType::U32,
+            None,
+            json::buffer::Target::ElementArrayBuffer,
+        );
+        let group = &scene.groups[g];
+        let m = group.material;
+        let see_through = m.opacity < 1.0;
+        transparent |= see_through;
+        let material = root.push(json::Material {
+            name: Some(group.name.clone()),
+            alpha_mode: Valid(if see_through {
+                json::material::AlphaMode::Blend
+            } else {
+                json::material::AlphaMode::Opaque
+            }),
+            pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+                base_color_factor: json::material::PbrBaseColorFactor([
+                    m.color[0] as f32,
+                    m.color[1] as f32,
+                    m.color[2] as f32,
+                    m.opacity as f32,
+                ]),
+                metallic_factor: json::material::StrengthFactor(0.0),
+                roughness_factor: json::material::StrengthFactor(0.5),
+                ..Default::default()
+            },
+            extensions: see_through.then(|| json::extensions::material::Material {
+                transmission: Some(json::extensions::material::Transmission {
+                    transmission_factor: json::extensions::material::TransmissionFactor(
+                        (1.0 - m.opacity) as f32,
+                    ),
+                    transmission_texture: None,
+                    extras: Default::default(),
+                }),
+                ior: Some(json::extensions::material::Ior {
+                    ior: json::extensions::material::IndexOfRefraction(m.ior as f32),
+                    extras: Default::default(),
+                }),
+            }),
+            ..Default::default()
+        });
+        let primitive = json::mesh::Primitive {
+            attributes: BTreeMap::from([
+                (Valid(json::mesh::Semantic::Positions), position),
+                (Valid(json::mesh::Semantic::Normals), normal),
+            ]),
+            extensions: None,
+            extras: Default::default(),
+            indices: Some(index),
+            material: Some(material),
+            mode: Valid(json::mesh::Mode::Triangles),
+            targets: None,
+        };
+        let mesh_index = root.push(json::Mesh {
+            extensions: None,
+            extras: Default::default(),
+            name: Some(group.name.clone()),
+            primitives: vec![primitive],
+            weights: None,
+        });
+        nodes.push(root.push(json::Node {
+            mesh: Some(mesh_index),
+            name: Some(group.name.clone()),
+            ..Default::default()
+        }));
+    }
+    if nodes.is_empty() {
+        return Err("the isosurface is empty at this resolution: nothing to export".into());
+    }
+    if transparent {
+        root.extensions_used = vec![
+            "KHR_materials_transmission".into(),
+            "KHR_materials_ior".into(),
+        ];
+    }
+    let scene_index = root.push(json::Scene {
+        extensions: None,
+        extras: Default::default(),
+        name: None,
+        nodes,
+    });
+    root.scene = Some(scene_index);
+    root.push(json::Buffer {
+        byte_length: USize64::from(bytes.len()),
+        extensions: None,
+        extras: Default::default(),
+        name: None,
+        uri: (!binary).then(|| {
+            bin_name
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        }),
+    });
+    if binary {
+        let json_text = json::serialize::to_string(&root).map_err(|e| e.to_string())?;
+        let json_len = json_text.len().next_multiple_of(4);
+        let glb = gltf::binary::Glb {
+            header: gltf::binary::Header {
+                magic: *b"glTF",
+                version: 2,
+                length: u32::try_from(12 + 8 + json_len + 8 + bytes.len())
+                    .map_err(|_| format!("{}: the mesh exceeds glb's 4 GiB", path.display()))?,
+            },
+            json: Cow::Owned(json_text.into_bytes()),
+            bin: Some(Cow::Owned(bytes)),
+        };
+        let mut out = Vec::new();
+        glb.to_writer(&mut out).map_err(|e| e.to_string())?;
+        write_atomically(path, &out)
+    } else {
+        let json_text = json::serialize::to_string_pretty(&root).map_err(|e| e.to_string())?;
+        write_atomically(&bin_name, &bytes)?;
+        write_atomically(path, json_text.as_bytes())
+    }
+}
+
+/// Appends `data` (padded to 4 bytes) to the buffer and an accessor over it.
+#[allow(clippy::too_many_arguments)]
+fn push_accessor(
+    root: &mut json::Root,
+    bytes: &mut Vec<u8>,
+    data: Vec<u8>,
+    count: usize,
+    kind: json::accessor::Type,
+    component: json::accessor::ComponentType,
+    bounds: Option<([f32; 3], [f32; 3])>,
+    target: json::buffer::Target,
+) -> json::Index<json::Accessor> {
+    let offset = bytes.len();
+    let length = data.len();
+    bytes.extend(data);
+    bytes.resize(bytes.len().next_multiple_of(4), 0);
+    let view = root.push(json::buffer::View {
+        buffer: json::Index::new(0),
+        byte_length: USize64::from(length),
+        byte_offset: Some(USize64::from(offset)),
+        byte_stride: None,
+        extensions: None,
+        extras: Default::default(),
+        name: None,
+        target: Some(Valid(target)),
+    });
+    root.push(json::Accessor {
+        buffer_view: Some(view),
+        byte_offset: Some(USize64(0)),
+        count: USize64::from(count),
+        component_type: Valid(json::accessor::GenericComponentType(component)),
+        extensions: None,
+        extras: Default::default(),
+        type_: Valid(kind),
+        min: bounds.map(|(lo, _)| json::Value::from(lo.to_vec())),
+        max: bounds.map(|(_, hi)| json::Value::from(hi.to_vec())),
+        name: None,
+        normalized: false,
+        sparse: None,
+    })
+}
+
+fn bytemuck_f32(values: &[[f32; 3]]) -> Vec<u8> {
+    values
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+/// Writes through a temporary file in the same folder and renames it over `path`.
+fn write_atomically(path: &Path, data: &[u8]) -> Result<(), String> {
+    let mut temporary: PathBuf = path.to_path_buf();
+    temporary.set_extension(format!(
+        "{}.tmp",
+        path.extension().and_then(|e| e.to_str()).unwrap_or("out")
+    ));
+    std::fs::write(&temporary, data)
+        .and_then(|()| std::fs::rename(&temporary, path))
+        .map_err(|e| format!("{}: cannot write the mesh: {e}", path.display()))
+}
