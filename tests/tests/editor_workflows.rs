@@ -75,6 +75,9 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
         hit_fraction(h.state()) > 0.05,
         "the creature covers the viewport"
     );
+    // Drawing the panels does not edit the scene (the colour button once did, every frame).
+    assert_eq!(h.state().document().undo_label(), None);
+    assert!(!h.state().document().is_dirty());
 
     // Select a vertex by clicking its handle.
     let item = Item::Vertex {

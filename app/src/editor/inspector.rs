@@ -485,8 +485,9 @@ impl Editor {
             ui.label("colour");
             ui.color_edit_button_rgb(&mut rgb);
         });
-        // Only a real change goes back: f64 → f32 → f64 would edit the scene every frame.
-        if rgb != shown_rgb {
+        // Only a real change goes back: the colour button's f32 round trip moves the value by
+        // an ulp or so every frame, which would edit the scene without the user.
+        if rgb.iter().zip(shown_rgb).any(|(a, b)| (a - b).abs() > 1e-5) {
             material.color = rgb.map(f64::from);
         }
         ui.add(egui::Slider::new(&mut material.opacity, 0.05..=1.0).text("opacity"));

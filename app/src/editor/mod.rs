@@ -161,8 +161,10 @@ pub struct Editor {
     viewport_rect: Option<egui::Rect>,
     /// The methods' tags for one scene revision.
     method_tags: Option<(u64, Vec<MethodTag>)>,
-    /// Resolution divisor while interacting, adapted to the last preview's trace time.
+    /// Resolution divisor while interacting, adapted to the last reply's trace time.
     preview_divisor: usize,
+    /// Pixels of the viewport at full resolution.
+    viewport_pixels: usize,
 }
 
 impl Editor {
@@ -209,6 +211,7 @@ impl Editor {
             viewport_rect: None,
             method_tags: None,
             preview_divisor: PREVIEW_DIVISOR,
+            viewport_pixels: 0,
         }
     }
 
@@ -352,9 +355,11 @@ impl Editor {
             .requested
             .as_ref()
             .is_some_and(|(_, id, full)| *full && *id == reply.id);
-        if !refined {
+        if let Some(first) = reply.frames.first() {
             let ms = reply.frames.iter().map(|t| t.ms).sum();
-            self.preview_divisor = adapted_divisor(self.preview_divisor, ms);
+            let traced = first.frame.width * first.frame.height;
+            self.preview_divisor =
+                adapted_divisor(self.preview_divisor, ms, traced, self.viewport_pixels);
         }
         let named: Vec<(&str, Frame)> = reply
             .frames
@@ -398,6 +403,7 @@ impl Editor {
             ViewMode::Shaded => vec![self.ui_state.shaded_method.clone()],
             ViewMode::Compare => self.ui_state.compare_methods.clone(),
         };
+        self.viewport_pixels = pixels.0 * pixels.1;
         let interacting =
             self.gesture.is_active() || self.last_interaction.elapsed() < REFINE_AFTER;
         let divisor = if interacting { self.preview_divisor } else { 1 };
@@ -974,14 +980,15 @@ impl Editor {
     }
 }
 
-/// The preview divisor that makes the next preview take about [`PREVIEW_TARGET_MS`], given
-/// that the last one took `ms` at `divisor`: trace time goes with the pixel count, 1/divisor².
-/// It changes by at most a factor of two per reply, so one slow frame does not swing it.
-fn adapted_divisor(divisor: usize, ms: f64) -> usize {
-    if !ms.is_finite() || ms <= 0.0 {
+/// The preview divisor that makes a preview take about [`PREVIEW_TARGET_MS`], given that the
+/// last reply took `ms` for `traced` pixels (per method) and the viewport has `viewport`
+/// pixels: trace time goes with the pixel count, 1/divisor². It changes by at most a factor
+/// of two per reply, so one slow frame does not swing it.
+fn adapted_divisor(divisor: usize, ms: f64, traced: usize, viewport: usize) -> usize {
+    if !ms.is_finite() || ms <= 0.0 || traced == 0 || viewport == 0 {
         return divisor;
     }
-    let ideal = divisor as f64 * (ms / PREVIEW_TARGET_MS).sqrt();
+    let ideal = (viewport as f64 * ms / (traced as f64 * PREVIEW_TARGET_MS)).sqrt();
     let bounded = ideal.clamp(divisor as f64 / 2.0, divisor as f64 * 2.0);
     (bounded.round() as usize).clamp(1, PREVIEW_DIVISOR_MAX)
 }
@@ -1096,18 +1103,28 @@ mod tests {
 
     #[test]
     fn the_preview_divisor_follows_the_trace_time_by_at_most_a_factor_of_two() {
-        // 4× the target at divisor 4: twice as coarse makes the pixels a quarter.
-        assert_eq!(adapted_divisor(4, 4.0 * PREVIEW_TARGET_MS), 8);
-        // 100× the target: capped at doubling.
-        assert_eq!(adapted_divisor(4, 100.0 * PREVIEW_TARGET_MS), 8);
+        let full = 800 * 600;
+        let quarter = full / 16;
+        // A quarter-resolution preview at 4× the target: twice as coarse.
         assert_eq!(
-            adapted_divisor(12, 100.0 * PREVIEW_TARGET_MS),
+            adapted_divisor(4, 4.0 * PREVIEW_TARGET_MS, quarter, full),
+            8
+        );
+        // 100× the target: capped at doubling, and at the coarsest divisor.
+        assert_eq!(
+            adapted_divisor(4, 100.0 * PREVIEW_TARGET_MS, quarter, full),
+            8
+        );
+        assert_eq!(
+            adapted_divisor(12, 100.0 * PREVIEW_TARGET_MS, quarter, full),
             PREVIEW_DIVISOR_MAX
         );
+        // A full-resolution frame tells as much: 16× the target there is divisor 4.
+        assert_eq!(adapted_divisor(4, 16.0 * PREVIEW_TARGET_MS, full, full), 4);
         // Much faster than needed: finer, down to full resolution.
-        assert_eq!(adapted_divisor(4, 0.01), 2);
-        assert_eq!(adapted_divisor(1, 0.01), 1);
-        assert_eq!(adapted_divisor(4, PREVIEW_TARGET_MS), 4);
-        assert_eq!(adapted_divisor(4, f64::NAN), 4);
+        assert_eq!(adapted_divisor(4, 0.01, quarter, full), 2);
+        assert_eq!(adapted_divisor(1, 0.01, full, full), 1);
+        assert_eq!(adapted_divisor(4, f64::NAN, quarter, full), 4);
+        assert_eq!(adapted_divisor(4, 10.0, 0, full), 4);
     }
 }
