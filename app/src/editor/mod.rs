@@ -163,7 +163,7 @@ pub struct Editor {
     method_tags: Option<(u64, Vec<MethodTag>)>,
     /// Resolution divisor while interacting, adapted to the last reply's trace time.
     preview_divisor: usize,
-    /// Pixels of the viewport at full resolution.
+    /// Pixels of the viewport (or of one grid panel) at full resolution.
     viewport_pixels: usize,
 }
 
@@ -351,10 +351,12 @@ impl Editor {
     }
 
     fn show_reply(&mut self, ctx: &egui::Context, reply: Reply) {
-        let refined = self
-            .requested
-            .as_ref()
-            .is_some_and(|(_, id, full)| *full && *id == reply.id);
+        // Full resolution for the viewport (or grid panel) as it is now: the layout may have
+        // moved since the request, and a newer request does not make this frame a preview.
+        let refined = reply
+            .frames
+            .first()
+            .is_some_and(|t| t.frame.width * t.frame.height >= self.viewport_pixels);
         if let Some(first) = reply.frames.first() {
             let ms = reply.frames.iter().map(|t| t.ms).sum();
             let traced = first.frame.width * first.frame.height;
