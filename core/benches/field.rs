@@ -40,6 +40,8 @@ fn blob_scene(n: usize) -> Scene {
             skeletons: Vec::new(),
             blobs,
             shapes: Vec::new(),
+            transform: skeletrace_core::scene::Transform::IDENTITY,
+            repeat: None,
         }],
         blend: None,
         camera: Camera::default(),

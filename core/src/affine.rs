@@ -190,7 +190,7 @@ fn blend(b: &Blend, groups: &[AffineForm], isovalue: f64) -> Option<AffineForm> 
             let complement = blend(c, groups, isovalue)?.affine(-1.0, 2.0 * isovalue);
             Some(a.negate().max(complement.negate()).negate())
         }
-        Blend::Ricci { .. } => None,
+        Blend::Ricci { .. } | Blend::SmoothUnion { .. } | Blend::SmoothIntersection { .. } => None,
     }
 }
 

@@ -202,6 +202,8 @@ fn skeleton_group(name: &str, kernel: Kernel, color: [f64; 3], skeleton: Skeleto
         skeletons: vec![skeleton],
         blobs: Vec::new(),
         shapes: Vec::new(),
+        transform: crate::scene::Transform::IDENTITY,
+        repeat: None,
     }
 }
 
@@ -561,6 +563,8 @@ fn blobs(rng: &mut SplitMix64, count: usize, groups: usize) -> (Vec<Group>, Opti
             skeletons: Vec::new(),
             blobs: Vec::new(),
             shapes: Vec::new(),
+            transform: crate::scene::Transform::IDENTITY,
+            repeat: None,
         })
         .collect();
     let centers: Vec<DVec3> = (0..groups)
@@ -623,6 +627,8 @@ fn molecule(rng: &mut SplitMix64, atoms: usize) -> Group {
         skeletons: Vec::new(),
         blobs,
         shapes: Vec::new(),
+        transform: crate::scene::Transform::IDENTITY,
+        repeat: None,
     }
 }
 

@@ -1,7 +1,7 @@
 //! Geometric helpers shared by primitives and the acceleration structure: rays, boxes,
 //! sphere-cone supports (scalis 2021 §3, fig. 3) and the closest points of two segments.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::interval::Interval;
 
@@ -320,6 +320,49 @@ mod tests {
                     assert!(near, "t = {t}, claimed {claimed}, interval {interval:?}");
                 }
             }
+        }
+    }
+}
+
+/// A similarity `p ↦ s·R·p + t` (uniform scale, rotation, translation): the group transforms of
+/// the 2014 notes (§11.5), applied to primitives when a scene is compiled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Similarity {
+    /// Uniform scale `s > 0`.
+    pub scale: f64,
+    /// Rotation `R` (orthonormal, determinant 1).
+    pub rotation: DMat3,
+    /// Translation `t`.
+    pub translation: DVec3,
+}
+
+impl Similarity {
+    /// The identity.
+    pub const IDENTITY: Self = Self {
+        scale: 1.0,
+        rotation: DMat3::IDENTITY,
+        translation: DVec3::ZERO,
+    };
+
+    /// Image of a point.
+    #[must_use]
+    pub fn point(&self, p: DVec3) -> DVec3 {
+        self.scale * (self.rotation * p) + self.translation
+    }
+
+    /// Image of a direction (unit vectors stay unit).
+    #[must_use]
+    pub fn direction(&self, v: DVec3) -> DVec3 {
+        self.rotation * v
+    }
+
+    /// `self` after `first`: `p ↦ self(first(p))`.
+    #[must_use]
+    pub fn after(&self, first: &Self) -> Self {
+        Self {
+            scale: self.scale * first.scale,
+            rotation: self.rotation * first.rotation,
+            translation: self.point(first.translation),
         }
     }
 }

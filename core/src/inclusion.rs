@@ -221,7 +221,7 @@ pub fn blend(b: &Blend, groups: &[ForwardInclusion], isovalue: f64) -> Option<Fo
             // −min(a, 2c − b) = max(−a, b − 2c)
             ForwardInclusion::max(&[a, complement]).map(ForwardInclusion::negate)
         }
-        Blend::Ricci { .. } => None,
+        Blend::Ricci { .. } | Blend::SmoothUnion { .. } | Blend::SmoothIntersection { .. } => None,
     }
 }
 

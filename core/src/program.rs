@@ -10,13 +10,13 @@ use glam::{DMat3, DVec3, EulerRot};
 
 use crate::blend;
 use crate::bvh::Bvh;
-use crate::geometry::{Aabb, Ray, SphereCone};
+use crate::geometry::{Aabb, Ray, Similarity, SphereCone};
 use crate::interval::{Interval, Jet};
 use crate::kernel::{Kernel, KernelProfile};
 use crate::primitives::{
     DistanceSegment, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
 };
-use crate::scene::{Blend, Scene, Shape, Skeleton, SkeletonField, Vec3};
+use crate::scene::{Blend, Group, Scene, Shape, Skeleton, SkeletonField, Vec3};
 
 /// Groups evaluated without heap allocation per query.
 const INLINE_GROUPS: usize = 8;
@@ -68,10 +68,8 @@ impl FieldProgram {
         for (gi, group) in scene.groups.iter().enumerate() {
             let k = KernelProfile::new(group.kernel);
             let gi = gi as u32;
-            let mut push = |p: Primitive| {
-                primitives.push(p);
-                groups_of.push(gi);
-            };
+            let mut local = Vec::new();
+            let mut push = |p: Primitive| local.push(p);
             let point_norm = k.point_normalisation(c);
             let scalis_norm = k.scalis_normalisation(c);
             let corrector = k.end_corrector_ratio();
@@ -87,6 +85,16 @@ impl FieldProgram {
             }
             for shape in &group.shapes {
                 push(Primitive::Shape(shape_primitive(shape, point_norm)));
+            }
+            for placement in group_placements(group) {
+                for p in &local {
+                    primitives.push(if placement == Similarity::IDENTITY {
+                        *p
+                    } else {
+                        p.transformed(&placement)
+                    });
+                    groups_of.push(gi);
+                }
             }
             kernels.push(k);
         }
@@ -400,6 +408,36 @@ impl FieldProgram {
         self.unbounded.iter().copied().for_each(add);
         out.sort_by(|a, b| a.span.lo.total_cmp(&b.span.lo));
         out
+    }
+}
+
+/// Where the copies of a group go: one similarity per copy of its [`Repeat`] grid (the offset in
+/// the group's frame, then the group's [`Transform`]), or the transform alone.
+#[must_use]
+pub fn group_placements(group: &Group) -> Vec<Similarity> {
+    let t = &group.transform;
+    let transform = Similarity {
+        scale: t.scale,
+        rotation: DMat3::from_euler(
+            EulerRot::XYZ,
+            t.rotate[0].to_radians(),
+            t.rotate[1].to_radians(),
+            t.rotate[2].to_radians(),
+        ),
+        translation: v3(t.translate),
+    };
+    match &group.repeat {
+        None => vec![transform],
+        Some(r) => r
+            .offsets()
+            .into_iter()
+            .map(|o| {
+                transform.after(&Similarity {
+                    translation: v3(o),
+                    ..Similarity::IDENTITY
+                })
+            })
+            .collect(),
     }
 }
 

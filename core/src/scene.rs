@@ -99,6 +99,88 @@ pub struct Group {
     pub blobs: Vec<Blob>,
     /// Distance-based primitives.
     pub shapes: Vec<Shape>,
+    /// Similarity applied to the whole group after repetition.
+    #[serde(default, skip_serializing_if = "Transform::is_identity")]
+    pub transform: Transform,
+    /// Copies of the group on a grid, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeat: Option<Repeat>,
+}
+
+/// Similarity on a group (numerical ray tracing notes 2014 §11.5): uniform scale, then rotation
+/// (XYZ Euler angles in degrees), then translation. A density field of radius-scaled primitives
+/// is invariant under a similarity, so it is applied to the primitives when a scene is compiled
+/// (no `det M` factor as for distance estimators).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Transform {
+    /// Translation.
+    #[serde(deserialize_with = "de_finite3")]
+    pub translate: Vec3,
+    /// Rotation as XYZ Euler angles in degrees.
+    #[serde(deserialize_with = "de_finite3")]
+    pub rotate: Vec3,
+    /// Uniform scale (> 0).
+    #[serde(deserialize_with = "de_positive")]
+    pub scale: f64,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Transform {
+    /// No change.
+    pub const IDENTITY: Self = Self {
+        translate: [0.0; 3],
+        rotate: [0.0; 3],
+        scale: 1.0,
+    };
+
+    /// Whether this is the identity.
+    #[must_use]
+    pub fn is_identity(&self) -> bool {
+        *self == Self::IDENTITY
+    }
+}
+
+/// Most copies one [`Repeat`] may make.
+pub const MAX_REPEAT_COPIES: u64 = 100_000;
+
+/// Copies of a group on a `count[0] × count[1] × count[2]` grid with `spacing` between
+/// neighbours, in the group's own frame (before its transform). The notes' repetition (2014
+/// §11.4) tiles space with `X mod v`; a modelling tool wants a finite array, and finite copies
+/// keep every support bounded, so each copy is a set of primitives of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Repeat {
+    /// Copies along x, y and z (each ≥ 1).
+    pub count: [u32; 3],
+    /// Offset between neighbouring copies.
+    #[serde(deserialize_with = "de_finite3")]
+    pub spacing: Vec3,
+}
+
+impl Repeat {
+    /// Offsets of every copy, the first at the origin.
+    #[must_use]
+    pub fn offsets(&self) -> Vec<Vec3> {
+        let [nx, ny, nz] = self.count;
+        let mut out = Vec::with_capacity((nx * ny * nz) as usize);
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    out.push([
+                        f64::from(i) * self.spacing[0],
+                        f64::from(j) * self.spacing[1],
+                        f64::from(k) * self.spacing[2],
+                    ]);
+                }
+            }
+        }
+        out
+    }
 }
 
 #[derive(Deserialize)]
@@ -115,6 +197,10 @@ struct GroupFile {
     blobs: Vec<Blob>,
     #[serde(default)]
     shapes: Vec<Shape>,
+    #[serde(default)]
+    transform: Transform,
+    #[serde(default)]
+    repeat: Option<Repeat>,
 }
 
 impl TryFrom<GroupFile> for Group {
@@ -159,6 +245,16 @@ impl TryFrom<GroupFile> for Group {
                 }
             }
         }
+        if let Some(repeat) = &g.repeat {
+            let copies: u64 = repeat.count.iter().map(|&n| u64::from(n)).product();
+            if repeat.count.contains(&0) || copies > MAX_REPEAT_COPIES {
+                return Err(format!(
+                    "group '{}', repeat: count ({}, {}, {}) must be at least 1 along each axis \
+                     and make at most {MAX_REPEAT_COPIES} copies",
+                    g.name, repeat.count[0], repeat.count[1], repeat.count[2]
+                ));
+            }
+        }
         Ok(Self {
             name: g.name,
             kernel: g.kernel,
@@ -166,6 +262,8 @@ impl TryFrom<GroupFile> for Group {
             skeletons: g.skeletons,
             blobs: g.blobs,
             shapes: g.shapes,
+            transform: g.transform,
+            repeat: g.repeat,
         })
     }
 }
@@ -395,6 +493,24 @@ pub enum Blend {
         /// Exponent.
         #[serde(deserialize_with = "de_ricci")]
         p: f64,
+        /// Operands.
+        of: Vec<Blend>,
+    },
+    /// Smooth union: the polynomial smooth minimum of the 2014 notes (§11.6) turned into a
+    /// smooth maximum for densities. Equal to `max` where the operands differ by more than
+    /// `width` (in field units), at most `width/4` above it in between.
+    SmoothUnion {
+        /// Blend width in field units (> 0).
+        #[serde(deserialize_with = "de_positive")]
+        width: f64,
+        /// Operands.
+        of: Vec<Blend>,
+    },
+    /// Smooth intersection: the notes' polynomial smooth minimum, at most `width/4` below `min`.
+    SmoothIntersection {
+        /// Blend width in field units (> 0).
+        #[serde(deserialize_with = "de_positive")]
+        width: f64,
         /// Operands.
         of: Vec<Blend>,
     },
@@ -705,7 +821,12 @@ impl Scene {
                         ));
                     }
                 }
-                Blend::Sum(v) | Blend::Max(v) | Blend::Min(v) | Blend::Ricci { of: v, .. } => {
+                Blend::Sum(v)
+                | Blend::Max(v)
+                | Blend::Min(v)
+                | Blend::Ricci { of: v, .. }
+                | Blend::SmoothUnion { of: v, .. }
+                | Blend::SmoothIntersection { of: v, .. } => {
                     if v.is_empty() {
                         return Err(format!(
                             "blend {path}: an operator needs at least one operand"

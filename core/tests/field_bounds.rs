@@ -130,6 +130,18 @@ fn bounds_hold_through_every_blend_operator() {
             Blend::Difference(Box::new(a.clone()), Box::new(b.clone())),
             Blend::Ricci {
                 p: 2.5,
+                of: vec![a.clone(), b.clone()],
+            },
+            Blend::SmoothUnion {
+                width: 0.3,
+                of: vec![a.clone(), b.clone()],
+            },
+            Blend::SmoothUnion {
+                width: 2.0,
+                of: vec![a.clone(), b.clone()],
+            },
+            Blend::SmoothIntersection {
+                width: 0.5,
                 of: vec![a, b],
             },
         ]

@@ -14,7 +14,7 @@ pub use shapes::{ShapePrimitive, Solid};
 
 use glam::DVec3;
 
-use crate::geometry::{Aabb, Ray};
+use crate::geometry::{Aabb, Ray, Similarity, SphereCone};
 use crate::interval::{Interval, Jet};
 use crate::kernel::KernelProfile;
 
@@ -32,6 +32,35 @@ pub enum Primitive {
 }
 
 impl Primitive {
+    /// The primitive moved by a similarity: positions mapped, axes rotated, lengths and radii
+    /// scaled, so that its field is the original one composed with the inverse map.
+    #[must_use]
+    pub fn transformed(&self, m: &Similarity) -> Self {
+        let cone = |c: &SphereCone| SphereCone {
+            start: m.point(c.start),
+            axis: m.direction(c.axis),
+            length: c.length * m.scale,
+            radius: c.radius * m.scale,
+            slope: c.slope,
+        };
+        match self {
+            Self::Point(x) => Self::Point(PointBlob {
+                center: m.point(x.center),
+                radius: x.radius * m.scale,
+                norm: x.norm,
+            }),
+            Self::Distance(x) => Self::Distance(DistanceSegment {
+                cone: cone(&x.cone),
+                norm: x.norm,
+            }),
+            Self::Scalis(x) => Self::Scalis(ScalisSegment {
+                cone: cone(&x.cone),
+                norm: x.norm,
+            }),
+            Self::Shape(x) => Self::Shape(x.transformed(m)),
+        }
+    }
+
     /// Value at `p`.
     #[must_use]
     pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {

@@ -6,7 +6,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::geometry::{Aabb, Ray};
+use crate::geometry::{Aabb, Ray, Similarity};
 use crate::interval::{Interval, Jet};
 use crate::kernel::KernelProfile;
 
@@ -62,6 +62,52 @@ pub struct ShapePrimitive {
     pub radius: f64,
     /// Normalisation `N₀ = c / K(1)`.
     pub norm: f64,
+}
+
+impl ShapePrimitive {
+    /// The primitive moved by a similarity (see [`super::Primitive::transformed`]).
+    #[must_use]
+    pub fn transformed(&self, m: &Similarity) -> Self {
+        let s = m.scale;
+        let solid = match self.solid {
+            Solid::Plane { normal, offset } => {
+                // n·p = o  ⇔  (R n)·(s R p + t) = s·o + (R n)·t
+                let n = m.direction(normal);
+                Solid::Plane {
+                    normal: n,
+                    offset: s * offset + n.dot(m.translation),
+                }
+            }
+            Solid::Box { half_extents } => Solid::Box {
+                half_extents: s * half_extents,
+            },
+            Solid::RoundedBox {
+                half_extents,
+                rounding,
+            } => Solid::RoundedBox {
+                half_extents: s * half_extents,
+                rounding: s * rounding,
+            },
+            Solid::Torus { major, minor } => Solid::Torus {
+                major: s * major,
+                minor: s * minor,
+            },
+            Solid::Cylinder {
+                radius,
+                half_height,
+            } => Solid::Cylinder {
+                radius: s * radius,
+                half_height: s * half_height,
+            },
+        };
+        Self {
+            solid,
+            center: m.point(self.center),
+            frame: m.rotation * self.frame,
+            radius: s * self.radius,
+            norm: self.norm,
+        }
+    }
 }
 
 impl ShapePrimitive {

@@ -95,6 +95,8 @@ pub fn group(kernel: Kernel) -> Group {
         skeletons: Vec::new(),
         blobs: Vec::new(),
         shapes: Vec::new(),
+        transform: skeletrace_core::scene::Transform::IDENTITY,
+        repeat: None,
     }
 }
 
