@@ -35,6 +35,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                 width,
                 height,
                 shadows: false,
+                shading: skeletrace_core::shading::FieldShading::default(),
             };
             for method in &chosen {
                 let tracer = method.prepare(&program, settings);
@@ -72,7 +73,14 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                 };
                 let size = (width as u32, height as u32);
                 let frame = |gpu: &mut GpuRenderer| {
-                    gpu.render(&program, &[m], &scene.camera, &settings, size, View::Shaded)
+                    gpu.render(
+                        &program,
+                        &[m],
+                        &scene.camera,
+                        &settings,
+                        size,
+                        View::Shaded(skeletrace_core::shading::FieldShading::default()),
+                    )
                 };
                 frame(&mut gpu)?;
                 let mut times = Vec::with_capacity(frames);

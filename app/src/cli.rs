@@ -119,6 +119,12 @@ pub struct RenderArgs {
     /// Cast shadow rays in the shaded view.
     #[arg(long)]
     pub shadows: bool,
+    /// Soft shadows estimated from the field (2014 notes §12.4; CPU and GPU).
+    #[arg(long)]
+    pub soft_shadows: bool,
+    /// Ambient occlusion estimated from the field (2014 notes §12.4; CPU and GPU).
+    #[arg(long)]
+    pub ao: bool,
 }
 
 /// Arguments of `stats`.

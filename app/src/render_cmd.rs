@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::render::{Frame, RenderOptions, Renderer};
+use skeletrace_core::shading::FieldShading;
 use skeletrace_core::{FieldProgram, Scene};
 use skeletrace_render::{GpuMethod, GpuRenderer, View as GpuView};
 
@@ -56,6 +57,10 @@ pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
         width,
         height,
         shadows: args.shadows,
+        shading: FieldShading {
+            soft_shadows: args.soft_shadows,
+            ambient_occlusion: args.ao,
+        },
     };
     let gpu = match args.backend {
         Backend::Cpu => None,
@@ -156,7 +161,10 @@ fn render_gpu(
         return Err("no chosen method runs on the GPU for this scene".to_owned());
     }
     if options.shadows {
-        eprintln!("skeletrace: the GPU shaded view has no shadows or refraction yet");
+        eprintln!(
+            "skeletrace: the GPU shaded view has no exact shadow rays or refraction yet \
+             (--soft-shadows and --ao run on the GPU)"
+        );
     }
     gpu.set_scene(scene, program)?;
     let settings = TraceSettings::for_program(program);
@@ -168,7 +176,7 @@ fn render_gpu(
         &scene.camera,
         &settings,
         size,
-        GpuView::Shaded,
+        GpuView::Shaded(options.shading),
     )?;
     let ms = start.elapsed().as_secs_f64() * 1e3;
     let out: Vec<(&'static str, Frame)> = chosen.iter().map(|m| m.name()).zip(frames).collect();

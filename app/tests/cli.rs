@@ -277,6 +277,8 @@ fn render_writes_the_requested_size_and_refuses_bad_arguments() {
         "--size",
         "40x30",
         "--shadows",
+        "--soft-shadows",
+        "--ao",
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert_eq!(png_size(&out), (40, 30));

@@ -21,6 +21,7 @@ pub mod quadrature;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod shading;
 pub mod stats;
 
 pub use geometry::{Aabb, Ray};

@@ -6,6 +6,9 @@
 //! ray (Snell's law with the group's index of refraction, Schlick's Fresnel term), up to
 //! [`MAX_BOUNCES`] levels; the refracted ray starts inside and its first crossing is the exit.
 //!
+//! With [`FieldShading`], soft shadows and ambient occlusion are estimated from the field
+//! (2014 notes §12.4, `shading.rs`) instead of, or on top of, exact shadow rays.
+//!
 //! The step count of a pixel is that of its primary ray; when the scene has transparent
 //! groups, it is the sum over the reflected and refracted rays too (every crossing along the
 //! path must be found, as in the paper's transparency tables). Shadow rays are not counted.
@@ -18,6 +21,7 @@ use crate::interval::Interval;
 use crate::methods::{RayTracer, TraceMode, TraceSettings};
 use crate::program::FieldProgram;
 use crate::scene::{Camera, Light, Material, Scene};
+use crate::shading::{FieldShading, ambient_occlusion, shading_scale, soft_shadow};
 
 /// Reflection/refraction depth for transparent groups.
 pub const MAX_BOUNCES: u32 = 4;
@@ -78,6 +82,8 @@ pub struct RenderOptions {
     pub height: usize,
     /// Cast shadow rays towards each light.
     pub shadows: bool,
+    /// Soft shadows and ambient occlusion from the field.
+    pub shading: FieldShading,
 }
 
 /// Primary rays of a pinhole camera.
@@ -132,6 +138,7 @@ pub struct Renderer<'a> {
     materials: Vec<Material>,
     lights: Vec<Light>,
     far: f64,
+    scale: f64,
 }
 
 impl<'a> Renderer<'a> {
@@ -157,6 +164,7 @@ impl<'a> Renderer<'a> {
             materials: scene.groups.iter().map(|g| g.material).collect(),
             lights,
             far,
+            scale: shading_scale(program),
         }
     }
 
@@ -170,7 +178,7 @@ impl<'a> Renderer<'a> {
             .map(|i| {
                 let ray = pinhole.ray(i % w, i / w, w, h);
                 let mut steps = 0;
-                let (colour, depth) = self.radiance(&ray, 0, options.shadows, &mut steps);
+                let (colour, depth) = self.radiance(&ray, 0, &options, &mut steps);
                 (colour.as_vec3().to_array(), depth, steps)
             })
             .collect();
@@ -184,7 +192,13 @@ impl<'a> Renderer<'a> {
     }
 
     /// Colour seen along `ray` and the distance of its first crossing.
-    fn radiance(&self, ray: &Ray, bounce: u32, shadows: bool, steps: &mut u32) -> (DVec3, f64) {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        bounce: u32,
+        options: &RenderOptions,
+        steps: &mut u32,
+    ) -> (DVec3, f64) {
         let trace = self
             .tracer
             .trace(ray, Interval::new(0.0, self.far), TraceMode::Opaque);
@@ -196,7 +210,7 @@ impl<'a> Renderer<'a> {
         let (_, gradient) = self.program.value_gradient(p);
         let outward = (-gradient).normalize_or(-ray.direction);
         let material = self.material_at(ray, hit.t);
-        let lit = self.shade(p, outward, ray.direction, &material, shadows);
+        let lit = self.shade(p, outward, ray.direction, &material, options);
         if material.opacity >= 1.0 || bounce >= MAX_BOUNCES {
             return (lit, hit.t);
         }
@@ -219,7 +233,7 @@ impl<'a> Renderer<'a> {
         let (reflected, _) = self.radiance(
             &Ray::new(p + offset * facing, reflected_dir),
             bounce + 1,
-            shadows,
+            options,
             steps,
         );
         let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
@@ -230,7 +244,7 @@ impl<'a> Renderer<'a> {
             let (c, _) = self.radiance(
                 &Ray::new(p - offset * facing, refracted_dir),
                 bounce + 1,
-                shadows,
+                options,
                 steps,
             );
             c * DVec3::from_array(material.color).lerp(DVec3::ONE, 0.5)
@@ -258,10 +272,16 @@ impl<'a> Renderer<'a> {
         normal: DVec3,
         view: DVec3,
         material: &Material,
-        shadows: bool,
+        options: &RenderOptions,
     ) -> DVec3 {
         let albedo = DVec3::from_array(material.color);
-        let mut colour = 0.12 * albedo;
+        let lifted = p + 2.0 * self.settings.min_step * normal;
+        let occlusion = if options.shading.ambient_occlusion {
+            ambient_occlusion(self.program, p, normal, self.scale)
+        } else {
+            1.0
+        };
+        let mut colour = 0.12 * occlusion * albedo;
         for light in &self.lights {
             let (to_light, distance, light_colour, intensity) = match light {
                 Light::Directional {
@@ -287,21 +307,21 @@ impl<'a> Renderer<'a> {
             if diffuse <= 0.0 {
                 continue;
             }
-            let transmitted = if shadows {
-                self.transmittance(
-                    p + 2.0 * self.settings.min_step * normal,
-                    to_light,
-                    distance,
-                )
+            let mut transmitted = if options.shadows {
+                self.transmittance(lifted, to_light, distance)
             } else {
                 1.0
             };
+            if options.shading.soft_shadows && transmitted > 0.0 {
+                transmitted *= soft_shadow(self.program, lifted, to_light, distance, self.scale);
+            }
             if transmitted <= 0.0 {
                 continue;
             }
             let half = (to_light - view).normalize_or(normal);
             let specular = normal.dot(half).max(0.0).powf(48.0) * 0.35;
             colour += transmitted
+                * (0.5 + 0.5 * occlusion)
                 * intensity
                 * DVec3::from_array(light_colour)
                 * (diffuse * albedo + specular);

@@ -1,7 +1,86 @@
 // Entry point: one invocation per pixel. Traces the pixel's ray with the composed method,
 // writes depth and steps, and the colour of the chosen view: Blinn–Phong (core: render.rs,
 // without shadows and refraction) or the step-count heat map (Turbo polynomial, the same as
-// core::render::heat_colour). globals.heat: (top of the step scale, view: 0 shaded, 1 steps).
+// core::render::heat_colour). globals.heat: (top of the step scale, view: 0 shaded, 1 steps,
+// field shading flags: 1 soft shadows, 2 ambient occlusion, shading scale).
+//
+// Soft shadows and ambient occlusion (core: shading.rs, 2014 notes §12.4) sample the field at
+// points off the pixel's ray, so they visit every primitive whose bounding sphere holds the point
+// rather than the tile list; the renderer refuses scenes where that would be too many visits.
+
+const SOFT_SHADOW_STEPS: u32 = 32u;
+const SOFTNESS: f32 = 8.0;
+const SHADE_MIN_STEP: f32 = 0.002;
+const SHADE_MAX_STEP: f32 = 0.08;
+const SHADOW_REACH: f32 = 1.5;
+const AO_SAMPLES: u32 = 5u;
+const AO_STEP: f32 = 0.012;
+const AO_DECAY: f32 = 0.6;
+
+// Blended value and gradient at any point.
+fn field_anywhere(p: vec3<f32>) -> vec4<f32> {
+    var values: array<vec4<f32>, MAX_GROUPS>;
+    for (var i = 0u; i < globals.counts.x; i++) {
+        let b = primitives[i].bound;
+        let d = p - b.xyz;
+        if b.w < 0.0 || dot(d, d) <= b.w * b.w {
+            add_primitive(&values, i, p);
+        }
+    }
+    return blend_groups(values);
+}
+
+// First-order distance to the isosurface (shading.rs distance_estimate).
+fn distance_estimate(c: f32, field: vec4<f32>, scale: f32) -> f32 {
+    let cap = SHADE_MAX_STEP * scale;
+    let slope = length(field.yzw);
+    if slope * cap <= c - field.x {
+        return cap;
+    }
+    return (c - field.x) / slope;
+}
+
+fn soft_shadow(start: vec3<f32>, dir: vec3<f32>, distance: f32, scale: f32) -> f32 {
+    let c = globals.up.w;
+    let reach = min(distance, SHADOW_REACH * scale);
+    var t = SHADE_MIN_STEP * scale;
+    var lit = 1.0;
+    for (var i = 0u; i < SOFT_SHADOW_STEPS; i++) {
+        if t >= reach {
+            break;
+        }
+        let field = field_anywhere(start + t * dir);
+        if field.x >= c {
+            return 0.0;
+        }
+        let e = distance_estimate(c, field, scale);
+        if e < SHADE_MAX_STEP * scale {
+            lit = min(lit, SOFTNESS * e / t);
+        }
+        t += clamp(e, SHADE_MIN_STEP * scale, SHADE_MAX_STEP * scale);
+    }
+    let x = clamp(lit, 0.0, 1.0);
+    return x * x * (3.0 - 2.0 * x);
+}
+
+fn ambient_occlusion(p: vec3<f32>, normal: vec3<f32>, scale: f32) -> f32 {
+    let c = globals.up.w;
+    var occluded = 0.0;
+    var total = 0.0;
+    var weight = 1.0;
+    for (var i = 1u; i <= AO_SAMPLES; i++) {
+        let h = f32(i) * AO_STEP * scale;
+        let field = field_anywhere(p + h * normal);
+        var e = 0.0;
+        if field.x < c {
+            e = min(distance_estimate(c, field, scale), h);
+        }
+        occluded += weight * (h - e) / h;
+        total += weight;
+        weight *= AO_DECAY;
+    }
+    return 1.0 - occluded / total;
+}
 
 fn background(dir: vec3<f32>) -> vec3<f32> {
     let up = 0.5 * (dir.y + 1.0);
@@ -41,21 +120,34 @@ fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
         }
     }
     let albedo = materials[best].xyz;
-    var colour = 0.12 * albedo;
     let p = ray.origin + t * ray.dir;
+    let flags = u32(globals.heat.z);
+    let scale = globals.heat.w;
+    let lifted = p + 2.0 * globals.march.y * normal;
+    var occlusion = 1.0;
+    if (flags & 2u) != 0u {
+        occlusion = ambient_occlusion(p, normal, scale);
+    }
+    var colour = 0.12 * occlusion * albedo;
     for (var l = 0u; l < globals.tile.y; l++) {
         let light = lights[l];
         var to_light = normalize(light.vector.xyz);
+        var distance = globals.origin.w;
         if light.vector.w > 0.5 {
             to_light = normalize(light.vector.xyz - p);
+            distance = length(light.vector.xyz - p);
         }
         let diffuse = dot(normal, to_light);
         if diffuse <= 0.0 {
             continue;
         }
+        var transmitted = 0.5 + 0.5 * occlusion;
+        if (flags & 1u) != 0u {
+            transmitted *= soft_shadow(lifted, to_light, distance, scale);
+        }
         let half_vector = normalize(to_light - ray.dir);
         let specular = pow(max(dot(normal, half_vector), 0.0), 48.0) * 0.35;
-        colour += light.colour.w * light.colour.xyz * (diffuse * albedo + specular);
+        colour += transmitted * light.colour.w * light.colour.xyz * (diffuse * albedo + specular);
     }
     return colour;
 }

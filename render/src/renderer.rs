@@ -10,6 +10,7 @@ use bytemuck::{Pod, Zeroable};
 use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::render::{Frame, PinholeCamera, far_distance};
 use skeletrace_core::scene::{Camera, Scene};
+use skeletrace_core::shading::{AO_SAMPLES, FieldShading, SOFT_SHADOW_STEPS, shading_scale};
 use skeletrace_core::{FieldProgram, primitives::Primitive};
 use wgpu::util::DeviceExt;
 
@@ -19,11 +20,16 @@ use crate::shaders::{BINNING, GpuMethod};
 /// Tile edge in pixels.
 const TILE: u32 = 4;
 
+/// Most primitive visits the field shading terms may make per pixel (every soft-shadow and
+/// ambient-occlusion sample visits every primitive): lavapipe stops a shader invocation's loops
+/// after 65 535 iterations in all, and the march needs its share.
+pub const MAX_SHADING_VISITS: usize = 40_000;
+
 /// What the colour output shows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum View {
-    /// Blinn–Phong shading.
-    Shaded,
+    /// Blinn–Phong shading, with the field's soft shadows and ambient occlusion if asked.
+    Shaded(FieldShading),
     /// Step-count heat map on `[0, steps_max]`.
     Steps {
         /// Top of the colour scale.
@@ -280,6 +286,34 @@ impl GpuRenderer {
         self.check()
     }
 
+    /// `Err` when the field shading terms would visit too many primitives per pixel.
+    fn check_shading_budget(
+        &self,
+        program: &FieldProgram,
+        shading: FieldShading,
+    ) -> Result<(), String> {
+        let lights = self.scene.as_ref().map_or(0, |s| s.packed.lights.len());
+        let samples = if shading.soft_shadows {
+            SOFT_SHADOW_STEPS as usize * lights
+        } else {
+            0
+        } + if shading.ambient_occlusion {
+            AO_SAMPLES as usize
+        } else {
+            0
+        };
+        let visits = samples * program.primitives().len();
+        if visits > MAX_SHADING_VISITS {
+            return Err(format!(
+                "soft shadows and ambient occlusion on the GPU visit every primitive at each \
+                 sample: {} primitives × {samples} samples is over the {MAX_SHADING_VISITS} \
+                 visits a pixel may make; use the CPU backend for this scene",
+                program.primitives().len()
+            ));
+        }
+        Ok(())
+    }
+
     fn trace_pipeline(&mut self, method: GpuMethod) -> &wgpu::ComputePipeline {
         let device = &self.device;
         self.trace_pipelines
@@ -304,6 +338,9 @@ impl GpuRenderer {
     ) -> Result<Vec<Frame>, String> {
         for m in methods {
             m.supports(program)?;
+        }
+        if let View::Shaded(shading) = view {
+            self.check_shading_budget(program, shading)?;
         }
         for &m in methods {
             self.trace_pipeline(m);
@@ -412,10 +449,12 @@ impl GpuRenderer {
         };
         let (colour, depth, steps) = (output("colour"), output("depth"), output("steps"));
         let far = far_distance(program, camera);
-        let (heat_max, heat_view) = match view {
-            View::Shaded => (1.0, 0.0),
-            View::Steps { steps_max } => (steps_max as f32, 1.0),
+        let (heat_max, heat_view, shading) = match view {
+            View::Shaded(shading) => (1.0, 0.0, shading),
+            View::Steps { steps_max } => (steps_max as f32, 1.0, FieldShading::default()),
         };
+        let shading_flags =
+            u32::from(shading.soft_shadows) | (u32::from(shading.ambient_occlusion) << 1);
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
         encoder.clear_buffer(&counts, 0, None);
         {
@@ -450,7 +489,12 @@ impl GpuRenderer {
                     width * panel as u32,
                     out_width,
                 ],
-                heat: [heat_max, heat_view, 0.0, 0.0],
+                heat: [
+                    heat_max,
+                    heat_view,
+                    shading_flags as f32,
+                    shading_scale(program) as f32,
+                ],
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("globals"),

@@ -144,7 +144,7 @@ fn gpu_frames_match_the_cpu_tracer() {
                     &camera,
                     &settings,
                     (SIZE as u32, SIZE as u32),
-                    View::Shaded,
+                    View::Shaded(skeletrace_core::shading::FieldShading::default()),
                 )
                 .unwrap_or_else(|e| panic!("{asset}: {e}"));
             for (method, gpu_frame) in gpu_methods.iter().zip(&frames) {
@@ -156,6 +156,7 @@ fn gpu_frames_match_the_cpu_tracer() {
                         width: SIZE,
                         height: SIZE,
                         shadows: false,
+                        shading: skeletrace_core::shading::FieldShading::default(),
                     },
                 );
                 let a = compare(&cpu_frame, gpu_frame);
@@ -200,5 +201,91 @@ fn editing_one_primitive_re_uploads_only_that_primitive() {
     assert_eq!(
         edit, one,
         "one primitive ({one} bytes), got {edit} bytes (full upload {full})"
+    );
+}
+
+/// Soft shadows and ambient occlusion from the field (2014 notes §12.4) shade the same on both
+/// backends, on a scene whose groups are moved by a transform and repeated (the operators are
+/// baked into the primitives, so the GPU sees them too).
+#[test]
+fn field_shading_and_group_operators_agree_with_the_cpu() {
+    let mut gpu = GpuRenderer::new()
+        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let mut scene = load("blobs");
+    scene.groups[0].transform = skeletrace_core::scene::Transform {
+        translate: [0.3, -0.2, 0.1],
+        rotate: [10.0, 35.0, -20.0],
+        scale: 0.9,
+    };
+    scene.groups[3].repeat = Some(skeletrace_core::scene::Repeat {
+        count: [2, 1, 1],
+        spacing: [0.6, 0.0, 0.0],
+    });
+    let program = FieldProgram::new(&scene);
+    let settings = TraceSettings::for_program(&program);
+    gpu.set_scene(&scene, &program)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let method = "quadratic-taylor";
+    let tracer = methods::by_name(method)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .prepare(&program, settings);
+    let shading = skeletrace_core::shading::FieldShading {
+        soft_shadows: true,
+        ambient_occlusion: true,
+    };
+    let cpu = |shading| {
+        Renderer::new(&scene, &program, tracer.as_ref(), settings).render(
+            &scene.camera,
+            RenderOptions {
+                width: SIZE,
+                height: SIZE,
+                shadows: false,
+                shading,
+            },
+        )
+    };
+    let (shaded, plain) = (cpu(shading), cpu(Default::default()));
+    let gpu_frame = gpu
+        .render(
+            &program,
+            &[GpuMethod::by_name(method).unwrap_or_else(|| panic!("{method} on the GPU"))],
+            &scene.camera,
+            &settings,
+            (SIZE as u32, SIZE as u32),
+            View::Shaded(shading),
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+        .remove(0);
+    let both: Vec<usize> = (0..SIZE * SIZE)
+        .filter(|&i| shaded.is_hit(i) && gpu_frame.is_hit(i))
+        .collect();
+    assert!(
+        both.len() > SIZE * SIZE / 10,
+        "too few hit pixels: {}",
+        both.len()
+    );
+    // The GPU stores 8-bit sRGB, so both colours are compared clamped to [0, 1].
+    let largest = |a: [f32; 3], b: [f32; 3]| {
+        (0..3)
+            .map(|c| (a[c].min(1.0) - b[c].min(1.0)).abs())
+            .fold(0.0, f32::max)
+    };
+    let close = both
+        .iter()
+        .filter(|&&i| largest(shaded.colour[i], gpu_frame.colour[i]) <= 0.02)
+        .count();
+    let darkened = both
+        .iter()
+        .filter(|&&i| (0..3).any(|c| plain.colour[i][c] - shaded.colour[i][c] > 0.02))
+        .count();
+    eprintln!(
+        "field shading: {close}/{} hit pixels within 0.02 of the CPU colour; {darkened} darkened by \
+         soft shadows or occlusion",
+        both.len()
+    );
+    assert!(close * 100 >= both.len() * 99, "GPU and CPU shading differ");
+    assert!(
+        darkened * 20 >= both.len(),
+        "the shading terms hardly change the image"
     );
 }

@@ -300,7 +300,14 @@ impl Editor {
             ui.selectable_value(&mut self.ui_state.backend, Backend::Gpu, "GPU");
             ui.selectable_value(&mut self.ui_state.backend, Backend::Cpu, "CPU");
         });
-        ui.checkbox(&mut self.ui_state.shadows, "shadows (CPU tracer)");
+        ui.horizontal_wrapped(|ui| {
+            ui.checkbox(&mut self.ui_state.shadows, "shadow rays (CPU)");
+            ui.checkbox(&mut self.ui_state.shading.soft_shadows, "soft shadows");
+            ui.checkbox(
+                &mut self.ui_state.shading.ambient_occlusion,
+                "ambient occlusion",
+            );
+        });
     }
 
     fn selection_panel(&mut self, ui: &mut egui::Ui) {

@@ -22,6 +22,7 @@ use eframe::egui;
 use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
 use skeletrace_core::render::Frame;
+use skeletrace_core::shading::FieldShading;
 
 pub use document::{Document, Edit};
 pub use selection::{Item, Selection};
@@ -53,6 +54,9 @@ pub struct UiState {
     pub backend: Backend,
     /// Shadow rays in the shaded view (CPU tracer).
     pub shadows: bool,
+    /// Field soft shadows and ambient occlusion in the shaded view.
+    #[serde(default)]
+    pub shading: FieldShading,
     /// Recently opened or saved files, newest first.
     pub recent: Vec<PathBuf>,
     /// Screenshot size in pixels.
@@ -74,6 +78,7 @@ impl Default for UiState {
             view: ViewMode::Shaded,
             backend: Backend::Auto,
             shadows: false,
+            shading: FieldShading::default(),
             recent: Vec::new(),
             screenshot_size: (1280, 960),
         }
@@ -122,6 +127,7 @@ struct RenderKey {
     methods: Vec<String>,
     backend: Backend,
     shadows: bool,
+    shading: FieldShading,
 }
 
 /// A method's name, whether it applies to the scene, and whether it runs on the GPU.
@@ -427,6 +433,11 @@ impl Editor {
             methods: methods.clone(),
             backend: self.ui_state.backend,
             shadows: self.ui_state.shadows && self.ui_state.view == ViewMode::Shaded,
+            shading: if self.ui_state.view == ViewMode::Shaded {
+                self.ui_state.shading
+            } else {
+                FieldShading::default()
+            },
         };
         if self.requested.as_ref().is_some_and(|(k, _, _)| *k == key) {
             if interacting {
@@ -446,6 +457,7 @@ impl Editor {
             methods,
             backend: key.backend,
             shadows: key.shadows,
+            shading: key.shading,
         });
         self.requested = Some((key, id, !interacting));
         if interacting {
@@ -951,6 +963,7 @@ impl Editor {
             methods,
             backend: self.ui_state.backend,
             shadows: self.ui_state.shadows,
+            shading: self.ui_state.shading,
         });
         let Some(reply) = offscreen.wait_for(id) else {
             self.complain("the renderer stopped before the screenshot was traced");

@@ -16,6 +16,7 @@ use std::time::Instant;
 use skeletrace_core::methods::{self, TraceSettings};
 use skeletrace_core::render::{Frame, RenderOptions, Renderer};
 use skeletrace_core::scene::Camera;
+use skeletrace_core::shading::FieldShading;
 use skeletrace_core::{FieldProgram, Scene};
 use skeletrace_render::{GpuMethod, GpuRenderer, View};
 
@@ -47,6 +48,8 @@ pub struct Request {
     pub backend: Backend,
     /// Shadow rays in the shaded view (CPU only).
     pub shadows: bool,
+    /// Field soft shadows and ambient occlusion in the shaded view.
+    pub shading: FieldShading,
 }
 
 /// One traced frame.
@@ -194,7 +197,7 @@ fn trace(request: &Request, gpu: &mut Option<Result<GpuRenderer, String>>) -> Re
                         &request.camera,
                         &settings,
                         size,
-                        View::Shaded,
+                        View::Shaded(request.shading),
                     )
                     .ok()?
                     .pop()
@@ -209,6 +212,7 @@ fn trace(request: &Request, gpu: &mut Option<Result<GpuRenderer, String>>) -> Re
                         width: request.size.0,
                         height: request.size.1,
                         shadows: request.shadows,
+                        shading: request.shading,
                     },
                 );
                 (frame, false)
