@@ -40,6 +40,7 @@ fn blob_scene(n: usize) -> Scene {
             skeletons: Vec::new(),
             blobs,
             shapes: Vec::new(),
+            hrbfs: Vec::new(),
             transform: skeletrace_core::scene::Transform::IDENTITY,
             repeat: None,
         }],

@@ -202,6 +202,7 @@ fn skeleton_group(name: &str, kernel: Kernel, color: [f64; 3], skeleton: Skeleto
         skeletons: vec![skeleton],
         blobs: Vec::new(),
         shapes: Vec::new(),
+        hrbfs: Vec::new(),
         transform: crate::scene::Transform::IDENTITY,
         repeat: None,
     }
@@ -563,6 +564,7 @@ fn blobs(rng: &mut SplitMix64, count: usize, groups: usize) -> (Vec<Group>, Opti
             skeletons: Vec::new(),
             blobs: Vec::new(),
             shapes: Vec::new(),
+            hrbfs: Vec::new(),
             transform: crate::scene::Transform::IDENTITY,
             repeat: None,
         })
@@ -627,6 +629,7 @@ fn molecule(rng: &mut SplitMix64, atoms: usize) -> Group {
         skeletons: Vec::new(),
         blobs,
         shapes: Vec::new(),
+        hrbfs: Vec::new(),
         transform: crate::scene::Transform::IDENTITY,
         repeat: None,
     }

@@ -143,6 +143,12 @@ impl ForwardInclusion {
         }
     }
 
+    /// Inclusion of `max(f, 0)` (the clamped density of an HRBF group).
+    #[must_use]
+    pub fn positive_part(self) -> Self {
+        Self::max(&[self, Self::zero(self.length)]).unwrap_or(self)
+    }
+
     /// Maximum of inclusions (appendix C).
     fn max(items: &[Self]) -> Option<Self> {
         let h = items.iter().map(|i| i.length).fold(f64::INFINITY, f64::min);

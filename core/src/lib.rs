@@ -10,6 +10,7 @@ pub mod blend;
 pub mod bottom_up;
 pub mod bvh;
 pub mod generate;
+pub mod hrbf;
 pub mod geometry;
 pub mod inclusion;
 pub mod interval;

@@ -14,9 +14,10 @@ use crate::geometry::{Aabb, Ray, Similarity, SphereCone};
 use crate::interval::{Interval, Jet};
 use crate::kernel::{Kernel, KernelProfile};
 use crate::primitives::{
-    DistanceSegment, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
+    DistanceSegment, HrbfTerm, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
 };
-use crate::scene::{Blend, Group, Scene, Shape, Skeleton, SkeletonField, Vec3};
+use crate::hrbf;
+use crate::scene::{Blend, Group, Hrbf, Scene, Shape, Skeleton, SkeletonField, Vec3};
 
 /// Groups evaluated without heap allocation per query.
 const INLINE_GROUPS: usize = 8;
@@ -43,6 +44,11 @@ pub struct FieldProgram {
     blend_is_total_sum: bool,
     bvh: Bvh,
     unbounded: Vec<u32>,
+    /// Groups whose field is clamped at 0 (those holding an HRBF set, `crate::hrbf`).
+    clamped: Vec<bool>,
+    /// One term of each HRBF set: the field may jump where a ray crosses a set's box, so
+    /// marching parts are cut there.
+    cut_boxes: Vec<HrbfTerm>,
 }
 
 fn v3(a: Vec3) -> DVec3 {
@@ -64,6 +70,7 @@ impl FieldProgram {
         let mut primitives = Vec::new();
         let mut groups_of = Vec::new();
         let mut kernels = Vec::with_capacity(scene.groups.len());
+        let clamped: Vec<bool> = scene.groups.iter().map(|g| !g.hrbfs.is_empty()).collect();
         let kernel_specs = scene.groups.iter().map(|g| g.kernel).collect();
         for (gi, group) in scene.groups.iter().enumerate() {
             let k = KernelProfile::new(group.kernel);
@@ -85,6 +92,9 @@ impl FieldProgram {
             }
             for shape in &group.shapes {
                 push(Primitive::Shape(shape_primitive(shape, point_norm)));
+            }
+            for set in &group.hrbfs {
+                hrbf_terms(set, c, &mut push);
             }
             for placement in group_placements(group) {
                 for p in &local {
@@ -109,7 +119,18 @@ impl FieldProgram {
                 None => unbounded.push(i as u32),
             }
         }
-        let blend_is_total_sum = is_total_sum(&blend, scene.groups.len());
+        let mut cut_boxes: Vec<HrbfTerm> = Vec::new();
+        for p in &primitives {
+            if let Primitive::Hrbf(term) = p
+                && cut_boxes
+                    .last()
+                    .is_none_or(|b| (b.bounds, b.frame) != (term.bounds, term.frame))
+            {
+                cut_boxes.push(*term);
+            }
+        }
+        let blend_is_total_sum =
+            is_total_sum(&blend, scene.groups.len()) && !clamped.iter().any(|&c| c);
         Self {
             isovalue: c,
             blend_is_total_sum,
@@ -120,6 +141,8 @@ impl FieldProgram {
             kernel_specs,
             blend,
             unbounded,
+            clamped,
+            cut_boxes,
         }
     }
 
@@ -197,6 +220,11 @@ impl FieldProgram {
                 slot.0 += v;
                 slot.1 += g;
             });
+            for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+                if slot.0 < 0.0 {
+                    *slot = (0.0, DVec3::ZERO);
+                }
+            }
             blend::value_gradient(&self.blend, slots, self.isovalue)
         })
     }
@@ -248,6 +276,15 @@ impl FieldProgram {
             let slot = &mut slots[self.groups_of[i as usize] as usize];
             *slot = *slot + jet;
         });
+        for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+            *slot = slot.max(Jet::ZERO);
+        }
+    }
+
+    /// Whether group `g`'s field is clamped at 0 (it holds an HRBF set).
+    #[must_use]
+    pub fn group_is_clamped(&self, g: usize) -> bool {
+        self.clamped[g]
     }
 
     /// Every group's `(f(t), f′(t))` along the ray.
@@ -261,6 +298,11 @@ impl FieldProgram {
             slot.0 += v;
             slot.1 += g.dot(ray.direction);
         });
+        for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+            if slot.0 < 0.0 {
+                *slot = (0.0, 0.0);
+            }
+        }
         slots
     }
 
@@ -323,7 +365,9 @@ impl FieldProgram {
     }
 
     /// The parts of `span` inside at least one support, as disjoint sorted intervals: outside
-    /// them the field is 0, below any positive isovalue.
+    /// them the field is 0, below any positive isovalue. Parts are also cut where the ray
+    /// crosses the box of an HRBF set, where the field may jump, so that the field is
+    /// continuous on each part (the methods' bounds hold on spans inside one part).
     #[must_use]
     pub fn ray_support_unions(&self, ray: &Ray, span: Interval) -> Vec<Interval> {
         let mut out: Vec<Interval> = Vec::new();
@@ -331,6 +375,18 @@ impl FieldProgram {
             match out.last_mut() {
                 Some(last) if s.span.lo <= last.hi => last.hi = last.hi.max(s.span.hi),
                 _ => out.push(s.span),
+            }
+        }
+        for b in &self.cut_boxes {
+            let Some(inside) = b.box_interval(ray, span) else {
+                continue;
+            };
+            for cut in [inside.lo, inside.hi] {
+                if let Some(i) = out.iter().position(|p| p.lo < cut && cut < p.hi) {
+                    let hi = out[i].hi;
+                    out[i].hi = cut;
+                    out.insert(i + 1, Interval { lo: cut, hi });
+                }
             }
         }
         out
@@ -524,6 +580,36 @@ fn skeleton_primitives(
             }));
         }
     }
+}
+
+/// The terms of an HRBF set, scaled into the density `c − (c/ℓ)h` (`crate::hrbf`). A set that
+/// does not solve has been refused when the scene was read; it gives no terms here.
+fn hrbf_terms(set: &Hrbf, c: f64, push: &mut impl FnMut(Primitive)) {
+    let Ok(weights) = hrbf::solve(&set.points) else {
+        return;
+    };
+    let bounds = weights.bounds();
+    let scale = -c / weights.length_scale();
+    for ((&center, &alpha), &beta) in weights.centers.iter().zip(&weights.alpha).zip(&weights.beta) {
+        push(Primitive::Hrbf(HrbfTerm {
+            center,
+            alpha: scale * alpha,
+            beta: scale * beta,
+            linear: DVec3::ZERO,
+            constant: 0.0,
+            bounds,
+            frame: DMat3::IDENTITY,
+        }));
+    }
+    push(Primitive::Hrbf(HrbfTerm {
+        center: bounds.center(),
+        alpha: 0.0,
+        beta: DVec3::ZERO,
+        linear: scale * weights.linear,
+        constant: scale * weights.constant + c,
+        bounds,
+        frame: DMat3::IDENTITY,
+    }));
 }
 
 fn shape_primitive(shape: &Shape, norm: f64) -> ShapePrimitive {

@@ -99,6 +99,9 @@ pub struct Group {
     pub blobs: Vec<Blob>,
     /// Distance-based primitives.
     pub shapes: Vec<Shape>,
+    /// Hermite radial basis function sets.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub hrbfs: Vec<Hrbf>,
     /// Similarity applied to the whole group after repetition.
     #[serde(default, skip_serializing_if = "Transform::is_identity")]
     pub transform: Transform,
@@ -106,6 +109,29 @@ pub struct Group {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub repeat: Option<Repeat>,
 }
+
+/// A Hermite radial basis function set (forward inclusion 2023 eq. 9, `φ(r) = r³`): the surface
+/// passes through every point with the given outward normal. Its weights are solved when the
+/// scene is read and again whenever it is compiled, so they never go stale after an edit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Hrbf {
+    /// Points with normals.
+    pub points: Vec<HrbfPoint>,
+}
+
+/// A point of an HRBF set.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HrbfPoint {
+    /// Position on the surface.
+    #[serde(deserialize_with = "de_finite3")]
+    pub position: Vec3,
+    /// Outward normal there (normalised on use).
+    #[serde(deserialize_with = "de_direction")]
+    pub normal: Vec3,
+}
+
+/// Most points one HRBF set may have (the solve is a dense `4N + 4` system).
+pub const MAX_HRBF_POINTS: usize = 400;
 
 /// Similarity on a group (numerical ray tracing notes 2014 §11.5): uniform scale, then rotation
 /// (XYZ Euler angles in degrees), then translation. A density field of radius-scaled primitives
@@ -198,6 +224,8 @@ struct GroupFile {
     #[serde(default)]
     shapes: Vec<Shape>,
     #[serde(default)]
+    hrbfs: Vec<Hrbf>,
+    #[serde(default)]
     transform: Transform,
     #[serde(default)]
     repeat: Option<Repeat>,
@@ -245,6 +273,26 @@ impl TryFrom<GroupFile> for Group {
                 }
             }
         }
+        if !g.hrbfs.is_empty()
+            && (!g.skeletons.is_empty() || !g.blobs.is_empty() || !g.shapes.is_empty())
+        {
+            return Err(format!(
+                "group '{}': a group with HRBF sets holds nothing else (its field is the sets' \
+                 clamped density); move the skeletons, blobs and shapes to another group",
+                g.name
+            ));
+        }
+        for (i, set) in g.hrbfs.iter().enumerate() {
+            if set.points.len() > MAX_HRBF_POINTS {
+                return Err(format!(
+                    "group '{}', HRBF set {i}: {} points, at most {MAX_HRBF_POINTS} are allowed",
+                    g.name,
+                    set.points.len()
+                ));
+            }
+            crate::hrbf::solve(&set.points)
+                .map_err(|e| format!("group '{}', HRBF set {i}: {e}", g.name))?;
+        }
         if let Some(repeat) = &g.repeat {
             let copies: u64 = repeat.count.iter().map(|&n| u64::from(n)).product();
             if repeat.count.contains(&0) || copies > MAX_REPEAT_COPIES {
@@ -262,6 +310,7 @@ impl TryFrom<GroupFile> for Group {
             skeletons: g.skeletons,
             blobs: g.blobs,
             shapes: g.shapes,
+            hrbfs: g.hrbfs,
             transform: g.transform,
             repeat: g.repeat,
         })

@@ -34,6 +34,7 @@ fn blobs_scene(kernel: Kernel, centers: &[[f64; 3]], radius: f64) -> Scene {
                 .map(|&center| Blob { center, radius })
                 .collect(),
             shapes: Vec::new(),
+            hrbfs: Vec::new(),
             transform: skeletrace_core::scene::Transform::IDENTITY,
             repeat: None,
         }],

@@ -196,6 +196,9 @@ impl PackedScene {
                         ));
                     }
                 },
+                Primitive::Hrbf(_) => {
+                    return Err("the GPU backend does not evaluate HRBF sets yet".to_owned());
+                }
             };
             primitives.push(GpuPrimitive {
                 kind,

@@ -2,11 +2,13 @@
 //! the acceleration structure, exact or bounding interval along a ray) and encloses `f`, `f′`
 //! and `f″` over a ray interval inside that support.
 
+mod hrbf;
 mod point;
 mod scalis;
 mod segment;
 mod shapes;
 
+pub use hrbf::HrbfTerm;
 pub use point::PointBlob;
 pub use scalis::ScalisSegment;
 pub use segment::DistanceSegment;
@@ -29,6 +31,8 @@ pub enum Primitive {
     Scalis(ScalisSegment),
     /// Kernel of the distance to a solid.
     Shape(ShapePrimitive),
+    /// One term of an HRBF set (forward inclusion eq. 9); no kernel.
+    Hrbf(HrbfTerm),
 }
 
 impl Primitive {
@@ -58,6 +62,7 @@ impl Primitive {
                 norm: x.norm,
             }),
             Self::Shape(x) => Self::Shape(x.transformed(m)),
+            Self::Hrbf(x) => Self::Hrbf(x.transformed(m)),
         }
     }
 
@@ -69,6 +74,7 @@ impl Primitive {
             Self::Distance(x) => x.value(p, k),
             Self::Scalis(x) => x.value(p, k),
             Self::Shape(x) => x.value(p, k),
+            Self::Hrbf(x) => x.value_gradient(p).0,
         }
     }
 
@@ -80,6 +86,7 @@ impl Primitive {
             Self::Distance(x) => x.value_gradient(p, k),
             Self::Scalis(x) => x.value_gradient(p, k),
             Self::Shape(x) => x.value_gradient(p, k),
+            Self::Hrbf(x) => x.value_gradient(p),
         }
     }
 
@@ -95,6 +102,7 @@ impl Primitive {
                 x.norm * slope * x.cone.length / (x.cone.radius * x.cone.end_radius())
             }
             Self::Shape(x) => x.norm * slope / x.radius,
+            Self::Hrbf(x) => x.lipschitz(),
         }
     }
 
@@ -106,6 +114,7 @@ impl Primitive {
             Self::Distance(x) => Some(x.support_aabb(k)),
             Self::Scalis(x) => Some(x.support_aabb(k)),
             Self::Shape(x) => x.support_aabb(k),
+            Self::Hrbf(x) => Some(x.support_aabb()),
         }
     }
 
@@ -118,6 +127,7 @@ impl Primitive {
             Self::Distance(x) => x.support_interval(ray, k),
             Self::Scalis(x) => x.support_interval(ray, k),
             Self::Shape(x) => x.support_interval(ray, k),
+            Self::Hrbf(x) => x.support_interval(ray),
         }
     }
 
@@ -137,6 +147,7 @@ impl Primitive {
             Self::Distance(x) => x.ray_jet(ray, inside, k),
             Self::Scalis(x) => x.ray_jet(ray, inside, k),
             Self::Shape(x) => x.ray_jet(ray, inside, k),
+            Self::Hrbf(x) => x.ray_jet(ray, inside),
         };
         if inside == span {
             jet

@@ -4,7 +4,8 @@
 use skeletrace_core::kernel::{Kernel, KernelProfile};
 use skeletrace_core::rng::SplitMix64;
 use skeletrace_core::scene::{
-    Blend, Blob, Camera, Group, Material, Scene, Shape, Skeleton, SkeletonField, Vertex,
+    Blend, Blob, Camera, Group, Hrbf, HrbfPoint, Material, Scene, Shape, Skeleton, SkeletonField,
+    Vertex,
 };
 
 /// Primitive types exercised by the tests.
@@ -18,9 +19,10 @@ pub enum Kind {
     RoundedBox,
     Torus,
     Cylinder,
+    Hrbf,
 }
 
-pub const KINDS: [Kind; 8] = [
+pub const KINDS: [Kind; 9] = [
     Kind::Point,
     Kind::DistanceSegment,
     Kind::ScalisSegment,
@@ -29,6 +31,7 @@ pub const KINDS: [Kind; 8] = [
     Kind::RoundedBox,
     Kind::Torus,
     Kind::Cylinder,
+    Kind::Hrbf,
 ];
 
 pub const KERNELS: [Kernel; 5] = [
@@ -95,6 +98,7 @@ pub fn group(kernel: Kernel) -> Group {
         skeletons: Vec::new(),
         blobs: Vec::new(),
         shapes: Vec::new(),
+        hrbfs: Vec::new(),
         transform: skeletrace_core::scene::Transform::IDENTITY,
         repeat: None,
     }
@@ -153,6 +157,7 @@ pub fn add_primitive(g: &mut Group, kind: Kind, rng: &mut SplitMix64) {
             minor: rng.range(0.05, 0.4),
             radius,
         }),
+        Kind::Hrbf => g.hrbfs.push(random_hrbf(rng)),
         Kind::Cylinder => g.shapes.push(Shape::Cylinder {
             center,
             axis: rng.direction(),
@@ -161,6 +166,32 @@ pub fn add_primitive(g: &mut Group, kind: Kind, rng: &mut SplitMix64) {
             radius,
         }),
     }
+}
+
+/// 4–12 points on a random ellipsoid around a random centre, with the ellipsoid's normals
+/// perturbed.
+pub fn random_hrbf(rng: &mut SplitMix64) -> Hrbf {
+    let center = point(rng, 0.4);
+    let axes = [rng.range(0.2, 0.8), rng.range(0.2, 0.8), rng.range(0.2, 0.8)];
+    let n = 6 + rng.below(10);
+    let points = (0..n)
+        .map(|_| {
+            let d = rng.direction();
+            let position = [
+                center[0] + axes[0] * d[0],
+                center[1] + axes[1] * d[1],
+                center[2] + axes[2] * d[2],
+            ];
+            let jitter = rng.direction();
+            let normal = [
+                d[0] / axes[0] + 0.1 * jitter[0],
+                d[1] / axes[1] + 0.1 * jitter[1],
+                d[2] / axes[2] + 0.1 * jitter[2],
+            ];
+            HrbfPoint { position, normal }
+        })
+        .collect();
+    Hrbf { points }
 }
 
 pub fn scene(groups: Vec<Group>, blend: Option<Blend>) -> Scene {

@@ -1,0 +1,180 @@
+//! Hermite radial basis function surfaces (forward inclusion 2023 eq. 9, Macêdo et al. 2011):
+//! `h(p) = Σᵢ αᵢ φ(‖p − pᵢ‖) + βᵢ·∇φ(p − pᵢ) + a·p + b` with `φ(r) = r³`, interpolating
+//! `h(pᵢ) = 0` and `∇h(pᵢ) = nᵢ` at points with outward normals. The `4N + 4` weights come from
+//! one dense LU solve (nalgebra): `N` value and `3N` gradient conditions, and the four side
+//! conditions `Σαᵢ = 0`, `Σ αᵢpᵢ + βᵢ = 0` that make the system square and the polynomial
+//! part unique.
+//!
+//! In a scene, a set becomes the density `f = max(c − (c/ℓ)·h, 0)` (inside where `f ≥ c`, like
+//! every other primitive), with `ℓ` a tenth of the points' bounding-box diagonal, so `|∇f| = c/ℓ`
+//! on the points, and `f` vanishes where `h ≥ ℓ`: a non-negative density that blends with the
+//! other groups like a kernel primitive. Since `h` grows like `r³` away from the points, the set
+//! is evaluated only inside the points' box widened by [`HRBF_MARGIN`] of its diagonal on every
+//! side (0 outside). A group holding a set holds nothing else, and is clamped as a whole.
+//! The clamp is continuous; the box is where `f` has long reached 0 for a surface that closes
+//! around its points (if a surface reaches the box, it is cut there).
+
+use glam::{DMat3, DVec3};
+use nalgebra::{DMatrix, DVector};
+
+use crate::geometry::Aabb;
+use crate::scene::HrbfPoint;
+
+/// Widening of the points' box, × its diagonal, on each side.
+pub const HRBF_MARGIN: f64 = 0.3;
+/// `ℓ` as a fraction of the points' box diagonal.
+pub const HRBF_LENGTH: f64 = 0.1;
+
+/// Solved weights of one HRBF set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HrbfWeights {
+    /// The points `pᵢ`.
+    pub centers: Vec<DVec3>,
+    /// `αᵢ`.
+    pub alpha: Vec<f64>,
+    /// `βᵢ`.
+    pub beta: Vec<DVec3>,
+    /// `a`.
+    pub linear: DVec3,
+    /// `b`.
+    pub constant: f64,
+}
+
+/// `∇φ(v) = 3‖v‖v` for `φ(r) = r³`.
+fn grad_phi(v: DVec3) -> DVec3 {
+    3.0 * v.length() * v
+}
+
+/// Hessian of `φ(‖v‖)`: `3(‖v‖I + vvᵀ/‖v‖)`, 0 at the origin.
+fn hessian_phi(v: DVec3) -> DMat3 {
+    let r = v.length();
+    if r == 0.0 {
+        return DMat3::ZERO;
+    }
+    3.0 * (DMat3::from_diagonal(DVec3::splat(r))
+        + DMat3::from_cols(v * v.x, v * v.y, v * v.z) / r)
+}
+
+/// Solves the interpolation system.
+///
+/// # Errors
+/// Fewer than one point, a zero normal, or a singular system (repeated points).
+pub fn solve(points: &[HrbfPoint]) -> Result<HrbfWeights, String> {
+    let n = points.len();
+    if n == 0 {
+        return Err("an HRBF set needs at least one point".to_owned());
+    }
+    let centers: Vec<DVec3> = points.iter().map(|p| DVec3::from(p.position)).collect();
+    let mut normals = Vec::with_capacity(n);
+    for (i, p) in points.iter().enumerate() {
+        let v = DVec3::from(p.normal);
+        if !(v.length() > 0.0) {
+            return Err(format!("HRBF point {i}: the normal must not be (0, 0, 0)"));
+        }
+        normals.push(v.normalize());
+    }
+    // Unknowns: α (n), β (3n), a (3), b (1).
+    let size = 4 * n + 4;
+    let (beta0, a0, b0) = (n, 4 * n, 4 * n + 3);
+    let mut m = DMatrix::<f64>::zeros(size, size);
+    let mut rhs = DVector::<f64>::zeros(size);
+    for (j, &pj) in centers.iter().enumerate() {
+        // h(pⱼ) = 0
+        let row = j;
+        for (i, &pi) in centers.iter().enumerate() {
+            let v = pj - pi;
+            m[(row, i)] = v.length().powi(3);
+            let g = grad_phi(v);
+            for k in 0..3 {
+                m[(row, beta0 + 3 * i + k)] = g[k];
+            }
+        }
+        for k in 0..3 {
+            m[(row, a0 + k)] = pj[k];
+        }
+        m[(row, b0)] = 1.0;
+        // ∇h(pⱼ) = nⱼ
+        for k in 0..3 {
+            let row = n + 3 * j + k;
+            for (i, &pi) in centers.iter().enumerate() {
+                let v = pj - pi;
+                m[(row, i)] = grad_phi(v)[k];
+                let h = hessian_phi(v);
+                for l in 0..3 {
+                    m[(row, beta0 + 3 * i + l)] = h.col(l)[k];
+                }
+            }
+            m[(row, a0 + k)] = 1.0;
+            rhs[row] = normals[j][k];
+        }
+    }
+    // Side conditions: Σαᵢ = 0 and Σ αᵢpᵢ + βᵢ = 0.
+    for (i, &pi) in centers.iter().enumerate() {
+        m[(a0, i)] = 1.0;
+        for k in 0..3 {
+            m[(a0 + 1 + k, i)] = pi[k];
+            m[(a0 + 1 + k, beta0 + 3 * i + k)] = 1.0;
+        }
+    }
+    let x = m
+        .lu()
+        .solve(&rhs)
+        .filter(|x| x.iter().all(|v| v.is_finite()))
+        .ok_or_else(|| {
+            "the HRBF system is singular (two points at the same position?)".to_owned()
+        })?;
+    Ok(HrbfWeights {
+        alpha: x.rows(0, n).iter().copied().collect(),
+        beta: (0..n)
+            .map(|i| DVec3::new(x[beta0 + 3 * i], x[beta0 + 3 * i + 1], x[beta0 + 3 * i + 2]))
+            .collect(),
+        linear: DVec3::new(x[a0], x[a0 + 1], x[a0 + 2]),
+        constant: x[b0],
+        centers,
+    })
+}
+
+impl HrbfWeights {
+    /// `h(p)` and `∇h(p)`.
+    #[must_use]
+    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        let mut value = self.linear.dot(p) + self.constant;
+        let mut gradient = self.linear;
+        for ((&c, &alpha), &beta) in self.centers.iter().zip(&self.alpha).zip(&self.beta) {
+            let v = p - c;
+            let g = grad_phi(v);
+            value += alpha * v.length().powi(3) + beta.dot(g);
+            gradient += alpha * g + hessian_phi(v) * beta;
+        }
+        (value, gradient)
+    }
+
+    /// Diagonal of the points' box (at least 10⁻³, for a single point).
+    fn extent(&self) -> f64 {
+        self.centers
+            .iter()
+            .fold(Aabb::EMPTY, |acc, &c| acc.union(Aabb::ball(c, 0.0)))
+            .diagonal()
+            .max(1e-3)
+    }
+
+    /// The box the set is evaluated in: the points' box widened by [`HRBF_MARGIN`].
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        let b = self
+            .centers
+            .iter()
+            .fold(Aabb::EMPTY, |acc, &c| acc.union(Aabb::ball(c, 0.0)));
+        let pad = DVec3::splat(HRBF_MARGIN * self.extent());
+        Aabb {
+            min: b.min - pad,
+            max: b.max + pad,
+        }
+    }
+
+    /// `ℓ`: the length over which `f` drops by `c` along a normal.
+    #[must_use]
+    pub fn length_scale(&self) -> f64 {
+        HRBF_LENGTH * self.extent()
+    }
+}
