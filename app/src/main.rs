@@ -194,11 +194,12 @@ fn print_info(name: &str, scene: &Scene) {
     println!("validation ok (version {})", scene.version);
     println!("isovalue   {}", scene.isovalue);
     println!(
-        "counts     {} groups, {} skeletons, {} vertices, {} segments, {} blobs, {} shapes",
-        c.groups, c.skeletons, c.vertices, c.segments, c.blobs, c.shapes
+        "counts     {} groups, {} skeletons, {} vertices, {} segments, {} blobs, {} shapes, \
+         {} HRBF points",
+        c.groups, c.skeletons, c.vertices, c.segments, c.blobs, c.shapes, c.hrbf_points
     );
     println!(
-        "primitives {} (segments, end-point correctors, blobs and shapes)",
+        "primitives {} (segments, end-point correctors, blobs, shapes, copies, HRBF terms)",
         program.primitives().len()
     );
     for (i, g) in scene.groups.iter().enumerate() {

@@ -51,8 +51,7 @@ fn hessian_phi(v: DVec3) -> DMat3 {
     if r == 0.0 {
         return DMat3::ZERO;
     }
-    3.0 * (DMat3::from_diagonal(DVec3::splat(r))
-        + DMat3::from_cols(v * v.x, v * v.y, v * v.z) / r)
+    3.0 * (DMat3::from_diagonal(DVec3::splat(r)) + DMat3::from_cols(v * v.x, v * v.y, v * v.z) / r)
 }
 
 /// Solves the interpolation system.
@@ -68,7 +67,7 @@ pub fn solve(points: &[HrbfPoint]) -> Result<HrbfWeights, String> {
     let mut normals = Vec::with_capacity(n);
     for (i, p) in points.iter().enumerate() {
         let v = DVec3::from(p.normal);
-        if !(v.length() > 0.0) {
+        if v.length() == 0.0 || !v.is_finite() {
             return Err(format!("HRBF point {i}: the normal must not be (0, 0, 0)"));
         }
         normals.push(v.normalize());

@@ -11,12 +11,12 @@ use glam::{DMat3, DVec3, EulerRot};
 use crate::blend;
 use crate::bvh::Bvh;
 use crate::geometry::{Aabb, Ray, Similarity, SphereCone};
+use crate::hrbf;
 use crate::interval::{Interval, Jet};
 use crate::kernel::{Kernel, KernelProfile};
 use crate::primitives::{
     DistanceSegment, HrbfTerm, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
 };
-use crate::hrbf;
 use crate::scene::{Blend, Group, Hrbf, Scene, Shape, Skeleton, SkeletonField, Vec3};
 
 /// Groups evaluated without heap allocation per query.
@@ -590,7 +590,12 @@ fn hrbf_terms(set: &Hrbf, c: f64, push: &mut impl FnMut(Primitive)) {
     };
     let bounds = weights.bounds();
     let scale = -c / weights.length_scale();
-    for ((&center, &alpha), &beta) in weights.centers.iter().zip(&weights.alpha).zip(&weights.beta) {
+    for ((&center, &alpha), &beta) in weights
+        .centers
+        .iter()
+        .zip(&weights.alpha)
+        .zip(&weights.beta)
+    {
         push(Primitive::Hrbf(HrbfTerm {
             center,
             alpha: scale * alpha,

@@ -925,7 +925,7 @@ impl Scene {
         ]
     }
 
-    /// Number of skeleton vertices, segments, blobs and shapes.
+    /// Number of skeleton vertices, segments, blobs, shapes and HRBF points.
     #[must_use]
     pub fn counts(&self) -> SceneCounts {
         let mut c = SceneCounts {
@@ -938,6 +938,7 @@ impl Scene {
             c.segments += g.skeletons.iter().map(|s| s.edges.len()).sum::<usize>();
             c.blobs += g.blobs.len();
             c.shapes += g.shapes.len();
+            c.hrbf_points += g.hrbfs.iter().map(|h| h.points.len()).sum::<usize>();
         }
         c
     }
@@ -958,6 +959,8 @@ pub struct SceneCounts {
     pub blobs: usize,
     /// Distance-based shapes.
     pub shapes: usize,
+    /// Points of all HRBF sets.
+    pub hrbf_points: usize,
 }
 
 /// 1-based line and column of the first occurrence of `key` followed by `:`, or of the end

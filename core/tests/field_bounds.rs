@@ -10,8 +10,8 @@ use rayon::prelude::*;
 use skeletrace_core::affine::field_form;
 use skeletrace_core::bottom_up::{Degree, field_inclusion};
 use skeletrace_core::kernel::Kernel;
-use skeletrace_core::rng::SplitMix64;
 use skeletrace_core::primitives::Primitive;
+use skeletrace_core::rng::SplitMix64;
 use skeletrace_core::scene::Blend;
 use skeletrace_core::{FieldProgram, Interval, Ray};
 

@@ -39,7 +39,8 @@ fn the_interpolant_passes_through_every_point_with_its_normal() {
 }
 
 fn load(groups: &str) -> Result<Scene, String> {
-    Scene::from_ron(&format!("(version: 1, groups: [{groups}])"), "set.ron").map_err(|e| e.to_string())
+    Scene::from_ron(&format!("(version: 1, groups: [{groups}])"), "set.ron")
+        .map_err(|e| e.to_string())
 }
 
 #[test]
@@ -59,18 +60,29 @@ fn bad_sets_are_refused_with_the_group_and_set_named() {
     .err()
     .unwrap_or_default();
     assert!(
-        repeated.contains("set.ron") && repeated.contains("'shell', HRBF set 0") && repeated.contains("singular"),
+        repeated.contains("set.ron")
+            && repeated.contains("'shell', HRBF set 0")
+            && repeated.contains("singular"),
         "{repeated}"
     );
-    let zero = load(&format!("(name: \"shell\", hrbfs: [(points: [{}])])", point(1.0, "(0, 0, 0)")))
-        .err()
-        .unwrap_or_default();
-    assert!(zero.contains("set.ron") && zero.contains("(0, 0, 0)"), "{zero}");
+    let zero = load(&format!(
+        "(name: \"shell\", hrbfs: [(points: [{}])])",
+        point(1.0, "(0, 0, 0)")
+    ))
+    .err()
+    .unwrap_or_default();
+    assert!(
+        zero.contains("set.ron") && zero.contains("(0, 0, 0)"),
+        "{zero}"
+    );
     let mixed = load(&format!(
         "(name: \"shell\", blobs: [(center: (0, 0, 0), radius: 1)], hrbfs: [(points: [{}])])",
         point(1.0, "(1, 0, 0)")
     ))
     .err()
     .unwrap_or_default();
-    assert!(mixed.contains("'shell'") && mixed.contains("holds nothing else"), "{mixed}");
+    assert!(
+        mixed.contains("'shell'") && mixed.contains("holds nothing else"),
+        "{mixed}"
+    );
 }

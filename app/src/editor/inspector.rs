@@ -6,13 +6,13 @@
 use eframe::egui;
 use skeletrace_core::kernel::Kernel;
 use skeletrace_core::methods;
-use skeletrace_core::scene::{Blend, Shape, SkeletonField};
+use skeletrace_core::scene::{Blend, Hrbf, Shape, SkeletonField};
 use skeletrace_render::GpuMethod;
 
 use super::selection::{self, Item};
-use super::shapes;
 use super::worker::Backend;
 use super::{Edit, Editor, ViewMode};
+use super::{group_tools, shapes};
 
 /// Shortcuts listed by the help overlay.
 pub const SHORTCUTS: [(&str, &str); 24] = [
@@ -505,6 +505,71 @@ impl Editor {
             });
         }
         self.shapes_panel(ui, g, &group.shapes);
+        self.hrbf_panel(ui, g, &group.hrbfs);
+        let (mut transform, mut repeat) = (group.transform, group.repeat);
+        egui::CollapsingHeader::new("Transform and repetition")
+            .id_salt(("operators", g))
+            .show(ui, |ui| {
+                group_tools::edit_operators(ui, &mut transform, &mut repeat)
+            });
+        if (transform, repeat) != (group.transform, group.repeat) {
+            self.apply(Edit::gesture("transform", format!("operators-{g}")), |s| {
+                s.groups[g].transform = transform;
+                s.groups[g].repeat = repeat;
+            });
+        }
+    }
+
+    /// The group's HRBF sets: add a set (in a group of its own: the loader refuses a set among
+    /// other primitives, and the edit with it), move points, turn normals, add and remove points.
+    fn hrbf_panel(&mut self, ui: &mut egui::Ui, g: usize, current: &[Hrbf]) {
+        ui.horizontal(|ui| {
+            ui.strong(format!("HRBF sets ({})", current.len()));
+            if ui.button("Add HRBF set").clicked() {
+                let set = group_tools::new_hrbf_set(self.orbit.target, 3.0 * self.typical_radius());
+                self.apply(Edit::new("add HRBF set"), |s| s.groups[g].hrbfs.push(set));
+            }
+        });
+        for (k, set) in current.iter().enumerate() {
+            let mut edited = set.clone();
+            let mut remove_set = false;
+            egui::CollapsingHeader::new(format!("HRBF set {k} ({} points)", set.points.len()))
+                .id_salt(("hrbf", g, k))
+                .show(ui, |ui| {
+                    let mut remove_point = None;
+                    for (i, point) in edited.points.iter_mut().enumerate() {
+                        ui.label(format!("point {i}"));
+                        group_tools::edit_point(ui, point);
+                        if ui.small_button("remove point").clicked() {
+                            remove_point = Some(i);
+                        }
+                    }
+                    if let Some(i) = remove_point {
+                        edited.points.remove(i);
+                    }
+                    ui.horizontal(|ui| {
+                        if ui.button("Add point").clicked()
+                            && let Some(last) = edited.points.last().copied()
+                        {
+                            let mut point = last;
+                            point.position[1] += 0.1 * self.typical_radius().max(0.1);
+                            edited.points.push(point);
+                        }
+                        remove_set = ui.button("Remove set").clicked();
+                    });
+                });
+            if remove_set {
+                self.apply(Edit::new("remove HRBF set"), |s| {
+                    s.groups[g].hrbfs.remove(k);
+                });
+                break;
+            }
+            if edited != *set {
+                self.apply(Edit::gesture("HRBF point", format!("hrbf-{g}-{k}")), |s| {
+                    s.groups[g].hrbfs[k] = edited;
+                });
+            }
+        }
     }
 
     /// The group's distance primitives: add one of each kind at the orbit target, edit every

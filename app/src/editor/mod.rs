@@ -7,6 +7,7 @@
 //! [`EditorApp`] and the kittest tests call it directly.
 
 mod document;
+mod group_tools;
 mod inspector;
 mod selection;
 mod shapes;

@@ -128,14 +128,14 @@ pub fn edit_fields(ui: &mut egui::Ui, shape: &mut Shape) {
     }
 }
 
-fn scalar(ui: &mut egui::Ui, label: &str, value: &mut f64, speed: f64) {
+pub fn scalar(ui: &mut egui::Ui, label: &str, value: &mut f64, speed: f64) {
     ui.horizontal(|ui| {
         ui.label(label);
         ui.add(egui::DragValue::new(value).speed(speed));
     });
 }
 
-fn vector(ui: &mut egui::Ui, label: &str, value: &mut Vec3, speed: f64) {
+pub fn vector(ui: &mut egui::Ui, label: &str, value: &mut Vec3, speed: f64) {
     ui.horizontal(|ui| {
         ui.label(label);
         for v in value {

@@ -91,7 +91,9 @@ impl HrbfTerm {
             .abs()
             .max((self.bounds.max - local).abs())
             .length();
-        3.0 * self.alpha.abs() * reach * reach + 6.0 * self.beta.length() * reach + self.linear.length()
+        3.0 * self.alpha.abs() * reach * reach
+            + 6.0 * self.beta.length() * reach
+            + self.linear.length()
     }
 
     /// Enclosures of `f`, `f′`, `f″` over `span` (inside the box).
@@ -140,7 +142,8 @@ impl HrbfTerm {
         let h_over_r3 = Interval::new(h_over_r2.lo.powf(1.5), h_over_r2.hi.powf(1.5));
         let cube = Interval::new(r.lo.powi(3), r.hi.powi(3));
         let value = cube.scale(self.alpha) + r.scale(3.0 * a) + rs.scale(3.0 * b);
-        let d1 = rs.scale(3.0 * self.alpha) + sr.scale(3.0 * a) + s2r.scale(3.0 * b) + r.scale(3.0 * b);
+        let d1 =
+            rs.scale(3.0 * self.alpha) + sr.scale(3.0 * a) + s2r.scale(3.0 * b) + r.scale(3.0 * b);
         let d2 = bend.scale(3.0 * self.alpha)
             + h_over_r3.scale(3.0 * a_over_h)
             + (sr * h_over_r2).scale(3.0 * b)

@@ -172,7 +172,11 @@ pub fn add_primitive(g: &mut Group, kind: Kind, rng: &mut SplitMix64) {
 /// perturbed.
 pub fn random_hrbf(rng: &mut SplitMix64) -> Hrbf {
     let center = point(rng, 0.4);
-    let axes = [rng.range(0.2, 0.8), rng.range(0.2, 0.8), rng.range(0.2, 0.8)];
+    let axes = [
+        rng.range(0.2, 0.8),
+        rng.range(0.2, 0.8),
+        rng.range(0.2, 0.8),
+    ];
     let n = 6 + rng.below(10);
     let points = (0..n)
         .map(|_| {
