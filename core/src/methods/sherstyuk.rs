@@ -43,10 +43,14 @@ impl Method for Sherstyuk {
             Blend::Sum(v) => v.iter().all(|b| matches!(b, Blend::Group(_))),
             _ => false,
         };
-        if summed {
-            Ok(())
-        } else {
+        if !summed {
             Err("sherstyuk needs groups blended by a plain sum (its polynomials add)".to_owned())
+        } else if (0..program.group_count()).any(|g| program.group_is_clamped(g)) {
+            Err("sherstyuk does not apply to HRBF sets (their terms add only before the \
+                 group's clamp at 0)"
+                .to_owned())
+        } else {
+            Ok(())
         }
     }
 
