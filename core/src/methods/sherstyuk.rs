@@ -46,9 +46,11 @@ impl Method for Sherstyuk {
         if !summed {
             Err("sherstyuk needs groups blended by a plain sum (its polynomials add)".to_owned())
         } else if (0..program.group_count()).any(|g| program.group_is_clamped(g)) {
-            Err("sherstyuk does not apply to HRBF sets (their terms add only before the \
+            Err(
+                "sherstyuk does not apply to HRBF sets (their terms add only before the \
                  group's clamp at 0)"
-                .to_owned())
+                    .to_owned(),
+            )
         } else {
             Ok(())
         }
