@@ -10,11 +10,12 @@ struct Globals {
     right: vec4<f32>,    // w: aspect
     up: vec4<f32>,       // w: isovalue
     size: vec4<u32>,     // width, height, tiles_x, tiles_y
-    counts: vec4<u32>,   // primitives, groups, blend operator (0 sum, 1 max, 2 min), max steps
+    counts: vec4<u32>,   // primitives, groups, blend operator (0 sum, 1 max, 2 min, 3 smooth union, 4 smooth intersection), max steps
     march: vec4<f32>,    // epsilon, min_step, growth, initial_interval
     method: vec4<f32>,   // method parameters (global Lipschitz bound; field inversion σ, radius, N0)
     tile: vec4<u32>,     // tile size in pixels, lights, panel x offset, output width
-    heat: vec4<f32>,     // top of the step scale, 0, 0, 0
+    heat: vec4<f32>,     // top of the step scale, heat view, shading flags, shading scale
+    blend: vec4<f32>,    // width of the smooth operators, 0, 0, 0
 };
 
 // Twin of `GpuPrimitive`. kind: 0 point blob, 1 distance segment, 2 SCALIS segment, 3 plane.
@@ -416,7 +417,14 @@ fn support_item(sp: ptr<function, RaySupports>, ray: Ray, j: u32) -> SupportItem
     return SupportItem((*sp).ids[j], (*sp).spans[j]);
 }
 
-// Blend of the group values and gradients: sum, max or min over groups (flat trees only).
+// Polynomial smooth maximum of two values with gradients (blend.rs smooth_max).
+fn smooth_max(a: vec4<f32>, b: vec4<f32>, width: f32) -> vec4<f32> {
+    let h = clamp(0.5 + (a.x - b.x) / (2.0 * width), 0.0, 1.0);
+    return vec4<f32>(b.x + h * (a.x - b.x) + width * h * (1.0 - h), h * a.yzw + (1.0 - h) * b.yzw);
+}
+
+// Blend of the group values and gradients (blend.rs value_gradient, flat trees only): sum, max,
+// min, or the smooth union / intersection folded over the groups in index order.
 fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
     let n = globals.counts.y;
     let op = globals.counts.z;
@@ -426,6 +434,15 @@ fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
             s += values[g];
         }
         return s;
+    }
+    if op >= 3u {
+        // The intersection is −smooth_max(−a, −b).
+        let sign = select(1.0, -1.0, op == 4u);
+        var folded = sign * values[0];
+        for (var g = 1u; g < n; g++) {
+            folded = smooth_max(folded, sign * values[g], globals.blend.x);
+        }
+        return sign * folded;
     }
     var best = values[0];
     for (var g = 1u; g < n; g++) {

@@ -85,6 +85,22 @@ fn jet_neg(f: Jet) -> Jet {
     return Jet(-f.value.yx, -f.d1.yx, -f.d2.yx);
 }
 
+// Jet of the smooth maximum (blend.rs smooth_max_jet): the larger operand where their ranges
+// stay `width` apart; otherwise value in [max, max + w/4], f′ in the hull of theirs, f″ in the
+// hull of theirs widened up by max (a′ − b′)²/2w.
+fn jet_smooth_max(a: Jet, b: Jet, width: f32) -> Jet {
+    if a.value.x - b.value.y >= width {
+        return a;
+    }
+    if b.value.x - a.value.y >= width {
+        return b;
+    }
+    let spread = max(abs(a.d1.x - b.d1.y), abs(a.d1.y - b.d1.x));
+    return Jet(vec2<f32>(max(a.value.x, b.value.x), max(a.value.y, b.value.y) + 0.25 * width),
+               vec2<f32>(min(a.d1.x, b.d1.x), max(a.d1.y, b.d1.y)),
+               vec2<f32>(min(a.d2.x, b.d2.x), max(a.d2.y, b.d2.y) + spread * spread / (2.0 * width)));
+}
+
 // The support item overlaps [lo, hi].
 fn overlaps(item: SupportItem, lo: f32, hi: f32) -> bool {
     return item.span.x <= item.span.y && item.span.x <= hi && item.span.y >= lo;
@@ -121,6 +137,25 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
     }
     let n = globals.counts.y;
     let op = globals.counts.z;
+    if op >= 3u {
+        // The smooth intersection is −smooth_max(−a, −b).
+        let intersection = op == 4u;
+        var folded = groups[0];
+        if intersection {
+            folded = jet_neg(folded);
+        }
+        for (var g = 1u; g < n; g++) {
+            var next = groups[g];
+            if intersection {
+                next = jet_neg(next);
+            }
+            folded = jet_smooth_max(folded, next, globals.blend.x);
+        }
+        if intersection {
+            folded = jet_neg(folded);
+        }
+        return folded;
+    }
     var out = groups[0];
     for (var g = 1u; g < n; g++) {
         if op == 0u {
@@ -247,9 +282,11 @@ fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32)
 fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
     if METHOD == 0u {
         return symmetric(f, summed_lipschitz(sp, ray, t, t + h), h);
-    } else if METHOD == 3u {
+    } else if METHOD == 3u && globals.counts.z < 3u {
         return bottom_up_quadratic(sp, ray, t, h);
     }
+    // Below: Taylor inclusions, also bottom-up-quadratic's fallback for the smooth operators,
+    // which have no forward-inclusion composition rule (bottom_up.rs field_inclusion).
     let jet = ray_jet(sp, ray, t, t + h);
     if METHOD == 1u {
         return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);

@@ -2,9 +2,11 @@
 //! `shaders/prelude.wgsl`, built from a [`FieldProgram`] and its [`Scene`].
 //!
 //! The GPU evaluates point blobs, distance and SCALIS segments and planes, up to
-//! [`MAX_GROUPS`] groups combined by one sum, max or min (the flat blend trees of every
-//! asset). Other scenes (boxes, tori, cylinders, difference or Ricci blends, nested trees) are
-//! refused with a message, and the caller falls back to the CPU tracer.
+//! [`MAX_GROUPS`] groups combined by one sum, max, min, smooth union or smooth intersection
+//! (flat blend trees: every asset's, and every one the editor's blend menu builds except
+//! difference and Ricci). Other scenes (boxes, tori, cylinders, HRBF sets, difference or Ricci
+//! blends, nested trees) are refused with a message, and the caller falls back to the CPU
+//! tracer.
 
 use bytemuck::{Pod, Zeroable};
 use skeletrace_core::FieldProgram;
@@ -80,23 +82,38 @@ pub struct PackedScene {
     pub materials: Vec<[f32; 4]>,
     /// Lights.
     pub lights: Vec<GpuLight>,
-    /// Blend operator over groups: 0 sum, 1 max, 2 min.
+    /// Blend operator over groups: 0 sum, 1 max, 2 min, 3 smooth union, 4 smooth intersection.
     pub blend: u32,
+    /// Width of the smooth operators (0 for the others).
+    pub blend_width: f32,
 }
 
 fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
 
-/// The blend operator of a flat tree whose leaves are every group once, if it is one.
-fn flat_blend(blend: &Blend, groups: usize) -> Option<u32> {
-    let (op, children) = match blend {
-        Blend::Group(0) if groups == 1 => return Some(0),
-        Blend::Sum(v) => (0, v),
-        Blend::Max(v) => (1, v),
-        Blend::Min(v) => (2, v),
+/// The blend operator of a flat tree whose leaves are every group once, if it is one, with the
+/// width of the smooth operators. Sums, maxima and minima take their leaves in any order; the
+/// smooth operators fold their operands left to right (blend.rs), and the shaders fold groups
+/// in index order, so their leaves must be the groups in that order.
+fn flat_blend(blend: &Blend, groups: usize) -> Option<(u32, f32)> {
+    let (op, width, children) = match blend {
+        Blend::Group(0) if groups == 1 => return Some((0, 0.0)),
+        Blend::Sum(v) => (0, 0.0, v),
+        Blend::Max(v) => (1, 0.0, v),
+        Blend::Min(v) => (2, 0.0, v),
+        Blend::SmoothUnion { width, of } => (3, *width as f32, of),
+        Blend::SmoothIntersection { width, of } => (4, *width as f32, of),
         _ => return None,
     };
+    if op >= 3 {
+        let in_order = children.len() == groups
+            && children
+                .iter()
+                .enumerate()
+                .all(|(k, c)| *c == Blend::Group(k as u32));
+        return in_order.then_some((op, width));
+    }
     let mut seen = vec![false; groups];
     for c in children {
         match c {
@@ -106,7 +123,7 @@ fn flat_blend(blend: &Blend, groups: usize) -> Option<u32> {
             _ => return None,
         }
     }
-    seen.iter().all(|s| *s).then_some(op)
+    seen.iter().all(|s| *s).then_some((op, width))
 }
 
 fn kernel(k: Kernel) -> GpuKernel {
@@ -146,9 +163,10 @@ impl PackedScene {
                 "the GPU backend handles at most {MAX_GROUPS} groups (this scene has {groups})"
             ));
         }
-        let blend = flat_blend(program.blend(), groups).ok_or_else(|| {
-            "the GPU backend handles one sum, max or min over all groups; this scene's blend \
-             tree is nested or uses difference/Ricci"
+        let (blend, blend_width) = flat_blend(program.blend(), groups).ok_or_else(|| {
+            "the GPU backend handles one sum, max, min or smooth union/intersection (of the \
+             groups in order) over all groups; this scene's blend tree is nested or uses \
+             difference/Ricci"
                 .to_owned()
         })?;
         let mut primitives = Vec::with_capacity(program.primitives().len());
@@ -275,6 +293,7 @@ impl PackedScene {
                 })
                 .collect(),
             blend,
+            blend_width,
         })
     }
 }

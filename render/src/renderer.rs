@@ -51,6 +51,7 @@ struct GpuGlobals {
     method: [f32; 4],
     tile: [u32; 4],
     heat: [f32; 4],
+    blend: [f32; 4],
 }
 
 /// Twin of `Binning` in binning.wgsl.
@@ -495,6 +496,7 @@ impl GpuRenderer {
                     shading_flags as f32,
                     shading_scale(program) as f32,
                 ],
+                blend: [scene.packed.blend_width, 0.0, 0.0, 0.0],
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("globals"),
