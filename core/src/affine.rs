@@ -171,11 +171,7 @@ pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<A
         };
         groups[g] = groups[g] + form;
     });
-    for (g, group) in groups.iter_mut().enumerate() {
-        if program.group_is_clamped(g) {
-            *group = group.positive_part();
-        }
-    }
+    program.clamp_group_slots(&mut groups, |group| *group = group.positive_part());
     blend(program.blend(), &groups, program.isovalue())
 }
 

@@ -156,11 +156,7 @@ pub fn field_inclusion(
         };
         groups[g] = groups[g] + own;
     });
-    for (g, group) in groups.iter_mut().enumerate() {
-        if program.group_is_clamped(g) {
-            *group = group.positive_part();
-        }
-    }
+    program.clamp_group_slots(&mut groups, |group| *group = group.positive_part());
     let blended =
         inclusion::blend(program.blend(), &groups, program.isovalue()).unwrap_or_else(|| {
             let jet = program.ray_jet(ray, span);

@@ -220,11 +220,11 @@ impl FieldProgram {
                 slot.0 += v;
                 slot.1 += g;
             });
-            for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+            self.clamp_group_slots(slots, |slot| {
                 if slot.0 < 0.0 {
                     *slot = (0.0, DVec3::ZERO);
                 }
-            }
+            });
             blend::value_gradient(&self.blend, slots, self.isovalue)
         })
     }
@@ -276,15 +276,22 @@ impl FieldProgram {
             let slot = &mut slots[self.groups_of[i as usize] as usize];
             *slot = *slot + jet;
         });
-        for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
-            *slot = slot.max(Jet::ZERO);
-        }
+        self.clamp_group_slots(slots, |slot| *slot = slot.max(Jet::ZERO));
     }
 
     /// Whether group `g`'s field is clamped at 0 (it holds an HRBF set).
     #[must_use]
     pub fn group_is_clamped(&self, g: usize) -> bool {
         self.clamped[g]
+    }
+
+    /// Applies `clamp_at_zero` to the per-group slots (values, jets, inclusions, affine forms) of
+    /// the groups whose field is clamped at 0: the one place each evaluation mode takes the HRBF
+    /// group's positive part.
+    pub fn clamp_group_slots<T>(&self, slots: &mut [T], clamp_at_zero: impl Fn(&mut T)) {
+        for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+            clamp_at_zero(slot);
+        }
     }
 
     /// Every group's `(f(t), f′(t))` along the ray.
@@ -298,11 +305,11 @@ impl FieldProgram {
             slot.0 += v;
             slot.1 += g.dot(ray.direction);
         });
-        for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+        self.clamp_group_slots(&mut slots, |slot| {
             if slot.0 < 0.0 {
                 *slot = (0.0, 0.0);
             }
-        }
+        });
         slots
     }
 

@@ -173,12 +173,7 @@ fn gradients_match_central_differences() {
                     continue;
                 }
                 compared += 1;
-                let h = 1e-6;
-                let numeric = DVec3::new(
-                    program.value(p + DVec3::X * h) - program.value(p - DVec3::X * h),
-                    program.value(p + DVec3::Y * h) - program.value(p - DVec3::Y * h),
-                    program.value(p + DVec3::Z * h) - program.value(p - DVec3::Z * h),
-                ) / (2.0 * h);
+                let numeric = common::numeric_gradient(&program, p, 1e-6);
                 let error = (numeric - grad).length();
                 // Kinks (box edges, clipped supports) make differences one-sided within h.
                 let tol = 1e-5 * (1.0 + grad.length());

@@ -142,12 +142,7 @@ fn smooth_union_lies_between_the_max_and_a_quarter_width_above() {
         }
         // The gradient is continuous: compare with central differences.
         let (_, g) = union.value_gradient(p);
-        let h = 1e-6;
-        let numeric = DVec3::new(
-            union.value(p + DVec3::X * h) - union.value(p - DVec3::X * h),
-            union.value(p + DVec3::Y * h) - union.value(p - DVec3::Y * h),
-            union.value(p + DVec3::Z * h) - union.value(p - DVec3::Z * h),
-        ) / (2.0 * h);
+        let numeric = common::numeric_gradient(&union, p, 1e-6);
         assert!(
             (numeric - g).length() < 1e-4 * (1.0 + g.length()),
             "{numeric} vs {g}"

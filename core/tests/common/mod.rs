@@ -219,3 +219,17 @@ pub fn assets() -> Vec<std::path::PathBuf> {
     files.sort();
     files
 }
+
+/// Central-difference gradient of `program`'s field at `p` with step `h`.
+pub fn numeric_gradient(
+    program: &skeletrace_core::FieldProgram,
+    p: glam::DVec3,
+    h: f64,
+) -> glam::DVec3 {
+    use glam::DVec3;
+    DVec3::new(
+        program.value(p + DVec3::X * h) - program.value(p - DVec3::X * h),
+        program.value(p + DVec3::Y * h) - program.value(p - DVec3::Y * h),
+        program.value(p + DVec3::Z * h) - program.value(p - DVec3::Z * h),
+    ) / (2.0 * h)
+}
