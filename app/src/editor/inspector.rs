@@ -332,6 +332,9 @@ impl Editor {
                         scene.groups[item.group()].skeletons[skeleton].name
                     ),
                     Item::Blob { blob, .. } => format!("blob {blob}"),
+                    Item::HrbfPoint { set, point, .. } => {
+                        format!("point {point} of HRBF set {set} (normal: group panel)")
+                    }
                 };
                 ui.label(format!(
                     "{what}, group '{}'",
@@ -344,16 +347,18 @@ impl Editor {
                         changed |= ui.add(egui::DragValue::new(v).speed(0.01)).changed();
                     }
                 });
-                ui.horizontal(|ui| {
-                    ui.label("radius");
-                    changed |= ui
-                        .add(
-                            egui::DragValue::new(&mut radius)
-                                .speed(0.005)
-                                .range(1e-3..=1e3),
-                        )
-                        .changed();
-                });
+                if !matches!(item, Item::HrbfPoint { .. }) {
+                    ui.horizontal(|ui| {
+                        ui.label("radius");
+                        changed |= ui
+                            .add(
+                                egui::DragValue::new(&mut radius)
+                                    .speed(0.005)
+                                    .range(1e-3..=1e3),
+                            )
+                            .changed();
+                    });
+                }
                 if changed {
                     let chosen = self.selection.clone();
                     self.apply(Edit::gesture("edit vertex", "inspector-item"), |s| {
@@ -366,7 +371,9 @@ impl Editor {
                             position[2] - old[2],
                         ];
                         selection::translate(s, &chosen, delta);
-                        selection::scale_radius(s, &chosen, radius / old_r);
+                        if old_r > 0.0 {
+                            selection::scale_radius(s, &chosen, radius / old_r);
+                        }
                     });
                 }
             }
@@ -397,43 +404,9 @@ impl Editor {
         }
     }
 
-    fn group_panel(&mut self, ui: &mut egui::Ui) {
-        let scene = self.doc.scene().clone();
-        if scene.groups.is_empty() {
-            return;
-        }
-        let g = self.active_group.min(scene.groups.len() - 1);
-        ui.heading("Group");
-        egui::ComboBox::from_label("edited group")
-            .selected_text(scene.groups[g].name.clone())
-            .show_ui(ui, |ui| {
-                for (k, group) in scene.groups.iter().enumerate() {
-                    ui.selectable_value(&mut self.active_group, k, group.name.clone());
-                }
-            });
-        let group = &scene.groups[g];
-        // Field type and correctors of the group's skeletons.
-        if !group.skeletons.is_empty() {
-            let mut field = group.skeletons[0].field;
-            let mut correctors = group.skeletons[0].end_correctors;
-            ui.horizontal(|ui| {
-                ui.label("field");
-                ui.selectable_value(&mut field, SkeletonField::Distance, "distance");
-                ui.selectable_value(&mut field, SkeletonField::Scalis, "SCALIS");
-            });
-            ui.checkbox(&mut correctors, "end-point correctors");
-            if field != group.skeletons[0].field || correctors != group.skeletons[0].end_correctors
-            {
-                self.apply(Edit::new("field type"), |s| {
-                    for sk in &mut s.groups[g].skeletons {
-                        sk.field = field;
-                        sk.end_correctors = correctors;
-                    }
-                });
-            }
-        }
-        // Kernel.
-        let mut kernel = group.kernel;
+    /// Kernel family, degree and scale σ of group `g`.
+    fn kernel_controls(&mut self, ui: &mut egui::Ui, g: usize, current: Kernel) {
+        let mut kernel = current;
         let family = match kernel {
             Kernel::CompactPolynomial { .. } => 0,
             Kernel::Cauchy { .. } => 1,
@@ -479,10 +452,52 @@ impl Editor {
                 ui.add(egui::Slider::new(scale, 0.05..=6.0).text("scale σ"));
             }
         }
-        if kernel != group.kernel {
+        if kernel != current {
             self.apply(Edit::gesture("kernel", format!("kernel-{g}")), |s| {
                 s.groups[g].kernel = kernel;
             });
+        }
+    }
+
+    fn group_panel(&mut self, ui: &mut egui::Ui) {
+        let scene = self.doc.scene().clone();
+        if scene.groups.is_empty() {
+            return;
+        }
+        let g = self.active_group.min(scene.groups.len() - 1);
+        ui.heading("Group");
+        egui::ComboBox::from_label("edited group")
+            .selected_text(scene.groups[g].name.clone())
+            .show_ui(ui, |ui| {
+                for (k, group) in scene.groups.iter().enumerate() {
+                    ui.selectable_value(&mut self.active_group, k, group.name.clone());
+                }
+            });
+        let group = &scene.groups[g];
+        // Field type and correctors of the group's skeletons.
+        if !group.skeletons.is_empty() {
+            let mut field = group.skeletons[0].field;
+            let mut correctors = group.skeletons[0].end_correctors;
+            ui.horizontal(|ui| {
+                ui.label("field");
+                ui.selectable_value(&mut field, SkeletonField::Distance, "distance");
+                ui.selectable_value(&mut field, SkeletonField::Scalis, "SCALIS");
+            });
+            ui.checkbox(&mut correctors, "end-point correctors");
+            if field != group.skeletons[0].field || correctors != group.skeletons[0].end_correctors
+            {
+                self.apply(Edit::new("field type"), |s| {
+                    for sk in &mut s.groups[g].skeletons {
+                        sk.field = field;
+                        sk.end_correctors = correctors;
+                    }
+                });
+            }
+        }
+        if group.hrbfs.is_empty() {
+            self.kernel_controls(ui, g, group.kernel);
+        } else {
+            ui.weak("kernel: not used by HRBF sets (the interpolant is the field)");
         }
         // Material.
         let mut material = group.material;

@@ -1,11 +1,13 @@
 //! What the user has selected, and the scene edits that act on a selection (move, radius,
 //! delete, duplicate, connect, disconnect, sketch a vertex, add a blob, change group). Each
-//! edit is a pure function of the scene so the document can validate and record it.
+//! edit is a pure function of the scene so the document can validate and record it. HRBF
+//! points (2023 eq. 9) are items too: they move, delete and duplicate like the others, have no
+//! radius, and stay in their group (a group with an HRBF set holds nothing else).
 
 use std::collections::BTreeSet;
 
 use skeletrace_core::Scene;
-use skeletrace_core::scene::{Blob, Skeleton, SkeletonField, Vertex};
+use skeletrace_core::scene::{Blob, HrbfPoint, Skeleton, SkeletonField, Vertex};
 
 /// A pickable item of the skeleton overlay.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -26,6 +28,15 @@ pub enum Item {
         /// Blob index in the group.
         blob: usize,
     },
+    /// A point of an HRBF set.
+    HrbfPoint {
+        /// Group index.
+        group: usize,
+        /// Set index in the group.
+        set: usize,
+        /// Point index in the set.
+        point: usize,
+    },
 }
 
 impl Item {
@@ -33,11 +44,14 @@ impl Item {
     #[must_use]
     pub fn group(self) -> usize {
         match self {
-            Self::Vertex { group, .. } | Self::Blob { group, .. } => group,
+            Self::Vertex { group, .. }
+            | Self::Blob { group, .. }
+            | Self::HrbfPoint { group, .. } => group,
         }
     }
 
-    /// `(centre, radius)` in `scene`, `None` when the item no longer exists.
+    /// `(centre, radius)` in `scene` (radius 0 for HRBF points), `None` when the item no
+    /// longer exists.
     #[must_use]
     pub fn ball(self, scene: &Scene) -> Option<([f64; 3], f64)> {
         match self {
@@ -59,6 +73,18 @@ impl Item {
                 let b = scene.groups.get(group)?.blobs.get(blob)?;
                 Some((b.center, b.radius))
             }
+            Self::HrbfPoint { .. } => Some((self.hrbf_point(scene)?.position, 0.0)),
+        }
+    }
+
+    /// The HRBF point this item names, if it is one and still exists.
+    #[must_use]
+    pub fn hrbf_point(self, scene: &Scene) -> Option<&HrbfPoint> {
+        match self {
+            Self::HrbfPoint { group, set, point } => {
+                scene.groups.get(group)?.hrbfs.get(set)?.points.get(point)
+            }
+            _ => None,
         }
     }
 }
@@ -76,6 +102,9 @@ pub fn all_items(scene: &Scene) -> Vec<Item> {
             }));
         }
         items.extend((0..g.blobs.len()).map(|blob| Item::Blob { group, blob }));
+        for (set, h) in g.hrbfs.iter().enumerate() {
+            items.extend((0..h.points.len()).map(|point| Item::HrbfPoint { group, set, point }));
+        }
     }
     items
 }
@@ -110,6 +139,9 @@ pub fn translate(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
                 vertex,
             } => &mut scene.groups[group].skeletons[skeleton].vertices[vertex].position,
             Item::Blob { group, blob } => &mut scene.groups[group].blobs[blob].center,
+            Item::HrbfPoint { group, set, point } => {
+                &mut scene.groups[group].hrbfs[set].points[point].position
+            }
         };
         for k in 0..3 {
             p[k] += delta[k];
@@ -117,7 +149,7 @@ pub fn translate(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
     }
 }
 
-/// Multiplies the selected items' radii by `factor`.
+/// Multiplies the selected items' radii by `factor` (HRBF points have none).
 pub fn scale_radius(scene: &mut Scene, selection: &Selection, factor: f64) {
     for &item in selection {
         match item {
@@ -127,6 +159,7 @@ pub fn scale_radius(scene: &mut Scene, selection: &Selection, factor: f64) {
                 vertex,
             } => scene.groups[group].skeletons[skeleton].vertices[vertex].radius *= factor,
             Item::Blob { group, blob } => scene.groups[group].blobs[blob].radius *= factor,
+            Item::HrbfPoint { .. } => {}
         }
     }
 }
@@ -153,6 +186,15 @@ pub fn delete(scene: &mut Scene, selection: &Selection) {
             keep_vertices(s, &removed);
         }
         g.skeletons.retain(|s| !s.vertices.is_empty());
+        for (set, h) in g.hrbfs.iter_mut().enumerate() {
+            let mut point = 0;
+            h.points.retain(|_| {
+                let keep = !selection.contains(&Item::HrbfPoint { group, set, point });
+                point += 1;
+                keep
+            });
+        }
+        g.hrbfs.retain(|h| !h.points.is_empty());
     }
 }
 
@@ -198,6 +240,23 @@ pub fn duplicate(scene: &mut Scene, selection: &Selection, offset: [f64; 3]) -> 
                 blob: g.blobs.len(),
             });
             g.blobs.push(b);
+        }
+        for (set, h) in g.hrbfs.iter_mut().enumerate() {
+            let chosen: Vec<HrbfPoint> = (0..h.points.len())
+                .filter(|&point| selection.contains(&Item::HrbfPoint { group, set, point }))
+                .map(|point| HrbfPoint {
+                    position: shifted(h.points[point].position),
+                    ..h.points[point]
+                })
+                .collect();
+            for copy in chosen {
+                copies.insert(Item::HrbfPoint {
+                    group,
+                    set,
+                    point: h.points.len(),
+                });
+                h.points.push(copy);
+            }
         }
         for (skeleton, s) in g.skeletons.iter_mut().enumerate() {
             let chosen: Vec<usize> = (0..s.vertices.len())
@@ -252,7 +311,7 @@ pub fn connect(scene: &mut Scene, selection: &Selection) -> Result<(), String> {
                 skeleton,
                 vertex,
             } => Some((group, skeleton, vertex)),
-            Item::Blob { .. } => None,
+            Item::Blob { .. } | Item::HrbfPoint { .. } => None,
         })
         .collect();
     let [(g, s, a), (g2, s2, b)] = vertices[..] else {
@@ -333,7 +392,7 @@ pub fn sketch_vertex(
 }
 
 /// Moves the selected blobs, and the skeletons holding selected vertices, to `target`.
-/// Returns the moved items' new identities.
+/// Returns the moved items' new identities. HRBF points stay in their set.
 pub fn assign_group(scene: &mut Scene, selection: &Selection, target: usize) -> Selection {
     let mut moved = Selection::new();
     let skeletons: BTreeSet<(usize, usize)> = selection
@@ -429,5 +488,41 @@ mod tests {
         assert_eq!(s.groups[0].skeletons[0].edges.len(), after_cut + 1);
         assert!(connect(&mut s, &copies).is_err(), "already connected");
         assert!(after_cut >= edges);
+    }
+
+    #[test]
+    fn hrbf_points_move_duplicate_and_delete_as_items() {
+        let mut s = Scene::from_ron(include_str!("../../../assets/scenes/hrbf.ron"), "hrbf")
+            .unwrap_or_else(|e| panic!("{e}"));
+        let points = |s: &Scene| s.groups[0].hrbfs[0].points.len();
+        let n = points(&s);
+        let items = all_items(&s);
+        let first = Item::HrbfPoint {
+            group: 0,
+            set: 0,
+            point: 0,
+        };
+        assert!(items.contains(&first));
+        let selection = Selection::from([first]);
+        let before = first.ball(&s).unwrap_or_else(|| panic!("point 0"));
+        assert_eq!(before.1, 0.0, "HRBF points have no radius");
+        translate(&mut s, &selection, [0.1, 0.0, -0.2]);
+        scale_radius(&mut s, &selection, 2.0);
+        let after = s.groups[0].hrbfs[0].points[0];
+        assert_eq!(
+            after.position,
+            [before.0[0] + 0.1, before.0[1], before.0[2] - 0.2]
+        );
+        let copies = duplicate(&mut s, &selection, [0.0, 0.5, 0.0]);
+        assert_eq!(points(&s), n + 1);
+        let copy = copies.iter().next().and_then(|c| c.hrbf_point(&s)).copied();
+        assert_eq!(copy.map(|c| c.normal), Some(after.normal));
+        assert!(
+            assign_group(&mut s, &copies, 1).is_empty(),
+            "HRBF points stay in their set"
+        );
+        delete(&mut s, &copies);
+        assert_eq!(points(&s), n);
+        assert!(connect(&mut s, &selection).is_err());
     }
 }

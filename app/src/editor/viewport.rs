@@ -346,7 +346,8 @@ impl Editor {
         }
     }
 
-    /// Draws segments, radius circles, handles and blobs; returns what can be picked.
+    /// Draws segments, radius circles, handles, blobs and HRBF points with their normals;
+    /// returns what can be picked.
     fn draw_overlay(
         &self,
         painter: &egui::Painter,
@@ -383,20 +384,57 @@ impl Editor {
         }
         for d in &drawn {
             let selected = self.selection.contains(&d.item);
-            painter.circle_stroke(d.at, d.radius, ring);
+            if let Some(point) = d.item.hrbf_point(scene) {
+                let tip = normal_tip(projection, to_screen, point, d.at);
+                let colour = if selected { SELECTED } else { NORMAL };
+                painter.line_segment([d.at, tip], Stroke::new(1.5, colour));
+            } else {
+                painter.circle_stroke(d.at, d.radius, ring);
+            }
             let (fill, size) = match d.item {
                 Item::Vertex { .. } => (Color32::from_rgb(240, 240, 250), 4.0),
                 Item::Blob { .. } => (Color32::from_rgb(120, 220, 200), 4.5),
+                Item::HrbfPoint { .. } => (NORMAL, 3.5),
             };
             if selected {
                 painter.circle_filled(d.at, size + 1.5, SELECTED);
-                painter.circle_stroke(d.at, d.radius, Stroke::new(1.5, SELECTED));
+                if d.radius > 0.0 {
+                    painter.circle_stroke(d.at, d.radius, Stroke::new(1.5, SELECTED));
+                }
             } else {
                 painter.circle_filled(d.at, size, fill);
             }
         }
         drawn
     }
+}
+
+/// Colour of HRBF point handles and their normals.
+const NORMAL: Color32 = Color32::from_rgb(250, 200, 90);
+
+/// Screen length of an HRBF normal seen side-on.
+const NORMAL_PIXELS: f64 = 24.0;
+
+/// The screen end of an HRBF point's normal drawn from `at`: [`NORMAL_PIXELS`] long when the
+/// normal lies in the image plane, shorter as it turns towards the camera.
+fn normal_tip(
+    projection: &Projection,
+    to_screen: &dyn Fn(f64, f64) -> Pos2,
+    point: &skeletrace_core::scene::HrbfPoint,
+    at: Pos2,
+) -> Pos2 {
+    let n = glam::DVec3::from_array(point.normal).normalize_or_zero();
+    let p = glam::DVec3::from_array(point.position);
+    let probe = 1e-3;
+    let (Some((x0, y0, z0)), Some((x1, y1, _))) = (
+        projection.project(p.to_array()),
+        projection.project((p + probe * n).to_array()),
+    ) else {
+        return at;
+    };
+    let per_unit = projection.pixels(probe, z0).max(1e-9);
+    let screen = to_screen(x1, y1) - to_screen(x0, y0);
+    at + screen * (NORMAL_PIXELS / per_unit) as f32
 }
 
 fn gizmo_at(gizmo: Option<([f64; 3], Pos2, f64)>) -> Pos2 {
