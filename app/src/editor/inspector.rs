@@ -541,8 +541,15 @@ impl Editor {
         ui.horizontal(|ui| {
             ui.strong(format!("HRBF sets ({})", current.len()));
             if ui.button("Add HRBF set").clicked() {
-                let set = group_tools::new_hrbf_set(self.orbit.target, 3.0 * self.typical_radius());
-                self.apply(Edit::new("add HRBF set"), |s| s.groups[g].hrbfs.push(set));
+                // At the view's target, in the group's frame.
+                let (target, size) = (self.orbit.target, 3.0 * self.typical_radius());
+                self.apply(Edit::new("add HRBF set"), |s| {
+                    let centre = selection::to_group_frame(s, g, target);
+                    let size = size / selection::placement(s, g).scale;
+                    s.groups[g]
+                        .hrbfs
+                        .push(group_tools::new_hrbf_set(centre, size));
+                });
             }
         });
         for (k, set) in current.iter().enumerate() {

@@ -285,7 +285,7 @@ impl Editor {
     #[must_use]
     pub fn screen_circle(&self, item: Item) -> Option<(egui::Pos2, f32)> {
         let rect = self.viewport_rect?;
-        let (centre, radius) = item.ball(self.doc.scene())?;
+        let (centre, radius) = item.world_ball(self.doc.scene())?;
         let projection = view::Projection::new(
             &self.orbit.camera(),
             f64::from(rect.width()),
@@ -754,11 +754,13 @@ impl Editor {
         let radius = self.typical_radius();
         let mut added = None;
         let applied = self.apply(Edit::new("add blob"), |s| {
+            // The new blob sits beside the selection in the viewport, in the group's frame.
+            let center =
+                selection::to_group_frame(s, group, [centre[0] + radius, centre[1], centre[2]]);
+            let radius = radius / selection::placement(s, group).scale;
             if let Some(g) = s.groups.get_mut(group) {
-                g.blobs.push(skeletrace_core::scene::Blob {
-                    center: [centre[0] + radius, centre[1], centre[2]],
-                    radius,
-                });
+                g.blobs
+                    .push(skeletrace_core::scene::Blob { center, radius });
                 added = Some(Item::Blob {
                     group,
                     blob: g.blobs.len() - 1,
@@ -770,21 +772,26 @@ impl Editor {
         }
     }
 
+    /// Mean radius of the selected items (of every item when none has one; 0.2 in an empty
+    /// scene), in world units: the size of new vertices, blobs and sets.
     fn typical_radius(&self) -> f64 {
-        let balls: Vec<f64> = self
+        let mean = |balls: Vec<([f64; 3], f64)>| {
+            let radii: Vec<f64> = balls
+                .into_iter()
+                .map(|(_, r)| r)
+                .filter(|r| *r > 0.0)
+                .collect();
+            (!radii.is_empty()).then(|| radii.iter().sum::<f64>() / radii.len() as f64)
+        };
+        let scene = self.doc.scene();
+        let selected = self
             .selection
             .iter()
-            .filter_map(|i| i.ball(self.doc.scene()))
-            .map(|(_, r)| r)
+            .filter_map(|i| i.world_ball(scene))
             .collect();
-        if balls.is_empty() {
-            let all = view::scene_balls(self.doc.scene());
-            let n = all.len().max(1) as f64;
-            let mean = all.iter().map(|(_, r)| r).sum::<f64>() / n;
-            if mean > 0.0 { mean } else { 0.2 }
-        } else {
-            balls.iter().sum::<f64>() / balls.len() as f64
-        }
+        mean(selected)
+            .or_else(|| mean(view::scene_balls(scene)))
+            .unwrap_or(0.2)
     }
 
     fn frame_all(&mut self) {
@@ -796,7 +803,7 @@ impl Editor {
         let balls: Vec<_> = self
             .selection
             .iter()
-            .filter_map(|i| i.ball(self.doc.scene()))
+            .filter_map(|i| i.world_ball(self.doc.scene()))
             .collect();
         if balls.is_empty() {
             self.frame_all();

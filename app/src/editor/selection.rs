@@ -3,10 +3,18 @@
 //! edit is a pure function of the scene so the document can validate and record it. HRBF
 //! points (2023 eq. 9) are items too: they move, delete and duplicate like the others, have no
 //! radius, and stay in their group (a group with an HRBF set holds nothing else).
+//!
+//! Items are stored in their group's frame; the overlay shows them where the surface is, through
+//! the group's transform and the first copy of its repetition ([`placement`]). Edits made in
+//! the viewport take world positions and offsets and map them back ([`translate_in_view`],
+//! [`to_group_frame`]).
 
 use std::collections::BTreeSet;
 
+use glam::DVec3;
 use skeletrace_core::Scene;
+use skeletrace_core::geometry::Similarity;
+use skeletrace_core::program::group_placements;
 use skeletrace_core::scene::{Blob, HrbfPoint, Skeleton, SkeletonField, Vertex};
 
 /// A pickable item of the skeleton overlay.
@@ -77,6 +85,17 @@ impl Item {
         }
     }
 
+    /// [`Self::ball`] where the overlay shows it: through its group's [`placement`].
+    #[must_use]
+    pub fn world_ball(self, scene: &Scene) -> Option<([f64; 3], f64)> {
+        let (centre, radius) = self.ball(scene)?;
+        let place = placement(scene, self.group());
+        Some((
+            place.point(DVec3::from_array(centre)).to_array(),
+            place.scale * radius,
+        ))
+    }
+
     /// The HRBF point this item names, if it is one and still exists.
     #[must_use]
     pub fn hrbf_point(self, scene: &Scene) -> Option<&HrbfPoint> {
@@ -112,10 +131,41 @@ pub fn all_items(scene: &Scene) -> Vec<Item> {
 /// The selection.
 pub type Selection = BTreeSet<Item>;
 
-/// Centroid of the selected items.
+/// Where group `group`'s items are shown and edited in the viewport: its transform, after the
+/// first copy of its repetition (the identity for a group that no longer exists).
+#[must_use]
+pub fn placement(scene: &Scene, group: usize) -> Similarity {
+    scene
+        .groups
+        .get(group)
+        .and_then(|g| group_placements(g).first().copied())
+        .unwrap_or(Similarity::IDENTITY)
+}
+
+/// The world point `p` in group `group`'s frame (the inverse of its [`placement`]).
+#[must_use]
+pub fn to_group_frame(scene: &Scene, group: usize, p: [f64; 3]) -> [f64; 3] {
+    let place = placement(scene, group);
+    (place.rotation.transpose() * (DVec3::from_array(p) - place.translation) / place.scale)
+        .to_array()
+}
+
+/// Moves the selected items by the world offset `delta` (each mapped into its group's frame).
+pub fn translate_in_view(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
+    for &item in selection {
+        let place = placement(scene, item.group());
+        let local = place.rotation.transpose() * DVec3::from_array(delta) / place.scale;
+        translate(scene, &Selection::from([item]), local.to_array());
+    }
+}
+
+/// Centroid of the selected items where the viewport shows them.
 #[must_use]
 pub fn centroid(scene: &Scene, selection: &Selection) -> Option<[f64; 3]> {
-    let balls: Vec<_> = selection.iter().filter_map(|i| i.ball(scene)).collect();
+    let balls: Vec<_> = selection
+        .iter()
+        .filter_map(|i| i.world_ball(scene))
+        .collect();
     if balls.is_empty() {
         return None;
     }
@@ -129,7 +179,7 @@ pub fn centroid(scene: &Scene, selection: &Selection) -> Option<[f64; 3]> {
     Some(c)
 }
 
-/// Moves the selected items by `delta`.
+/// Moves the selected items by `delta` in their groups' frames.
 pub fn translate(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
     for &item in selection {
         let p = match item {
@@ -345,8 +395,9 @@ pub fn disconnect(scene: &mut Scene, selection: &Selection) {
     }
 }
 
-/// Sketch mode: adds a vertex at `position`, joined to the one selected vertex if there is
-/// one (same radius), or starting a new skeleton in `group`. Returns the new vertex.
+/// Sketch mode: adds a vertex at the world point `position`, joined to the one selected vertex
+/// if there is one (same radius), or starting a new skeleton in `group` (`radius` in world
+/// units). Returns the new vertex.
 pub fn sketch_vertex(
     scene: &mut Scene,
     selection: &Selection,
@@ -365,6 +416,7 @@ pub fn sketch_vertex(
         _ => None,
     };
     if let Some((group, skeleton, vertex)) = from {
+        let position = to_group_frame(scene, group, position);
         let s = &mut scene.groups[group].skeletons[skeleton];
         let radius = s.vertices[vertex].radius;
         s.vertices.push(Vertex { position, radius });
@@ -376,6 +428,8 @@ pub fn sketch_vertex(
             vertex: new,
         };
     }
+    let position = to_group_frame(scene, group, position);
+    let radius = radius / placement(scene, group).scale;
     let g = &mut scene.groups[group];
     g.skeletons.push(Skeleton {
         name: format!("sketch {}", g.skeletons.len() + 1),
@@ -524,5 +578,41 @@ mod tests {
         delete(&mut s, &copies);
         assert_eq!(points(&s), n);
         assert!(connect(&mut s, &selection).is_err());
+    }
+
+    #[test]
+    fn viewport_edits_of_a_transformed_group_land_where_the_overlay_shows_them() {
+        let mut s = scene();
+        s.groups[0].transform = skeletrace_core::scene::Transform {
+            translate: [0.5, -0.25, 1.0],
+            rotate: [20.0, -35.0, 60.0],
+            scale: 1.7,
+        };
+        s.groups[0].repeat = Some(skeletrace_core::scene::Repeat {
+            count: [2, 1, 1],
+            spacing: [0.8, 0.0, 0.0],
+        });
+        let vertex = Item::Vertex {
+            group: 0,
+            skeleton: 0,
+            vertex: 0,
+        };
+        let (before, r_before) = vertex.world_ball(&s).unwrap_or_else(|| panic!("vertex"));
+        let local_r = vertex.ball(&s).map_or(0.0, |b| b.1);
+        assert!((r_before - 1.7 * local_r).abs() < 1e-12);
+        let delta = [0.3, -0.1, 0.2];
+        translate_in_view(&mut s, &Selection::from([vertex]), delta);
+        let (after, _) = vertex.world_ball(&s).unwrap_or_else(|| panic!("vertex"));
+        for k in 0..3 {
+            assert!(
+                (after[k] - before[k] - delta[k]).abs() < 1e-12,
+                "{after:?} vs {before:?}"
+            );
+        }
+        // A sketched vertex appears at the clicked world point, with the world radius asked.
+        let added = sketch_vertex(&mut s, &Selection::new(), 0, [1.0, 2.0, 3.0], 0.34);
+        let (at, r) = added.world_ball(&s).unwrap_or_else(|| panic!("sketched"));
+        assert!((DVec3::from_array(at) - DVec3::new(1.0, 2.0, 3.0)).length() < 1e-12);
+        assert!((r - 0.34).abs() < 1e-12);
     }
 }

@@ -95,16 +95,12 @@ impl OrbitCamera {
     }
 }
 
-/// Every skeleton vertex and blob as `(centre, radius)`: what frame-all frames.
+/// Every item as `(centre, radius)` where the viewport shows it: what frame-all frames.
 pub fn scene_balls(scene: &Scene) -> Vec<([f64; 3], f64)> {
-    let mut balls = Vec::new();
-    for g in &scene.groups {
-        for s in &g.skeletons {
-            balls.extend(s.vertices.iter().map(|v| (v.position, v.radius)));
-        }
-        balls.extend(g.blobs.iter().map(|b| (b.center, b.radius)));
-    }
-    balls
+    super::selection::all_items(scene)
+        .into_iter()
+        .filter_map(|i| i.world_ball(scene))
+        .collect()
 }
 
 /// World ↔ viewport pixels for one camera and viewport size (pixels from the top-left).

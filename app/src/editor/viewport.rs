@@ -327,7 +327,7 @@ impl Editor {
         let chosen = self.selection.clone();
         let label = format!("move {} items", chosen.len());
         self.apply(Edit::gesture(label, "move"), |s| {
-            selection::translate(s, &chosen, delta);
+            selection::translate_in_view(s, &chosen, delta);
         });
     }
 
@@ -359,7 +359,7 @@ impl Editor {
         let line = Stroke::new(1.5, Color32::from_rgba_unmultiplied(235, 235, 245, 170));
         let ring = Stroke::new(1.0, Color32::from_rgba_unmultiplied(140, 190, 255, 90));
         for item in selection::all_items(scene) {
-            let Some((c, r)) = item.ball(scene) else {
+            let Some((c, r)) = item.world_ball(scene) else {
                 continue;
             };
             let Some((x, y, z)) = projection.project(c) else {
@@ -371,11 +371,13 @@ impl Editor {
                 radius: projection.pixels(r, z) as f32,
             });
         }
-        for g in &scene.groups {
+        for (group, g) in scene.groups.iter().enumerate() {
+            let place = selection::placement(scene, group);
+            let world = |p: [f64; 3]| place.point(glam::DVec3::from_array(p)).to_array();
             for s in &g.skeletons {
                 for &[a, b] in &s.edges {
-                    let pa = projection.project(s.vertices[a as usize].position);
-                    let pb = projection.project(s.vertices[b as usize].position);
+                    let pa = projection.project(world(s.vertices[a as usize].position));
+                    let pb = projection.project(world(s.vertices[b as usize].position));
                     if let (Some(pa), Some(pb)) = (pa, pb) {
                         painter.line_segment([to_screen(pa.0, pa.1), to_screen(pb.0, pb.1)], line);
                     }
@@ -385,7 +387,10 @@ impl Editor {
         for d in &drawn {
             let selected = self.selection.contains(&d.item);
             if let Some(point) = d.item.hrbf_point(scene) {
-                let tip = normal_tip(projection, to_screen, point, d.at);
+                let place = selection::placement(scene, d.item.group());
+                let normal = place.direction(glam::DVec3::from_array(point.normal));
+                let position = place.point(glam::DVec3::from_array(point.position));
+                let tip = normal_tip(projection, to_screen, position, normal, d.at);
                 let colour = if selected { SELECTED } else { NORMAL };
                 painter.line_segment([d.at, tip], Stroke::new(1.5, colour));
             } else {
@@ -415,16 +420,18 @@ const NORMAL: Color32 = Color32::from_rgb(250, 200, 90);
 /// Screen length of an HRBF normal seen side-on.
 const NORMAL_PIXELS: f64 = 24.0;
 
-/// The screen end of an HRBF point's normal drawn from `at`: [`NORMAL_PIXELS`] long when the
-/// normal lies in the image plane, shorter as it turns towards the camera.
+/// The screen end of an HRBF point's normal (world `position` and `normal`) drawn from `at`:
+/// [`NORMAL_PIXELS`] long when the normal lies in the image plane, shorter as it turns towards
+/// the camera.
 fn normal_tip(
     projection: &Projection,
     to_screen: &dyn Fn(f64, f64) -> Pos2,
-    point: &skeletrace_core::scene::HrbfPoint,
+    position: glam::DVec3,
+    normal: glam::DVec3,
     at: Pos2,
 ) -> Pos2 {
-    let n = glam::DVec3::from_array(point.normal).normalize_or_zero();
-    let p = glam::DVec3::from_array(point.position);
+    let n = normal.normalize_or_zero();
+    let p = position;
     let probe = 1e-3;
     let (Some((x0, y0, z0)), Some((x1, y1, _))) = (
         projection.project(p.to_array()),
