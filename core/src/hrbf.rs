@@ -14,6 +14,8 @@
 //! The clamp is continuous; the box is where `f` has long reached 0 for a surface that closes
 //! around its points (if a surface reaches the box, it is cut there).
 
+use std::sync::{Arc, Mutex};
+
 use glam::{DMat3, DVec3};
 use nalgebra::{DMatrix, DVector};
 
@@ -52,6 +54,50 @@ fn hessian_phi(v: DVec3) -> DMat3 {
         return DMat3::ZERO;
     }
     3.0 * (DMat3::from_diagonal(DVec3::splat(r)) + DMat3::from_cols(v * v.x, v * v.y, v * v.z) / r)
+}
+
+/// Sets solved most recently, newest last, keyed by their points' exact bits (see
+/// [`solve_shared`]).
+static SOLVED: Mutex<Vec<(Vec<u64>, Arc<HrbfWeights>)>> = Mutex::new(Vec::new());
+
+/// How many solved sets [`SOLVED`] keeps.
+const SOLVED_KEPT: usize = 32;
+
+/// [`solve`], shared: a set whose points are bit-for-bit those of a recently solved one gets
+/// the same weights without a new solve. A 400-point set takes most of a second to solve, and
+/// a scene is compiled on every edit of any group (and once more after validation on load), so
+/// this keeps editing a scene with large sets live.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_shared(points: &[HrbfPoint]) -> Result<Arc<HrbfWeights>, String> {
+    let key: Vec<u64> = points
+        .iter()
+        .flat_map(|p| p.position.into_iter().chain(p.normal))
+        .map(f64::to_bits)
+        .collect();
+    // A poisoned lock only means another thread panicked mid-update; entries are whole.
+    let lock = || {
+        SOLVED
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    };
+    {
+        let mut solved = lock();
+        if let Some(i) = solved.iter().position(|(k, _)| *k == key) {
+            let entry = solved.remove(i);
+            let weights = entry.1.clone();
+            solved.push(entry);
+            return Ok(weights);
+        }
+    }
+    let weights = Arc::new(solve(points)?);
+    let mut solved = lock();
+    if solved.len() >= SOLVED_KEPT {
+        solved.remove(0);
+    }
+    solved.push((key, weights.clone()));
+    Ok(weights)
 }
 
 /// Solves the interpolation system.
@@ -175,5 +221,45 @@ impl HrbfWeights {
     #[must_use]
     pub fn length_scale(&self) -> f64 {
         HRBF_LENGTH * self.extent()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere_points(n: usize, radius: f64) -> Vec<HrbfPoint> {
+        (0..n)
+            .map(|i| {
+                let t = i as f64 * 2.399_963;
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let p = [r * t.cos(), r * t.sin(), z];
+                HrbfPoint {
+                    position: p.map(|x| radius * x),
+                    normal: p,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn equal_sets_share_one_solve_and_a_moved_point_solves_again() {
+        let points = sphere_points(12, 1.3);
+        let first = solve_shared(&points).unwrap_or_else(|e| panic!("{e}"));
+        let again = solve_shared(&points.clone()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            Arc::ptr_eq(&first, &again),
+            "the same points are solved once"
+        );
+        assert_eq!(*first, solve(&points).unwrap_or_else(|e| panic!("{e}")));
+        let mut moved = points;
+        moved[3].position[0] += 1e-9;
+        let other = solve_shared(&moved).unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            !Arc::ptr_eq(&first, &other),
+            "a moved point needs a new solve"
+        );
+        assert_eq!(*other, solve(&moved).unwrap_or_else(|e| panic!("{e}")));
     }
 }

@@ -589,10 +589,12 @@ fn skeleton_primitives(
     }
 }
 
-/// The terms of an HRBF set, scaled into the density `c − (c/ℓ)h` (`crate::hrbf`). A set that
-/// does not solve has been refused when the scene was read; it gives no terms here.
+/// The terms of an HRBF set, scaled into the density `c − (c/ℓ)h` (`crate::hrbf`). The weights
+/// are those validation solved (`hrbf::solve_shared`). A set that does not solve has been
+/// refused when the scene was read, or by the editor before the edit was kept; one in a scene
+/// built in code without validation gives no terms here.
 fn hrbf_terms(set: &Hrbf, c: f64, push: &mut impl FnMut(Primitive)) {
-    let Ok(weights) = hrbf::solve(&set.points) else {
+    let Ok(weights) = hrbf::solve_shared(&set.points) else {
         return;
     };
     let bounds = weights.bounds();

@@ -290,7 +290,7 @@ impl TryFrom<GroupFile> for Group {
                     set.points.len()
                 ));
             }
-            crate::hrbf::solve(&set.points)
+            crate::hrbf::solve_shared(&set.points)
                 .map_err(|e| format!("group '{}', HRBF set {i}: {e}", g.name))?;
         }
         if let Some(repeat) = &g.repeat {
