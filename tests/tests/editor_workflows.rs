@@ -250,3 +250,92 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     assert_eq!(h.state().document().scene(), &saved);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// HRBF points in a rotated, scaled group: click a point's handle, drag it with the gizmo (the
+/// handle follows the pointer, so the move lands in the group's frame), then drag the tip of its
+/// normal a quarter turn around it (the drawn normal follows), and undo both.
+#[test]
+fn hrbf_point_and_normal_drags_in_a_transformed_group() {
+    let ui_state = UiState {
+        backend: Backend::Cpu,
+        ..UiState::default()
+    };
+    let mut scene = skeletrace_core::Scene::load(&asset("hrbf")).unwrap_or_else(|e| panic!("{e}"));
+    scene.groups[0].transform = skeletrace_core::scene::Transform {
+        translate: [0.2, 0.1, 0.0],
+        rotate: [0.0, 0.0, 30.0],
+        scale: 1.3,
+    };
+    let before = scene.clone();
+    let doc = Document::new(scene, None);
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    let item = Item::HrbfPoint {
+        group: 0,
+        set: 0,
+        point: 0,
+    };
+    let at = h
+        .state()
+        .screen_position(item)
+        .unwrap_or_else(|| panic!("HRBF point 0 is on screen"));
+    h.hover_at(at);
+    h.step();
+    press(&mut h, at, true);
+    press(&mut h, at, false);
+    assert_eq!(
+        h.state().selection().iter().copied().collect::<Vec<_>>(),
+        vec![item]
+    );
+
+    // Move it 40 points down with the gizmo's view-plane handle.
+    press(&mut h, at, true);
+    for k in 1..=4 {
+        h.hover_at(at + egui::vec2(0.0, 10.0 * k as f32));
+        h.step();
+    }
+    press(&mut h, at + egui::vec2(0.0, 40.0), false);
+    let now = h.state().screen_position(item).unwrap_or_default();
+    assert!(
+        (now.x - at.x).abs() < 2.0 && (now.y - at.y - 40.0).abs() < 2.0,
+        "the point's handle follows the pointer in a transformed group: {at:?} -> {now:?}"
+    );
+
+    // Drag the normal's tip a quarter turn around the handle, in small steps.
+    let tip = h
+        .state()
+        .screen_normal_tip(item)
+        .unwrap_or_else(|| panic!("the normal is drawn"));
+    let arm = tip - now;
+    assert!(arm.length() > 5.0, "the normal is visible: {arm:?}");
+    h.hover_at(tip);
+    h.step();
+    press(&mut h, tip, true);
+    let turned = |angle: f32| {
+        let (s, c) = angle.sin_cos();
+        now + egui::vec2(c * arm.x - s * arm.y, s * arm.x + c * arm.y)
+    };
+    let quarter = std::f32::consts::FRAC_PI_2;
+    for k in 1..=9 {
+        h.hover_at(turned(quarter * k as f32 / 9.0));
+        h.step();
+    }
+    press(&mut h, turned(quarter), false);
+    let new_arm = h.state().screen_normal_tip(item).unwrap_or_default() - now;
+    let expected = turned(quarter) - now;
+    let cos = new_arm.normalized().dot(expected.normalized());
+    assert!(
+        cos > 0.99,
+        "the drawn normal follows the dragged tip: {new_arm:?} vs {expected:?}"
+    );
+    let normal = h.state().document().scene().groups[0].hrbfs[0].points[0].normal;
+    let old = before.groups[0].hrbfs[0].points[0].normal;
+    assert_ne!(normal, old);
+
+    // Two undo steps restore the scene.
+    for _ in 0..2 {
+        h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+        h.step();
+    }
+    assert_eq!(h.state().document().scene(), &before);
+}

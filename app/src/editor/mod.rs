@@ -284,18 +284,43 @@ impl Editor {
     /// points), if visible.
     #[must_use]
     pub fn screen_circle(&self, item: Item) -> Option<(egui::Pos2, f32)> {
-        let rect = self.viewport_rect?;
+        let (projection, to_screen) = self.viewport_projection()?;
         let (centre, radius) = item.world_ball(self.doc.scene())?;
+        let (x, y, z) = projection.project(centre)?;
+        Some((to_screen(x, y), projection.pixels(radius, z) as f32))
+    }
+
+    /// The screen end of HRBF point `item`'s drawn normal (window points), if visible: drag it
+    /// around the point's handle to turn the normal.
+    #[must_use]
+    pub fn screen_normal_tip(&self, item: Item) -> Option<egui::Pos2> {
+        let scene = self.doc.scene();
+        let point = item.hrbf_point(scene)?;
+        let (projection, to_screen) = self.viewport_projection()?;
+        let place = selection::placement(scene, item.group());
+        let position = place.point(glam::DVec3::from_array(point.position));
+        let (x, y, _) = projection.project(position.to_array())?;
+        let normal = place.direction(glam::DVec3::from_array(point.normal));
+        Some(viewport::normal_tip(
+            &projection,
+            &to_screen,
+            position,
+            normal,
+            to_screen(x, y),
+        ))
+    }
+
+    /// The shaded viewport's projection and its pixel → window-point map, once it was drawn.
+    fn viewport_projection(&self) -> Option<(view::Projection, impl Fn(f64, f64) -> egui::Pos2)> {
+        let rect = self.viewport_rect?;
         let projection = view::Projection::new(
             &self.orbit.camera(),
             f64::from(rect.width()),
             f64::from(rect.height()),
         );
-        let (x, y, z) = projection.project(centre)?;
-        Some((
-            egui::pos2(rect.left() + x as f32, rect.top() + y as f32),
-            projection.pixels(radius, z) as f32,
-        ))
+        let to_screen =
+            move |x: f64, y: f64| egui::pos2(rect.left() + x as f32, rect.top() + y as f32);
+        Some((projection, to_screen))
     }
 
     /// The message in the status bar, if any.

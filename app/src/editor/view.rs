@@ -153,6 +153,16 @@ impl Projection {
         self.focal * r / z.max(1e-9)
     }
 
+    /// `direction` (world) turned about the viewing axis by the screen angle from `from` to
+    /// `to` (pixel offsets, y down): what dragging its drawn tip around its base does. Its
+    /// component along the viewing axis is kept.
+    #[must_use]
+    pub fn turn_in_view(&self, direction: DVec3, from: (f64, f64), to: (f64, f64)) -> DVec3 {
+        let cross = from.0 * to.1 - from.1 * to.0;
+        let dot = from.0 * to.0 + from.1 * to.1;
+        glam::DQuat::from_axis_angle(self.forward, cross.atan2(dot)) * direction
+    }
+
     /// The world point at pixel `(x, y)` on the plane through `anchor` facing the camera.
     #[must_use]
     pub fn unproject_on_plane(&self, x: f64, y: f64, anchor: [f64; 3]) -> [f64; 3] {
@@ -264,5 +274,31 @@ mod tests {
         let q = p.unproject_on_plane(123.0, 45.0, [0.0, 0.0, 0.0]);
         let (qx, qy, _) = p.project(q).unwrap_or_default();
         assert!((qx - 123.0).abs() < 1e-6 && (qy - 45.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_direction_turned_in_view_follows_the_pointer() {
+        let camera = Camera {
+            position: [2.0, 1.5, 4.0],
+            target: [0.0, 0.2, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_degrees: 40.0,
+        };
+        let p = Projection::new(&camera, 800.0, 600.0);
+        let base = [0.1, 0.3, -0.2];
+        let screen = |q: [f64; 3]| p.project(q).map(|(x, y, _)| (x, y)).unwrap_or_default();
+        let (bx, by) = screen(base);
+        // A direction in the view plane, pointing right on screen.
+        let start = p.unproject_on_plane(bx + 50.0, by, base);
+        let d = DVec3::from_array(start) - DVec3::from_array(base);
+        let turned = p.turn_in_view(d, (50.0, 0.0), (30.0, 40.0));
+        let (tx, ty) = screen((DVec3::from_array(base) + turned).to_array());
+        let (ux, uy) = (tx - bx, ty - by);
+        let along = (ux * 30.0 + uy * 40.0) / (ux.hypot(uy) * 50.0);
+        assert!(
+            along > 1.0 - 1e-9,
+            "turned tip at ({ux}, {uy}), pointer at (30, 40)"
+        );
+        assert!((turned.length() - d.length()).abs() < 1e-12);
     }
 }

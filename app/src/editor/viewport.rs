@@ -1,8 +1,9 @@
 //! The shaded viewport: the traced frame, the skeleton overlay (vertex handles, segments,
 //! radius circles, blobs, hover and selection highlights), the translate gizmo (three axis
 //! handles, three plane handles and a view-plane handle), click and box selection, sketch
-//! mode, radius editing (drag a selected item's radius circle, or the wheel over its handle)
-//! and the mouse camera (left drag orbit, right or middle drag pan, wheel zoom).
+//! mode, radius editing (drag a selected item's radius circle, or the wheel over its handle),
+//! HRBF normals (drag the tip of a selected point's normal around it) and the mouse camera
+//! (left drag orbit, right or middle drag pan, wheel zoom).
 
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, StrokeKind, Vec2};
 
@@ -29,6 +30,8 @@ pub enum Gesture {
     Radius(Pos2),
     /// Box selection from this corner.
     Box(Pos2),
+    /// Turning this HRBF point's normal about the viewing axis by dragging its tip.
+    Normal(Item),
 }
 
 impl Gesture {
@@ -54,11 +57,13 @@ const AXIS_COLOURS: [Color32; 3] = [
 ];
 const SELECTED: Color32 = Color32::from_rgb(255, 200, 60);
 
-/// An item as drawn: screen position (points), radius on screen, depth.
+/// An item as drawn: screen position (points), radius on screen, and for an HRBF point the
+/// screen end of its normal.
 struct Drawn {
     item: Item,
     at: Pos2,
     radius: f32,
+    tip: Option<Pos2>,
 }
 
 impl Editor {
@@ -188,6 +193,8 @@ impl Editor {
                 .flatten()
             {
                 Gesture::Plane(k)
+            } else if let Some(item) = tip_under(&drawn, &self.selection, start) {
+                Gesture::Normal(item)
             } else if let Some(centre) = ring_under(&drawn, &self.selection, start) {
                 Gesture::Radius(centre)
             } else if gizmo.is_some_and(|(_, at, _)| (start - at).length() < PICK) {
@@ -248,6 +255,12 @@ impl Editor {
                     if let Some((_, _, z)) = gizmo {
                         let moved = projection.drag_in_view_plane(dx, dy, z);
                         self.move_selection(moved);
+                    }
+                }
+                Gesture::Normal(item) => {
+                    let at = drawn.iter().find(|d| d.item == item).map(|d| d.at);
+                    if let (Some(at), Some(now)) = (at, response.interact_pointer_pos()) {
+                        self.turn_normal(item, &projection, now - delta - at, now - at);
                     }
                 }
                 Gesture::Box(start) => {
@@ -331,6 +344,31 @@ impl Editor {
         });
     }
 
+    /// Turns HRBF point `item`'s normal as its tip is dragged from screen offset `from` to `to`
+    /// (from the point's handle).
+    fn turn_normal(&mut self, item: Item, projection: &Projection, from: Vec2, to: Vec2) {
+        if from.length() < 1.0 || to.length() < 1.0 {
+            return;
+        }
+        let Item::HrbfPoint { group, set, point } = item else {
+            return;
+        };
+        let pair = |v: Vec2| (f64::from(v.x), f64::from(v.y));
+        self.apply(Edit::gesture("turn normal", "drag-normal"), |s| {
+            let place = selection::placement(s, group);
+            let Some(p) = s.groups[group]
+                .hrbfs
+                .get_mut(set)
+                .and_then(|h| h.points.get_mut(point))
+            else {
+                return;
+            };
+            let world = place.direction(glam::DVec3::from_array(p.normal));
+            let turned = projection.turn_in_view(world, pair(from), pair(to));
+            p.normal = (place.rotation.transpose() * turned).to_array();
+        });
+    }
+
     pub(super) fn sketch_at(&mut self, position: [f64; 3]) {
         let radius = self.typical_radius();
         let group = self.active_group;
@@ -365,10 +403,18 @@ impl Editor {
             let Some((x, y, z)) = projection.project(c) else {
                 continue;
             };
+            let at = to_screen(x, y);
+            let tip = item.hrbf_point(scene).map(|point| {
+                let place = selection::placement(scene, item.group());
+                let normal = place.direction(glam::DVec3::from_array(point.normal));
+                let position = place.point(glam::DVec3::from_array(point.position));
+                normal_tip(projection, to_screen, position, normal, at)
+            });
             drawn.push(Drawn {
                 item,
-                at: to_screen(x, y),
+                at,
                 radius: projection.pixels(r, z) as f32,
+                tip,
             });
         }
         for (group, g) in scene.groups.iter().enumerate() {
@@ -386,13 +432,12 @@ impl Editor {
         }
         for d in &drawn {
             let selected = self.selection.contains(&d.item);
-            if let Some(point) = d.item.hrbf_point(scene) {
-                let place = selection::placement(scene, d.item.group());
-                let normal = place.direction(glam::DVec3::from_array(point.normal));
-                let position = place.point(glam::DVec3::from_array(point.position));
-                let tip = normal_tip(projection, to_screen, position, normal, d.at);
+            if let Some(tip) = d.tip {
                 let colour = if selected { SELECTED } else { NORMAL };
                 painter.line_segment([d.at, tip], Stroke::new(1.5, colour));
+                if selected {
+                    painter.circle_stroke(tip, 3.0, Stroke::new(1.5, SELECTED));
+                }
             } else {
                 painter.circle_stroke(d.at, d.radius, ring);
             }
@@ -423,7 +468,7 @@ const NORMAL_PIXELS: f64 = 24.0;
 /// The screen end of an HRBF point's normal (world `position` and `normal`) drawn from `at`:
 /// [`NORMAL_PIXELS`] long when the normal lies in the image plane, shorter as it turns towards
 /// the camera.
-fn normal_tip(
+pub(super) fn normal_tip(
     projection: &Projection,
     to_screen: &dyn Fn(f64, f64) -> Pos2,
     position: glam::DVec3,
@@ -456,6 +501,17 @@ fn nearest(drawn: &[Drawn], p: Pos2) -> Option<Item> {
         .filter(|(_, dist)| *dist <= PICK)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(d, _)| d.item)
+}
+
+/// The selected HRBF point whose normal tip lies within the pick distance of `p`.
+fn tip_under(drawn: &[Drawn], selection: &Selection, p: Pos2) -> Option<Item> {
+    drawn
+        .iter()
+        .filter(|d| selection.contains(&d.item))
+        .filter_map(|d| Some((d.item, (d.tip? - p).length())))
+        .filter(|(_, dist)| *dist <= PICK)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(item, _)| item)
 }
 
 /// The centre of the selected item whose radius circle passes within the pick distance of
