@@ -5,14 +5,20 @@
 //! Point blobs are evaluated exactly through the quadratic squared distance (`ε² ∈ [0, 1]`
 //! becomes `½ + ½·[−1, 1]`), compact kernels by the product rule of MATH.md §8 on
 //! `Q = 1 − x/σ²` clipped at 0, other kernels by the min-range linearisation of a decreasing
-//! convex function. Other primitives enter as the interval of their value enclosure. Sums add,
+//! convex function. HRBF terms (2023 eq. 9) inside their set's box are evaluated through the
+//! same squared distance: `ρ = √‖v‖²` by the Chebyshev linearisation of the concave root, then
+//! `αρ³ + 3ρ(β·v) = ρ·(α‖v‖² + 3β·v)` by one product, and the affine term exactly. Other
+//! primitives (and HRBF terms on spans that leave the box) enter as the interval of their
+//! value enclosure. Sums add,
 //! max and min keep the dominating operand when the ranges are disjoint and take the interval
 //! hull otherwise.
+
+use glam::DVec3;
 
 use crate::geometry::Ray;
 use crate::interval::Interval;
 use crate::kernel::KernelProfile;
-use crate::primitives::{PointBlob, Primitive};
+use crate::primitives::{HrbfTerm, PointBlob, Primitive};
 use crate::program::FieldProgram;
 use crate::scene::Blend;
 
@@ -78,6 +84,25 @@ impl AffineForm {
         let (top, bottom) = (k_lo - alpha * lo, k_hi - alpha * hi);
         let mut out = self.affine(alpha, 0.5 * (top + bottom));
         out.e += 0.5 * (top - bottom);
+        out
+    }
+
+    /// `√x` for `x ≥ 0` (the range is clamped at 0): the chord of the concave root over the
+    /// range, raised by half its largest gap to the root, `± half that gap` (Chebyshev
+    /// approximation).
+    #[must_use]
+    pub fn sqrt(self) -> Self {
+        let r = self.range();
+        let (lo, hi) = (r.lo.max(0.0), r.hi.max(0.0));
+        if hi <= lo {
+            return Self::constant(lo.sqrt());
+        }
+        let slope = (hi.sqrt() - lo.sqrt()) / (hi - lo);
+        // √x − chord(x) is largest where the root's slope equals the chord's.
+        let tangent_at = 0.25 / (slope * slope);
+        let gap = (tangent_at.sqrt() - (lo.sqrt() + slope * (tangent_at - lo))).max(0.0);
+        let mut out = self.affine(slope, lo.sqrt() - slope * lo + 0.5 * gap);
+        out.e += 0.5 * gap;
         out
     }
 
@@ -160,6 +185,31 @@ fn point_form(blob: &PointBlob, k: &KernelProfile, ray: &Ray, span: Interval) ->
     value.affine(blob.norm, 0.0)
 }
 
+/// An HRBF term over `[a, b]` when the ray stays in its set's box there (see the module doc),
+/// `None` otherwise (the field is cut at the box).
+fn hrbf_form(term: &HrbfTerm, ray: &Ray, span: Interval) -> Option<AffineForm> {
+    if !(term.contains(ray.at(span.lo)) && term.contains(ray.at(span.hi))) {
+        return None;
+    }
+    let mid = 0.5 * (span.lo + span.hi);
+    let r = 0.5 * span.width();
+    let at = ray.at(mid);
+    let w = at - term.center;
+    let squared = AffineForm {
+        x0: w.length_squared() + 0.5 * r * r,
+        x1: 2.0 * w.dot(ray.direction) * r,
+        e: 0.5 * r * r,
+    };
+    let along = |u: DVec3, c: f64| AffineForm {
+        x0: u.dot(at) + c,
+        x1: u.dot(ray.direction) * r,
+        e: 0.0,
+    };
+    let beta_v = along(term.beta, -term.beta.dot(term.center));
+    let radial = squared.sqrt() * (squared.affine(term.alpha, 0.0) + beta_v.affine(3.0, 0.0));
+    Some(radial + along(term.linear, term.constant))
+}
+
 /// Affine form of the field over `span`; `None` where the blend has no rule (Ricci).
 #[must_use]
 pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<AffineForm> {
@@ -167,6 +217,9 @@ pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<A
     program.for_each_primitive_on_ray(ray, span, |g, primitive, k, _| {
         let form = match primitive {
             Primitive::Point(b) => point_form(b, k, ray, span),
+            Primitive::Hrbf(term) => hrbf_form(term, ray, span).unwrap_or_else(|| {
+                AffineForm::from_interval(primitive.ray_jet(ray, span, k).value)
+            }),
             other => AffineForm::from_interval(other.ray_jet(ray, span, k).value),
         };
         groups[g] = groups[g] + form;
@@ -198,6 +251,36 @@ fn blend(b: &Blend, groups: &[AffineForm], isovalue: f64) -> Option<AffineForm> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn square_root_form_encloses_the_root() {
+        for (x0, x1, e) in [
+            (2.0, 1.5, 0.5),
+            (1.0, 1e-4, 0.0),
+            (4.6, 3.0, 1.35),
+            (0.3, 0.4, 0.2),
+        ] {
+            let x = AffineForm { x0, x1, e };
+            let root = x.sqrt();
+            for i in 0..=40 {
+                let eps = -1.0 + f64::from(i) / 20.0;
+                for j in 0..=4 {
+                    let noise = -1.0 + f64::from(j) / 2.0;
+                    let value = x0 + x1 * eps + e * noise;
+                    if value < 0.0 {
+                        continue;
+                    }
+                    let centre = root.x0 + root.x1 * eps;
+                    assert!(
+                        (value.sqrt() - centre).abs() <= root.e + 1e-12,
+                        "√{value} = {} outside {centre} ± {}",
+                        value.sqrt(),
+                        root.e
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn product_encloses_sampled_products() {

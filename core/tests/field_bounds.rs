@@ -278,6 +278,42 @@ fn check_bottom_up_and_affine(
     Ok(())
 }
 
+/// The affine forms of HRBF sets alone (their own rule: the Chebyshev square root and one
+/// product per term), sampled densely on spans inside and across the sets' boxes.
+#[test]
+fn hrbf_affine_forms_hold() {
+    let failures: Vec<String> = (0..100)
+        .into_par_iter()
+        .flat_map_iter(|batch| {
+            let mut rng = SplitMix64::new(batch as u64 * 104_729 + 3);
+            let mut g = group(Kernel::CompactPolynomial {
+                degree: 6,
+                scale: 2.0,
+            });
+            add_primitive(&mut g, Kind::Hrbf, &mut rng);
+            let program = FieldProgram::new(&scene(vec![g], None));
+            (0..100).filter_map(move |_| {
+                let (ray, span) = random_query(&mut rng);
+                let span = continuous_span(&program, &ray, span);
+                let range = field_form(&program, &ray, span)?.range();
+                (0..=16).find_map(|k| {
+                    let t = span.lo + span.width() * f64::from(k) / 16.0;
+                    let f = program.along_ray(&ray, t).0;
+                    let slack = 1e-9 * (1.0 + f.abs());
+                    (f < range.lo - slack || f > range.hi + slack)
+                        .then(|| format!("{ray:?} {span:?}: f = {f} at t = {t} outside {range:?}"))
+                })
+            })
+        })
+        .collect();
+    assert!(
+        failures.is_empty(),
+        "{} violations, first: {}",
+        failures.len(),
+        failures[0]
+    );
+}
+
 #[test]
 fn bottom_up_inclusions_and_affine_forms_hold() {
     let operators = [
