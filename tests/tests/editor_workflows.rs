@@ -42,6 +42,23 @@ fn press(h: &mut Harness<'static, Editor>, pos: Pos2, pressed: bool) {
     h.step();
 }
 
+/// Clicks `item`'s handle and checks that it alone is selected; returns where the handle is.
+fn click_to_select(h: &mut Harness<'static, Editor>, item: Item) -> Pos2 {
+    let at = h
+        .state()
+        .screen_position(item)
+        .unwrap_or_else(|| panic!("{item:?} is on screen"));
+    h.hover_at(at);
+    h.step();
+    press(h, at, true);
+    press(h, at, false);
+    assert_eq!(
+        h.state().selection().iter().copied().collect::<Vec<_>>(),
+        vec![item]
+    );
+    at
+}
+
 fn hit_fraction(editor: &Editor) -> f64 {
     let frames = editor.shown_frames();
     let Some((_, frame)) = frames.first() else {
@@ -85,18 +102,7 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
         skeleton: 0,
         vertex: 0,
     };
-    let at = h
-        .state()
-        .screen_position(item)
-        .unwrap_or_else(|| panic!("vertex 0 is on screen"));
-    h.hover_at(at);
-    h.step();
-    press(&mut h, at, true);
-    press(&mut h, at, false);
-    assert_eq!(
-        h.state().selection().iter().copied().collect::<Vec<_>>(),
-        vec![item]
-    );
+    click_to_select(&mut h, item);
 
     // Drag the gizmo's view-plane handle 60 points to the right: one undo step.
     let before = h.state().document().scene().clone();
@@ -275,18 +281,7 @@ fn hrbf_point_and_normal_drags_in_a_transformed_group() {
         set: 0,
         point: 0,
     };
-    let at = h
-        .state()
-        .screen_position(item)
-        .unwrap_or_else(|| panic!("HRBF point 0 is on screen"));
-    h.hover_at(at);
-    h.step();
-    press(&mut h, at, true);
-    press(&mut h, at, false);
-    assert_eq!(
-        h.state().selection().iter().copied().collect::<Vec<_>>(),
-        vec![item]
-    );
+    let at = click_to_select(&mut h, item);
 
     // Move it 40 points down with the gizmo's view-plane handle.
     press(&mut h, at, true);
