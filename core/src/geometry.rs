@@ -356,6 +356,18 @@ impl Similarity {
         self.rotation * v
     }
 
+    /// The point that maps to `p`.
+    #[must_use]
+    pub fn inverse_point(&self, p: DVec3) -> DVec3 {
+        self.rotation.transpose() * (p - self.translation) / self.scale
+    }
+
+    /// The direction that maps to `v` (unit vectors stay unit).
+    #[must_use]
+    pub fn inverse_direction(&self, v: DVec3) -> DVec3 {
+        self.rotation.transpose() * v
+    }
+
     /// `self` after `first`: `p ↦ self(first(p))`.
     #[must_use]
     pub fn after(&self, first: &Self) -> Self {

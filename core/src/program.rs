@@ -474,12 +474,12 @@ impl FieldProgram {
     }
 }
 
-/// Where the copies of a group go: one similarity per copy of its [`Repeat`] grid (the offset in
-/// the group's frame, then the group's [`Transform`]), or the transform alone.
+/// The group's [`Transform`] as a similarity (the placement of its first copy, whose
+/// [`Repeat`] offset is the origin).
 #[must_use]
-pub fn group_placements(group: &Group) -> Vec<Similarity> {
+pub fn group_transform(group: &Group) -> Similarity {
     let t = &group.transform;
-    let transform = Similarity {
+    Similarity {
         scale: t.scale,
         rotation: DMat3::from_euler(
             EulerRot::XYZ,
@@ -488,7 +488,14 @@ pub fn group_placements(group: &Group) -> Vec<Similarity> {
             t.rotate[2].to_radians(),
         ),
         translation: v3(t.translate),
-    };
+    }
+}
+
+/// Where the copies of a group go: one similarity per copy of its [`Repeat`] grid (the offset in
+/// the group's frame, then the group's [`Transform`]), or the transform alone.
+#[must_use]
+pub fn group_placements(group: &Group) -> Vec<Similarity> {
+    let transform = group_transform(group);
     match &group.repeat {
         None => vec![transform],
         Some(r) => r

@@ -294,24 +294,14 @@ impl Editor {
     /// around the point's handle to turn the normal.
     #[must_use]
     pub fn screen_normal_tip(&self, item: Item) -> Option<egui::Pos2> {
-        let scene = self.doc.scene();
-        let point = item.hrbf_point(scene)?;
         let (projection, to_screen) = self.viewport_projection()?;
-        let place = selection::placement(scene, item.group());
-        let position = place.point(glam::DVec3::from_array(point.position));
-        let (x, y, _) = projection.project(position.to_array())?;
-        let normal = place.direction(glam::DVec3::from_array(point.normal));
-        Some(viewport::normal_tip(
-            &projection,
-            &to_screen,
-            position,
-            normal,
-            to_screen(x, y),
-        ))
+        viewport::normal_tip(&projection, &to_screen, self.doc.scene(), item)
     }
 
     /// The shaded viewport's projection and its pixel → window-point map, once it was drawn.
-    fn viewport_projection(&self) -> Option<(view::Projection, impl Fn(f64, f64) -> egui::Pos2)> {
+    fn viewport_projection(
+        &self,
+    ) -> Option<(view::Projection, impl Fn(f64, f64) -> egui::Pos2 + use<>)> {
         let rect = self.viewport_rect?;
         let projection = view::Projection::new(
             &self.orbit.camera(),

@@ -14,7 +14,7 @@ use std::collections::BTreeSet;
 use glam::DVec3;
 use skeletrace_core::Scene;
 use skeletrace_core::geometry::Similarity;
-use skeletrace_core::program::group_placements;
+use skeletrace_core::program::group_transform;
 use skeletrace_core::scene::{Blob, HrbfPoint, Skeleton, SkeletonField, Vertex};
 
 /// A pickable item of the skeleton overlay.
@@ -131,22 +131,21 @@ pub fn all_items(scene: &Scene) -> Vec<Item> {
 /// The selection.
 pub type Selection = BTreeSet<Item>;
 
-/// Where group `group`'s items are shown and edited in the viewport: its transform, after the
-/// first copy of its repetition (the identity for a group that no longer exists).
+/// Where group `group`'s items are shown and edited in the viewport: its transform, which
+/// places the first copy of its repetition (the identity for a group that no longer exists).
 #[must_use]
 pub fn placement(scene: &Scene, group: usize) -> Similarity {
     scene
         .groups
         .get(group)
-        .and_then(|g| group_placements(g).first().copied())
-        .unwrap_or(Similarity::IDENTITY)
+        .map_or(Similarity::IDENTITY, group_transform)
 }
 
 /// The world point `p` in group `group`'s frame (the inverse of its [`placement`]).
 #[must_use]
 pub fn to_group_frame(scene: &Scene, group: usize, p: [f64; 3]) -> [f64; 3] {
-    let place = placement(scene, group);
-    (place.rotation.transpose() * (DVec3::from_array(p) - place.translation) / place.scale)
+    placement(scene, group)
+        .inverse_point(DVec3::from_array(p))
         .to_array()
 }
 
@@ -154,8 +153,8 @@ pub fn to_group_frame(scene: &Scene, group: usize, p: [f64; 3]) -> [f64; 3] {
 pub fn translate_in_view(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
     for &item in selection {
         let place = placement(scene, item.group());
-        let local = place.rotation.transpose() * DVec3::from_array(delta) / place.scale;
-        translate(scene, &Selection::from([item]), local.to_array());
+        let local = place.inverse_direction(DVec3::from_array(delta)) / place.scale;
+        shift(position_mut(scene, item), local.to_array());
     }
 }
 
@@ -182,20 +181,28 @@ pub fn centroid(scene: &Scene, selection: &Selection) -> Option<[f64; 3]> {
 /// Moves the selected items by `delta` in their groups' frames.
 pub fn translate(scene: &mut Scene, selection: &Selection, delta: [f64; 3]) {
     for &item in selection {
-        let p = match item {
-            Item::Vertex {
-                group,
-                skeleton,
-                vertex,
-            } => &mut scene.groups[group].skeletons[skeleton].vertices[vertex].position,
-            Item::Blob { group, blob } => &mut scene.groups[group].blobs[blob].center,
-            Item::HrbfPoint { group, set, point } => {
-                &mut scene.groups[group].hrbfs[set].points[point].position
-            }
-        };
-        for k in 0..3 {
-            p[k] += delta[k];
+        shift(position_mut(scene, item), delta);
+    }
+}
+
+/// The stored position of `item` (in its group's frame).
+fn position_mut(scene: &mut Scene, item: Item) -> &mut [f64; 3] {
+    match item {
+        Item::Vertex {
+            group,
+            skeleton,
+            vertex,
+        } => &mut scene.groups[group].skeletons[skeleton].vertices[vertex].position,
+        Item::Blob { group, blob } => &mut scene.groups[group].blobs[blob].center,
+        Item::HrbfPoint { group, set, point } => {
+            &mut scene.groups[group].hrbfs[set].points[point].position
         }
+    }
+}
+
+fn shift(p: &mut [f64; 3], delta: [f64; 3]) {
+    for k in 0..3 {
+        p[k] += delta[k];
     }
 }
 

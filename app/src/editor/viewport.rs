@@ -97,12 +97,9 @@ impl Editor {
                 Color32::GRAY,
             );
         }
-        let projection = Projection::new(
-            &self.orbit.camera(),
-            f64::from(rect.width()),
-            f64::from(rect.height()),
-        );
-        let to_screen = |x: f64, y: f64| egui::pos2(rect.left() + x as f32, rect.top() + y as f32);
+        let Some((projection, to_screen)) = self.viewport_projection() else {
+            return;
+        };
         let drawn = self.draw_overlay(&painter, &projection, &to_screen);
         let pointer = response.hover_pos();
         let hovered = pointer.and_then(|p| nearest(&drawn, p));
@@ -365,7 +362,7 @@ impl Editor {
             };
             let world = place.direction(glam::DVec3::from_array(p.normal));
             let turned = projection.turn_in_view(world, pair(from), pair(to));
-            p.normal = (place.rotation.transpose() * turned).to_array();
+            p.normal = place.inverse_direction(turned).to_array();
         });
     }
 
@@ -403,18 +400,11 @@ impl Editor {
             let Some((x, y, z)) = projection.project(c) else {
                 continue;
             };
-            let at = to_screen(x, y);
-            let tip = item.hrbf_point(scene).map(|point| {
-                let place = selection::placement(scene, item.group());
-                let normal = place.direction(glam::DVec3::from_array(point.normal));
-                let position = place.point(glam::DVec3::from_array(point.position));
-                normal_tip(projection, to_screen, position, normal, at)
-            });
             drawn.push(Drawn {
                 item,
-                at,
+                at: to_screen(x, y),
                 radius: projection.pixels(r, z) as f32,
-                tip,
+                tip: normal_tip(projection, to_screen, scene, item),
             });
         }
         for (group, g) in scene.groups.iter().enumerate() {
@@ -465,28 +455,30 @@ const NORMAL: Color32 = Color32::from_rgb(250, 200, 90);
 /// Screen length of an HRBF normal seen side-on.
 const NORMAL_PIXELS: f64 = 24.0;
 
-/// The screen end of an HRBF point's normal (world `position` and `normal`) drawn from `at`:
-/// [`NORMAL_PIXELS`] long when the normal lies in the image plane, shorter as it turns towards
-/// the camera.
+/// The screen end of HRBF point `item`'s normal, drawn from its handle where the viewport
+/// shows it (through its group's placement): [`NORMAL_PIXELS`] long when the normal lies in the
+/// image plane, shorter as it turns towards the camera. `None` for other items and points
+/// behind the camera.
 pub(super) fn normal_tip(
     projection: &Projection,
     to_screen: &dyn Fn(f64, f64) -> Pos2,
-    position: glam::DVec3,
-    normal: glam::DVec3,
-    at: Pos2,
-) -> Pos2 {
-    let n = normal.normalize_or_zero();
-    let p = position;
+    scene: &skeletrace_core::Scene,
+    item: Item,
+) -> Option<Pos2> {
+    let point = item.hrbf_point(scene)?;
+    let place = selection::placement(scene, item.group());
+    let p = place.point(glam::DVec3::from_array(point.position));
+    let n = place
+        .direction(glam::DVec3::from_array(point.normal))
+        .normalize_or_zero();
     let probe = 1e-3;
-    let (Some((x0, y0, z0)), Some((x1, y1, _))) = (
-        projection.project(p.to_array()),
-        projection.project((p + probe * n).to_array()),
-    ) else {
-        return at;
+    let (x0, y0, z0) = projection.project(p.to_array())?;
+    let at = to_screen(x0, y0);
+    let Some((x1, y1, _)) = projection.project((p + probe * n).to_array()) else {
+        return Some(at);
     };
     let per_unit = projection.pixels(probe, z0).max(1e-9);
-    let screen = to_screen(x1, y1) - to_screen(x0, y0);
-    at + screen * (NORMAL_PIXELS / per_unit) as f32
+    Some(at + (to_screen(x1, y1) - at) * (NORMAL_PIXELS / per_unit) as f32)
 }
 
 fn gizmo_at(gizmo: Option<([f64; 3], Pos2, f64)>) -> Pos2 {
