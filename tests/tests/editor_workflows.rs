@@ -4,12 +4,16 @@
 //! step asserts on the scene and on what was rendered: the traced frames behind the viewport
 //! and the window image kittest renders.
 
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use skeletrace::editor::{Backend, Document, Editor, Item, UiState, ViewMode};
+use skeletrace::editor::{
+    Backend, DialogRequest, Document, Editor, FileDialogs, FilePurpose, Item, UiState, ViewMode,
+};
 use skeletrace_core::kernel::Kernel;
 
 fn asset(name: &str) -> PathBuf {
@@ -333,4 +337,121 @@ fn hrbf_point_and_normal_drags_in_a_transformed_group() {
         h.step();
     }
     assert_eq!(h.state().document().scene(), &before);
+}
+
+/// File dialogs that answer from a script, in order, and record what they were asked.
+struct ScriptedDialogs {
+    answers: Mutex<VecDeque<Result<Option<PathBuf>, String>>>,
+    asked: Mutex<Vec<DialogRequest>>,
+}
+
+impl FileDialogs for ScriptedDialogs {
+    fn unavailable(&self) -> Option<String> {
+        None
+    }
+
+    fn pick(&self, request: &DialogRequest) -> Result<Option<PathBuf>, String> {
+        self.asked
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(request.clone());
+        self.answers
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop_front()
+            .unwrap_or(Ok(None))
+    }
+}
+
+/// Clicks File → `entry` and runs frames until the dialog's answer has been taken.
+fn file_menu(h: &mut Harness<'static, Editor>, entry: &str) {
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "File")
+        .click();
+    h.step();
+    h.step();
+    h.get_by_label(entry).click();
+    h.step();
+    for _ in 0..400 {
+        if !h.state().file_dialog_open() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        h.step();
+    }
+    assert!(!h.state().file_dialog_open(), "the dialog answered");
+    h.step();
+}
+
+/// The File menu through (scripted) system dialogs: Save As names a file without an extension
+/// and gets `.ron`; a screenshot goes where its dialog says; Open on unsaved changes asks first;
+/// a dialog that cannot be shown sends the user to the path field, and later requests go there
+/// directly.
+#[test]
+fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
+    let dir = std::env::temp_dir().join(format!("skeletrace-dialogs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let dialogs = Arc::new(ScriptedDialogs {
+        answers: Mutex::new(VecDeque::from([
+            Ok(Some(dir.join("copy"))),
+            Ok(Some(dir.join("shot.png"))),
+            Ok(Some(asset("blobs"))),
+            Err("no portal in this test".to_owned()),
+        ])),
+        asked: Mutex::new(Vec::new()),
+    });
+    let ui_state = UiState {
+        backend: Backend::Cpu,
+        screenshot_size: (64, 48),
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let editor = Editor::new(doc, ui_state, None, || {}).with_file_dialogs(dialogs.clone());
+    let mut h = harness(editor);
+    h.step();
+
+    file_menu(&mut h, "Save As…");
+    let copy = dir.join("copy.ron");
+    assert_eq!(h.state().document().path(), Some(copy.as_path()));
+    assert!(copy.exists() && !h.state().document().is_dirty());
+
+    file_menu(&mut h, "Screenshot…");
+    let shot = std::fs::read(dir.join("shot.png")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(shot.starts_with(b"\x89PNG"), "{:?}", h.state().notice());
+
+    // An unsaved edit: Open asks first, and Discard opens.
+    h.key_press(egui::Key::B);
+    h.step();
+    assert!(h.state().document().is_dirty());
+    file_menu(&mut h, "Open…");
+    assert_eq!(h.state().document().path(), Some(copy.as_path()));
+    h.get_by_label("Discard").click();
+    h.step();
+    assert_eq!(h.state().document().path(), Some(asset("blobs").as_path()));
+
+    // No dialog: the path field takes over.
+    file_menu(&mut h, "Open…");
+    let notice = h.state().notice().unwrap_or_default().to_owned();
+    assert!(
+        notice.contains("no portal in this test") && notice.contains("File panel"),
+        "{notice}"
+    );
+    file_menu(&mut h, "Save As…");
+    let asked: Vec<(FilePurpose, String)> = dialogs
+        .asked
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .iter()
+        .map(|r| (r.purpose, r.file_name.clone()))
+        .collect();
+    assert_eq!(
+        asked,
+        [
+            (FilePurpose::SaveAs, "blobs.ron".to_owned()),
+            (FilePurpose::Screenshot, "copy-shaded.png".to_owned()),
+            (FilePurpose::Open, "copy.ron".to_owned()),
+            (FilePurpose::Open, "blobs.ron".to_owned()),
+        ],
+        "after a failure the dialog is not asked again"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -9,13 +9,14 @@ use skeletrace_core::methods;
 use skeletrace_core::scene::{Blend, Hrbf, Shape, SkeletonField};
 use skeletrace_render::GpuMethod;
 
+use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
 use super::worker::Backend;
 use super::{Edit, Editor, ViewMode};
 use super::{group_tools, shapes};
 
 /// Shortcuts listed by the help overlay.
-pub const SHORTCUTS: [(&str, &str); 24] = [
+pub const SHORTCUTS: [(&str, &str); 27] = [
     ("Left drag", "orbit (on a handle: move it)"),
     ("Right / middle drag", "pan"),
     ("Wheel", "zoom; over a selected handle: radius"),
@@ -41,7 +42,10 @@ pub const SHORTCUTS: [(&str, &str); 24] = [
     ("Ctrl+D", "duplicate the selection"),
     ("Ctrl+Z", "undo"),
     ("Ctrl+Shift+Z / Ctrl+Y", "redo"),
-    ("Ctrl+S", "save"),
+    ("Ctrl+N", "new scene"),
+    ("Ctrl+O", "open a scene (file dialog)"),
+    ("Ctrl+S", "save (asks for a file when the scene has none)"),
+    ("Ctrl+Shift+S", "save as (file dialog)"),
     ("Tab", "shaded view / method comparison"),
     ("Esc", "clear the selection, leave sketch mode"),
     ("F1 or ?", "this help"),
@@ -52,33 +56,31 @@ impl Editor {
     pub(super) fn menu_bar(&mut self, ui: &mut egui::Ui) {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
+                let ctx = ui.ctx().clone();
                 if ui.button("New").clicked() {
-                    self.new_scene();
+                    self.replace_document(Replacement::New);
                 }
-                if ui.button("Open (path field)").clicked() {
-                    let path = std::path::PathBuf::from(self.path_field.trim());
-                    self.open_path(&path);
+                if ui.button("Open…").clicked() {
+                    self.ask_for_file(&ctx, FilePurpose::Open);
                 }
                 if ui.button("Save").clicked() {
-                    self.save(None);
+                    self.save_or_ask(&ctx);
                 }
-                if ui.button("Save As (path field)").clicked() {
-                    let path = std::path::PathBuf::from(self.path_field.trim());
-                    self.save(Some(path));
+                if ui.button("Save As…").clicked() {
+                    self.ask_for_file(&ctx, FilePurpose::SaveAs);
                 }
                 ui.separator();
                 ui.horizontal(|ui| {
-                    if ui.button("Screenshot").clicked() {
-                        let path = self.screenshot_path();
-                        self.screenshot(&path);
+                    if ui.button("Screenshot…").clicked() {
+                        self.ask_for_file(&ctx, FilePurpose::Screenshot);
                     }
                     let (w, h) = &mut self.ui_state.screenshot_size;
                     ui.add(egui::DragValue::new(w).range(16..=8192).suffix(" px"));
                     ui.label("×");
                     ui.add(egui::DragValue::new(h).range(16..=8192).suffix(" px"));
                 });
-                if ui.button("Export mesh (.glb)").clicked() {
-                    self.export_mesh();
+                if ui.button("Export mesh…").clicked() {
+                    self.ask_for_file(&ctx, FilePurpose::ExportMesh);
                 }
                 ui.separator();
                 let recent = self.ui_state.recent.clone();
@@ -88,7 +90,7 @@ impl Editor {
                     }
                     for p in recent {
                         if ui.button(p.display().to_string()).clicked() {
-                            self.open_path(&p);
+                            self.replace_document(Replacement::Open(p));
                         }
                     }
                 });
@@ -154,19 +156,12 @@ impl Editor {
         });
     }
 
-    /// File → Export mesh: the isosurface at 128 cells to `NAME.glb` beside the scene (the UI
-    /// waits for it; about a second for the assets).
-    fn export_mesh(&mut self) {
-        let path = self.screenshot_path().with_file_name(format!(
-            "{}.glb",
-            self.doc
-                .path()
-                .and_then(|p| p.file_stem())
-                .map_or_else(|| "skeletrace".into(), |s| s.to_string_lossy())
-        ));
+    /// Writes the isosurface at 128 cells to `path` as binary glTF (the UI waits for it; about a
+    /// second for the assets).
+    pub(super) fn export_mesh(&mut self, path: &std::path::Path) {
         let scene = self.doc.scene();
         let written = crate::export::extract(scene, 128, &|_| {})
-            .and_then(|mesh| crate::export::write_gltf(scene, &mesh, &path).map(|()| mesh));
+            .and_then(|mesh| crate::export::write_gltf(scene, &mesh, path).map(|()| mesh));
         match written {
             Ok(mesh) => {
                 let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
@@ -179,36 +174,23 @@ impl Editor {
         }
     }
 
-    fn screenshot_path(&self) -> std::path::PathBuf {
-        let stem = self.doc.path().and_then(|p| p.file_stem()).map_or_else(
-            || "skeletrace".to_owned(),
-            |s| s.to_string_lossy().into_owned(),
-        );
-        let suffix = match self.ui_state.view {
-            ViewMode::Shaded => "shaded",
-            ViewMode::Compare => "compare",
-        };
-        let dir = self.doc.path().and_then(|p| p.parent()).map_or_else(
-            || std::path::PathBuf::from("."),
-            std::path::Path::to_path_buf,
-        );
-        dir.join(format!("{stem}-{suffix}.png"))
-    }
-
     pub(super) fn inspector(&mut self, ui: &mut egui::Ui) {
         ui.heading("File");
         ui.horizontal(|ui| {
             ui.label("Path");
-            ui.add(
+            let field = ui.add(
                 egui::TextEdit::singleline(&mut self.path_field)
                     .hint_text("scene.ron")
                     .desired_width(f32::INFINITY),
             );
+            if std::mem::take(&mut self.focus_path_field) {
+                field.request_focus();
+            }
         });
         ui.horizontal(|ui| {
             if ui.button("Open").clicked() {
                 let path = std::path::PathBuf::from(self.path_field.trim());
-                self.open_path(&path);
+                self.replace_document(Replacement::Open(path));
             }
             if ui.button("Save As").clicked() {
                 let path = std::path::PathBuf::from(self.path_field.trim());
@@ -747,6 +729,7 @@ impl Editor {
     }
 
     pub(super) fn dialogs(&mut self, ctx: &egui::Context) {
+        self.replace_dialog(ctx);
         if self.help {
             let mut open = true;
             egui::Window::new("Shortcuts")

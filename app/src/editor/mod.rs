@@ -7,6 +7,7 @@
 //! [`EditorApp`] and the kittest tests call it directly.
 
 mod document;
+mod files;
 mod group_tools;
 mod inspector;
 mod selection;
@@ -26,6 +27,7 @@ use skeletrace_core::render::Frame;
 use skeletrace_core::shading::FieldShading;
 
 pub use document::{Document, Edit};
+pub use files::{DialogRequest, FileDialogs, FilePurpose, SystemFileDialogs};
 pub use selection::{Item, Selection};
 pub use view::OrbitCamera;
 pub use worker::Backend;
@@ -40,6 +42,17 @@ pub enum ViewMode {
     Shaded,
     /// The step-count heat maps of the chosen methods, one shared scale.
     Compare,
+}
+
+impl ViewMode {
+    /// The suffix of this view's screenshot file names.
+    #[must_use]
+    pub fn file_suffix(self) -> &'static str {
+        match self {
+            Self::Shaded => "shaded",
+            Self::Compare => "compare",
+        }
+    }
 }
 
 /// UI state kept between runs (eframe persistence), apart from anything on the GPU.
@@ -160,6 +173,14 @@ pub struct Editor {
     recovery_offer: Option<Scene>,
     recovery_path: Option<PathBuf>,
     path_field: String,
+    /// Give the path field the keyboard on the next frame (no file dialog could be shown).
+    focus_path_field: bool,
+    file_dialogs: Arc<dyn FileDialogs>,
+    pending_dialog: Option<files::PendingDialog>,
+    /// Why the system dialog failed to show, once it has: later requests use the path field.
+    dialog_failure: Option<String>,
+    /// New / Open waiting for the user's answer about unsaved changes.
+    replace_prompt: Option<files::Replacement>,
     last_interaction: Instant,
     last_autosave: Instant,
     active_group: usize,
@@ -211,6 +232,11 @@ impl Editor {
             recovery_offer,
             recovery_path,
             path_field,
+            focus_path_field: false,
+            file_dialogs: Arc::new(SystemFileDialogs),
+            pending_dialog: None,
+            dialog_failure: None,
+            replace_prompt: None,
             last_interaction: Instant::now(),
             last_autosave: Instant::now(),
             active_group: 0,
@@ -350,6 +376,7 @@ impl Editor {
         if let Some(reply) = self.worker.latest() {
             self.show_reply(&ctx, reply);
         }
+        self.poll_file_dialog();
         self.handle_dropped_files(&ctx);
         self.handle_shortcuts(&ctx);
         self.handle_close(&ctx);
@@ -485,128 +512,6 @@ impl Editor {
         self.last_interaction = Instant::now();
     }
 
-    // ---- files ----
-
-    fn open_path(&mut self, path: &Path) {
-        match Document::open(path) {
-            Ok(doc) => {
-                self.orbit = OrbitCamera::from_camera(&doc.scene().camera);
-                self.doc = doc;
-                self.selection.clear();
-                self.active_group = 0;
-                self.path_field = path.display().to_string();
-                self.remember(path);
-                self.tell(format!("opened {}", path.display()));
-            }
-            Err(why) => self.complain(why),
-        }
-    }
-
-    fn new_scene(&mut self) {
-        let scene = default_scene();
-        self.orbit = OrbitCamera::from_camera(&scene.camera);
-        self.doc = Document::new(scene, None);
-        self.selection.clear();
-        self.path_field.clear();
-        self.tell("new scene (the embedded creature)");
-    }
-
-    /// Saves to `path` (the path field when `None` is given and the document has no file).
-    fn save(&mut self, path: Option<PathBuf>) -> bool {
-        let target = path
-            .or_else(|| self.doc.path().map(Path::to_path_buf))
-            .or_else(|| {
-                let typed = self.path_field.trim();
-                (!typed.is_empty()).then(|| PathBuf::from(typed))
-            });
-        let Some(target) = target else {
-            self.complain("type a file name in the path field, then Save As");
-            return false;
-        };
-        match self.doc.save_as(&target) {
-            Ok(()) => {
-                self.path_field = target.display().to_string();
-                self.remember(&target);
-                if let Some(p) = &self.recovery_path {
-                    let _ = std::fs::remove_file(p);
-                }
-                self.tell(format!("saved {}", target.display()));
-                true
-            }
-            Err(why) => {
-                self.complain(why);
-                false
-            }
-        }
-    }
-
-    fn remember(&mut self, path: &Path) {
-        let path = path.to_path_buf();
-        self.ui_state.recent.retain(|p| *p != path);
-        self.ui_state.recent.insert(0, path);
-        self.ui_state.recent.truncate(8);
-    }
-
-    fn handle_dropped_files(&mut self, ctx: &egui::Context) {
-        let dropped: Vec<PathBuf> = ctx.input(|i| {
-            i.raw
-                .dropped_files
-                .iter()
-                .map(|f| f.path().to_path_buf())
-                .collect()
-        });
-        if let Some(path) = dropped
-            .iter()
-            .find(|p| p.extension().is_some_and(|e| e == "ron"))
-        {
-            self.open_path(path);
-        } else if !dropped.is_empty() {
-            self.complain("only .ron scene files can be dropped here");
-        }
-    }
-
-    fn autosave(&mut self) {
-        if self.last_autosave.elapsed() < Duration::from_secs(AUTOSAVE_SECONDS) {
-            return;
-        }
-        self.last_autosave = Instant::now();
-        let Some(path) = self.recovery_path.clone() else {
-            return;
-        };
-        if !self.doc.is_dirty() || self.recovery_offer.is_some() {
-            return;
-        }
-        if let Some(dir) = path.parent() {
-            let _ = std::fs::create_dir_all(dir);
-        }
-        let origin = self.doc.path().map_or_else(
-            || "an unsaved scene".to_owned(),
-            |p| p.display().to_string(),
-        );
-        if let Err(why) = self
-            .doc
-            .scene()
-            .save_with_comment(&path, &format!("skeletrace recovery of {origin}"))
-        {
-            self.complain(format!("autosave failed: {why}"));
-        }
-    }
-
-    /// A clean exit: the recovery file is no longer needed.
-    pub fn on_exit(&mut self) {
-        if let Some(p) = &self.recovery_path {
-            let _ = std::fs::remove_file(p);
-        }
-    }
-
-    fn handle_close(&mut self, ctx: &egui::Context) {
-        if ctx.input(|i| i.viewport().close_requested()) && !self.allow_close && self.doc.is_dirty()
-        {
-            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            self.close_prompt = true;
-        }
-    }
-
     // ---- keyboard ----
 
     fn handle_shortcuts(&mut self, ctx: &egui::Context) {
@@ -622,8 +527,17 @@ impl Editor {
         if shortcut(Modifiers::COMMAND, Key::Z) {
             self.undo();
         }
+        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
+            self.ask_for_file(ctx, files::FilePurpose::SaveAs);
+        }
         if shortcut(Modifiers::COMMAND, Key::S) {
-            self.save(None);
+            self.save_or_ask(ctx);
+        }
+        if shortcut(Modifiers::COMMAND, Key::O) {
+            self.ask_for_file(ctx, files::FilePurpose::Open);
+        }
+        if shortcut(Modifiers::COMMAND, Key::N) {
+            self.replace_document(files::Replacement::New);
         }
         if shortcut(Modifiers::COMMAND, Key::D) {
             self.duplicate();
