@@ -234,21 +234,41 @@ fn offset_at(o: vec2<f32>, s: f32) -> f32 {
     return s * (o.x + o.y * s);
 }
 
-// Maximum of two inclusions (appendix C).
-fn inclusion_max(a: Inclusion, b: Inclusion) -> Inclusion {
-    let h = min(a.length, b.length);
-    var best = b;
-    if a.start >= b.start {
-        best = a;
+// Maximum of the groups' inclusions (appendix C), or their minimum when `negated` (the
+// maximum of the negations, negated): one Bézier hull over all of them on the shortest of their
+// intervals, as inclusion.rs ForwardInclusion::max. A pairwise fold would differ: each partial
+// hull is re-evaluated on a shorter interval.
+fn groups_max(groups: array<Inclusion, MAX_GROUPS>, negated: bool) -> Inclusion {
+    var h = groups[0].length;
+    for (var g = 1u; g < globals.counts.y; g++) {
+        h = min(h, groups[g].length);
     }
-    let c0 = max(a.start, b.start);
-    let c1 = max(a.start + 0.5 * h * a.upper.x, b.start + 0.5 * h * b.upper.x);
-    let c2 = max(a.start + offset_at(a.upper, h), b.start + offset_at(b.upper, h));
+    var best = groups[0];
+    var c0 = -INF;
+    var c1 = -INF;
+    var c2 = -INF;
+    for (var g = 0u; g < globals.counts.y; g++) {
+        var item = groups[g];
+        if negated {
+            item = inclusion_neg(item);
+        }
+        // The last of equal starts, as Iterator::max_by.
+        if g == 0u || item.start >= best.start {
+            best = item;
+        }
+        c0 = max(c0, item.start);
+        c1 = max(c1, item.start + 0.5 * h * item.upper.x);
+        c2 = max(c2, item.start + offset_at(item.upper, h));
+    }
     var upper = best.upper;
     if h > 0.0 {
         upper = vec2<f32>(2.0 * (c1 - c0) / h, (c0 - 2.0 * c1 + c2) / (h * h));
     }
-    return Inclusion(c0, best.lower, upper, h);
+    let out = Inclusion(c0, best.lower, upper, h);
+    if negated {
+        return inclusion_neg(out);
+    }
+    return out;
 }
 
 fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32) -> Inclusion {
@@ -266,17 +286,14 @@ fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32)
         let g = primitives[i].group;
         groups[g] = inclusion_add(groups[g], point_quadratic(ray, i, t, h));
     }
-    var out = groups[0];
-    for (var g = 1u; g < globals.counts.y; g++) {
-        if globals.counts.z == 0u {
+    if globals.counts.z == 0u {
+        var out = groups[0];
+        for (var g = 1u; g < globals.counts.y; g++) {
             out = inclusion_add(out, groups[g]);
-        } else if globals.counts.z == 1u {
-            out = inclusion_max(out, groups[g]);
-        } else {
-            out = inclusion_neg(inclusion_max(inclusion_neg(out), inclusion_neg(groups[g])));
         }
+        return out;
     }
-    return out;
+    return groups_max(groups, globals.counts.z == 2u);
 }
 
 fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {

@@ -5,13 +5,22 @@
 //! Mesa's lavapipe in CI — and fails, never skips, when there is none.
 //!
 //! The issue's thresholds (hit masks equal on ≥ 99.9 % of pixels, depth within 10⁻³ of the
-//! support diagonal, steps equal on ≥ 99 %) are asserted for the pairs in [`HELD`], where
-//! they hold today. The others are printed, not asserted, and listed in the issue note:
-//! sphere tracing with a global bound runs into its step budget, where f32 and f64 marches
-//! diverge, and on lavapipe each of its steps loops over the ray's support window, so rays
-//! near the budget run into lavapipe's limit of 65 535 loop iterations per invocation, after
-//! which every loop stops (README, "GPU backend"); bottom-up-quadratic and scalis-quadratic
-//! agree on 97–98.5 % of step counts (f32 validity intervals and Hermite data).
+//! support diagonal, steps equal on ≥ 99 %) are asserted for every method but the sphere
+//! family, with one measured allowance for step counts. Bottom-up-quadratic and
+//! scalis-quadratic step counts are sensitive to perturbations far below f32 precision even
+//! in f64: on the CPU alone, moving the camera by 2.4·10⁻⁷ of its distance (two f32 ulps)
+//! changes the step count of 1–3 % of the pixels (a ray passing a blob's closest point just
+//! inside or just outside the interval gets a validity interval of almost nothing or of all of
+//! it, and one more or one fewer step). No f32 march can agree with the f64 one better than the
+//! f64 march agrees with itself, so where the GPU misses 99 %, the test measures that CPU
+//! self-agreement ([`cpu_self_agreement`]) and asks for the GPU to be within
+//! [`PERTURBATION_MARGIN`] of it. Hit masks and depths are held as they are.
+//!
+//! Sphere and sphere-enhanced are printed, not asserted: with a global bound they run into
+//! their step budget, where f32 and f64 marches diverge, and on lavapipe each of their steps
+//! loops over the ray's support window, so rays near the budget run into lavapipe's limit of
+//! 65 535 loop iterations per invocation, after which every loop stops (README, "GPU
+//! backend").
 
 use std::path::Path;
 
@@ -24,23 +33,17 @@ use skeletrace_render::{GpuMethod, GpuRenderer, View};
 
 const SIZE: usize = 40;
 
-/// (asset, method) pairs whose agreement meets the issue's thresholds, asserted.
-const HELD: [(&str, &str); 12] = [
-    ("blobs", "segment"),
-    ("blobs-smooth-union", "segment"),
-    ("blobs-smooth-union", "linear-taylor"),
-    ("blobs-smooth-union", "quadratic-taylor"),
-    ("blobs-smooth-inter", "segment"),
-    ("blobs-smooth-inter", "linear-taylor"),
-    ("blobs-smooth-inter", "quadratic-taylor"),
-    ("blobs", "linear-taylor"),
-    ("blobs", "quadratic-taylor"),
-    ("molecule", "segment"),
-    ("molecule", "linear-taylor"),
-    ("molecule", "quadratic-taylor"),
-];
+/// Methods printed, not asserted (module docs): lavapipe's loop limit near the step budget.
+const UNHELD: [&str; 2] = ["sphere", "sphere-enhanced"];
 
-/// Agreement below these is a failure even for the pairs not in [`HELD`]: a broken shader,
+/// How far below the CPU's own agreement under an f32-sized camera perturbation the GPU's
+/// step agreement may fall, where it is below 99 % (module docs).
+const PERTURBATION_MARGIN: f64 = 0.01;
+
+/// The relative camera perturbation of [`cpu_self_agreement`]: two f32 ulps.
+const PERTURBATION: f64 = 2.0 / 8_388_608.0;
+
+/// Agreement below these is a failure even for the methods in [`UNHELD`]: a broken shader,
 /// not a precision difference.
 const FLOOR: (f64, f64) = (0.7, 0.5);
 
@@ -110,7 +113,7 @@ fn compare(cpu: &Frame, gpu: &Frame) -> Agreement {
 }
 
 /// Renders `scene` with every GPU method that applies on each camera and compares each frame
-/// with the CPU tracer's; the pairs that miss [`HELD`]'s thresholds or [`FLOOR`] go to
+/// with the CPU tracer's; the pairs that miss the issue's thresholds (module docs) or [`FLOOR`] go to
 /// `failures`. Returns the most pixels the CPU tracer hit in one frame.
 fn check_agreement(
     gpu: &mut GpuRenderer,
@@ -145,19 +148,29 @@ fn check_agreement(
         for (method, gpu_frame) in gpu_methods.iter().zip(&frames) {
             let cpu_method = methods::by_name(method.name()).unwrap_or_else(|e| panic!("{e}"));
             let tracer = cpu_method.prepare(&program, settings);
-            let cpu_frame = Renderer::new(scene, &program, tracer.as_ref(), settings).render(
-                camera,
-                RenderOptions {
-                    width: SIZE,
-                    height: SIZE,
-                    shadows: false,
-                    shading: skeletrace_core::shading::FieldShading::default(),
-                },
-            );
+            let cpu_render = |camera: &Camera| {
+                Renderer::new(scene, &program, tracer.as_ref(), settings).render(
+                    camera,
+                    RenderOptions {
+                        width: SIZE,
+                        height: SIZE,
+                        shadows: false,
+                        shading: skeletrace_core::shading::FieldShading::default(),
+                    },
+                )
+            };
+            let cpu_frame = cpu_render(camera);
             most_hits = most_hits.max((0..SIZE * SIZE).filter(|&i| cpu_frame.is_hit(i)).count());
             let a = compare(&cpu_frame, gpu_frame);
+            // Below 99 %: the allowance the CPU's own sensitivity earns (module docs).
+            let steps_needed = if a.equal_steps >= 0.99 {
+                0.99
+            } else {
+                let own = cpu_self_agreement(&cpu_frame, &cpu_render, camera);
+                (own - PERTURBATION_MARGIN).min(0.99)
+            };
             eprintln!(
-                "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {})  depth {:.1e}  equal steps {:.4}  differences {:?}",
+                "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {})  depth {:.1e}  equal steps {:.4} (held to {steps_needed:.4})  differences {:?}",
                 method.name(),
                 a.hit_mask,
                 a.one_sided.0,
@@ -166,15 +179,35 @@ fn check_agreement(
                 a.equal_steps,
                 a.histogram
             );
-            let held = HELD.contains(&(label, method.name()));
-            let meets =
-                a.hit_mask >= 0.999 && a.worst_depth <= 1e-3 * diagonal && a.equal_steps >= 0.99;
+            let held = !UNHELD.contains(&method.name());
+            let meets = a.hit_mask >= 0.999
+                && a.worst_depth <= 1e-3 * diagonal
+                && a.equal_steps >= steps_needed;
             if (held && !meets) || a.hit_mask < FLOOR.0 || a.equal_steps < FLOOR.1 {
                 failures.push(format!("{label} {}", method.name()));
             }
         }
     }
     most_hits
+}
+
+/// The fraction of pixels whose CPU step count is unchanged when the camera position moves by
+/// [`PERTURBATION`] of itself: how well the f64 march agrees with itself at f32 precision.
+fn cpu_self_agreement(
+    cpu_frame: &Frame,
+    render: &dyn Fn(&Camera) -> Frame,
+    camera: &Camera,
+) -> f64 {
+    let moved = Camera {
+        position: camera.position.map(|p| p * (1.0 + PERTURBATION)),
+        ..*camera
+    };
+    let own = compare(cpu_frame, &render(&moved));
+    eprintln!(
+        "{:<39} CPU against itself, camera moved by {PERTURBATION:.1e}: equal steps {:.4}  differences {:?}",
+        "", own.equal_steps, own.histogram
+    );
+    own.equal_steps
 }
 
 #[test]
