@@ -382,8 +382,21 @@ fn file_menu(h: &mut Harness<'static, Editor>, entry: &str) {
     h.step();
 }
 
+/// Runs frames until the screenshots and meshes written in the background are done.
+fn wait_for_writes(h: &mut Harness<'static, Editor>) {
+    for _ in 0..6000 {
+        if h.state().background_writes() == 0 {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        h.step();
+    }
+    panic!("the background writes did not finish");
+}
+
 /// The File menu through (scripted) system dialogs: Save As names a file without an extension
-/// and gets `.ron`; a screenshot goes where its dialog says; Open on unsaved changes asks first;
+/// and gets `.ron`; a screenshot and a mesh are written (in the background) where their dialogs
+/// say; Open on unsaved changes asks first;
 /// a dialog that cannot be shown sends the user to the path field, and later requests go there
 /// directly.
 #[test]
@@ -394,6 +407,7 @@ fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
         answers: Mutex::new(VecDeque::from([
             Ok(Some(dir.join("copy"))),
             Ok(Some(dir.join("shot.png"))),
+            Ok(Some(dir.join("mesh"))),
             Ok(Some(asset("blobs"))),
             Err("no portal in this test".to_owned()),
         ])),
@@ -414,9 +428,14 @@ fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
     assert_eq!(h.state().document().path(), Some(copy.as_path()));
     assert!(copy.exists() && !h.state().document().is_dirty());
 
+    // Screenshots and meshes are written on threads of their own; the UI goes on meanwhile.
     file_menu(&mut h, "Screenshot…");
+    file_menu(&mut h, "Export mesh…");
+    wait_for_writes(&mut h);
     let shot = std::fs::read(dir.join("shot.png")).unwrap_or_else(|e| panic!("{e}"));
     assert!(shot.starts_with(b"\x89PNG"), "{:?}", h.state().notice());
+    let mesh = std::fs::read(dir.join("mesh.glb")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(mesh.starts_with(b"glTF"), "{:?}", h.state().notice());
 
     // An unsaved edit: Open asks first, and Discard opens.
     h.key_press(egui::Key::B);
@@ -448,6 +467,7 @@ fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
         [
             (FilePurpose::SaveAs, "blobs.ron".to_owned()),
             (FilePurpose::Screenshot, "copy-shaded.png".to_owned()),
+            (FilePurpose::ExportMesh, "copy.glb".to_owned()),
             (FilePurpose::Open, "copy.ron".to_owned()),
             (FilePurpose::Open, "blobs.ron".to_owned()),
         ],

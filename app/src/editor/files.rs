@@ -159,6 +159,12 @@ pub(super) struct PendingDialog {
     answer: mpsc::Receiver<Result<Option<PathBuf>, String>>,
 }
 
+/// A file written on a thread of its own (a screenshot, a mesh); its message when done.
+pub(super) struct BackgroundWrite {
+    what: String,
+    done: mpsc::Receiver<Result<String, String>>,
+}
+
 /// What replaces the document once unsaved changes are dealt with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(super) enum Replacement {
@@ -188,22 +194,22 @@ impl Editor {
             .clone()
             .or_else(|| self.file_dialogs.unavailable())
         {
-            self.without_dialog(purpose, &reason);
+            self.without_dialog(ctx, purpose, &reason);
             return;
         }
         let request = self.dialog_request(purpose);
         let dialogs = Arc::clone(&self.file_dialogs);
         let (send, answer) = mpsc::channel();
-        let ctx = ctx.clone();
+        let repaint = ctx.clone();
         let spawned = std::thread::Builder::new()
             .name("file dialog".into())
             .spawn(move || {
                 let _ = send.send(dialogs.pick(&request));
-                ctx.request_repaint();
+                repaint.request_repaint();
             });
         match spawned {
             Ok(_) => self.pending_dialog = Some(PendingDialog { purpose, answer }),
-            Err(why) => self.without_dialog(purpose, &format!("no file dialog thread: {why}")),
+            Err(why) => self.without_dialog(ctx, purpose, &format!("no file dialog thread: {why}")),
         }
     }
 
@@ -214,7 +220,7 @@ impl Editor {
     }
 
     /// Takes the answer of the open dialog, if it has come.
-    pub(super) fn poll_file_dialog(&mut self) {
+    pub(super) fn poll_file_dialog(&mut self, ctx: &egui::Context) {
         let Some(pending) = &self.pending_dialog else {
             return;
         };
@@ -228,11 +234,65 @@ impl Editor {
         };
         self.pending_dialog = None;
         match answer {
-            Ok(Some(path)) => self.use_file(purpose, with_extension(path, purpose)),
+            Ok(Some(path)) => self.use_file(ctx, purpose, with_extension(path, purpose)),
             Ok(None) => {}
             Err(reason) => {
                 self.dialog_failure = Some(reason.clone());
-                self.without_dialog(purpose, &reason);
+                self.without_dialog(ctx, purpose, &reason);
+            }
+        }
+    }
+
+    /// Runs `write` (a screenshot, a mesh export: seconds at large sizes) on a thread of its
+    /// own; its message or error goes to the status bar when it is done.
+    pub(super) fn write_in_background(
+        &mut self,
+        ctx: &egui::Context,
+        what: String,
+        write: impl FnOnce() -> Result<String, String> + Send + 'static,
+    ) {
+        let (send, done) = mpsc::channel();
+        let repaint = ctx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("file writer".into())
+            .spawn(move || {
+                let _ = send.send(write());
+                repaint.request_repaint();
+            });
+        match spawned {
+            Ok(_) => {
+                self.tell(format!("writing {what}…"));
+                self.background_writes.push(BackgroundWrite { what, done });
+            }
+            Err(why) => self.complain(format!("cannot write {what}: {why}")),
+        }
+    }
+
+    /// How many screenshots and meshes are still being written.
+    #[must_use]
+    pub fn background_writes(&self) -> usize {
+        self.background_writes.len()
+    }
+
+    /// Reports the writes that have finished.
+    pub(super) fn poll_background_writes(&mut self) {
+        let mut finished = Vec::new();
+        self.background_writes
+            .retain(|write| match write.done.try_recv() {
+                Ok(result) => {
+                    finished.push(result);
+                    false
+                }
+                Err(mpsc::TryRecvError::Empty) => true,
+                Err(mpsc::TryRecvError::Disconnected) => {
+                    finished.push(Err(format!("writing {} stopped", write.what)));
+                    false
+                }
+            });
+        for result in finished {
+            match result {
+                Ok(message) => self.tell(message),
+                Err(why) => self.complain(why),
             }
         }
     }
@@ -279,18 +339,18 @@ impl Editor {
         dir.join(name)
     }
 
-    fn use_file(&mut self, purpose: FilePurpose, path: PathBuf) {
+    fn use_file(&mut self, ctx: &egui::Context, purpose: FilePurpose, path: PathBuf) {
         match purpose {
             FilePurpose::Open => self.replace_document(Replacement::Open(path)),
             FilePurpose::SaveAs => {
                 self.save(Some(path));
             }
-            FilePurpose::Screenshot => self.screenshot(&path),
-            FilePurpose::ExportMesh => self.export_mesh(&path),
+            FilePurpose::Screenshot => self.screenshot(ctx, path),
+            FilePurpose::ExportMesh => self.export_mesh(ctx, path),
         }
     }
 
-    fn without_dialog(&mut self, purpose: FilePurpose, reason: &str) {
+    fn without_dialog(&mut self, ctx: &egui::Context, purpose: FilePurpose, reason: &str) {
         match purpose {
             FilePurpose::Open | FilePurpose::SaveAs => {
                 let button = if purpose == FilePurpose::Open {
@@ -305,7 +365,7 @@ impl Editor {
             }
             FilePurpose::Screenshot | FilePurpose::ExportMesh => {
                 let path = self.default_output(purpose);
-                self.use_file(purpose, path);
+                self.use_file(ctx, purpose, path);
             }
         }
     }
@@ -482,7 +542,11 @@ impl Editor {
     }
 
     /// A clean exit: the recovery file is no longer needed.
+    /// Screenshots and meshes still being written are finished first.
     pub fn on_exit(&mut self) {
+        for write in self.background_writes.drain(..) {
+            let _ = write.done.recv();
+        }
         if let Some(p) = &self.recovery_path {
             let _ = std::fs::remove_file(p);
         }

@@ -156,22 +156,20 @@ impl Editor {
         });
     }
 
-    /// Writes the isosurface at 128 cells to `path` as binary glTF (the UI waits for it; about a
-    /// second for the assets).
-    pub(super) fn export_mesh(&mut self, path: &std::path::Path) {
-        let scene = self.doc.scene();
-        let written = crate::export::extract(scene, 128, &|_| {})
-            .and_then(|mesh| crate::export::write_gltf(scene, &mesh, path).map(|()| mesh));
-        match written {
-            Ok(mesh) => {
-                let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
-                self.tell(format!(
-                    "exported {} ({triangles} triangles)",
-                    path.display()
-                ));
-            }
-            Err(why) => self.complain(why),
-        }
+    /// Writes the isosurface at 128 cells to `path` as binary glTF, on a thread of its own
+    /// (about a second for the assets).
+    pub(super) fn export_mesh(&mut self, ctx: &egui::Context, path: std::path::PathBuf) {
+        let scene = self.doc.scene().clone();
+        let what = format!("mesh {}", path.display());
+        self.write_in_background(ctx, what, move || {
+            let mesh = crate::export::extract(&scene, 128, &|_| {})?;
+            crate::export::write_gltf(&scene, &mesh, &path)?;
+            let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
+            Ok(format!(
+                "exported {} ({triangles} triangles)",
+                path.display()
+            ))
+        });
     }
 
     pub(super) fn inspector(&mut self, ui: &mut egui::Ui) {

@@ -181,6 +181,8 @@ pub struct Editor {
     dialog_failure: Option<String>,
     /// New / Open waiting for the user's answer about unsaved changes.
     replace_prompt: Option<files::Replacement>,
+    /// Screenshots and meshes being written on threads of their own.
+    background_writes: Vec<files::BackgroundWrite>,
     last_interaction: Instant,
     last_autosave: Instant,
     active_group: usize,
@@ -237,6 +239,7 @@ impl Editor {
             pending_dialog: None,
             dialog_failure: None,
             replace_prompt: None,
+            background_writes: Vec::new(),
             last_interaction: Instant::now(),
             last_autosave: Instant::now(),
             active_group: 0,
@@ -376,7 +379,8 @@ impl Editor {
         if let Some(reply) = self.worker.latest() {
             self.show_reply(&ctx, reply);
         }
-        self.poll_file_dialog();
+        self.poll_file_dialog(&ctx);
+        self.poll_background_writes();
         self.handle_dropped_files(&ctx);
         self.handle_shortcuts(&ctx);
         self.handle_close(&ctx);
@@ -870,8 +874,8 @@ impl Editor {
     // ---- screenshots ----
 
     /// Renders the current view (the shaded method, or the comparison grid) offscreen at the
-    /// screenshot size and writes a PNG.
-    fn screenshot(&mut self, path: &Path) {
+    /// screenshot size and writes a PNG, on a thread of its own.
+    fn screenshot(&mut self, ctx: &egui::Context, path: PathBuf) {
         let (width, height) = self.ui_state.screenshot_size;
         let (methods, view) = match self.ui_state.view {
             ViewMode::Shaded => (vec![self.ui_state.shaded_method.clone()], ViewMode::Shaded),
@@ -891,8 +895,7 @@ impl Editor {
         scene.camera = camera;
         let id = self.next_request;
         self.next_request += 1;
-        let offscreen = RenderWorker::start(|| {});
-        offscreen.request(Request {
+        let request = Request {
             id,
             scene: Arc::new(scene),
             camera,
@@ -901,34 +904,36 @@ impl Editor {
             backend: self.ui_state.backend,
             shadows: self.ui_state.shadows,
             shading: self.ui_state.shading,
-        });
-        let Some(reply) = offscreen.wait_for(id) else {
-            self.complain("the renderer stopped before the screenshot was traced");
-            return;
         };
-        let named: Vec<(&str, Frame)> = reply
-            .frames
-            .iter()
-            .map(|t| (t.method.as_str(), t.frame.clone()))
-            .collect();
-        let panels = match view {
-            ViewMode::Shaded => Panels::Shaded { labelled: false },
-            ViewMode::Compare => {
-                let steps_max = shared_scale(&named).max(1);
-                let clipped = named.iter().any(|(_, f)| f.step_summary().max > steps_max);
-                Panels::Steps { steps_max, clipped }
-            }
-        };
-        let canvas: Canvas = compose(&named, panels);
-        match canvas.save_png(path) {
-            Ok(()) => self.tell(format!(
+        let what = format!("screenshot {}", path.display());
+        self.write_in_background(ctx, what, move || {
+            let offscreen = RenderWorker::start(|| {});
+            offscreen.request(request);
+            let reply = offscreen
+                .wait_for(id)
+                .ok_or("the renderer stopped before the screenshot was traced")?;
+            let named: Vec<(&str, Frame)> = reply
+                .frames
+                .iter()
+                .map(|t| (t.method.as_str(), t.frame.clone()))
+                .collect();
+            let panels = match view {
+                ViewMode::Shaded => Panels::Shaded { labelled: false },
+                ViewMode::Compare => {
+                    let steps_max = shared_scale(&named).max(1);
+                    let clipped = named.iter().any(|(_, f)| f.step_summary().max > steps_max);
+                    Panels::Steps { steps_max, clipped }
+                }
+            };
+            let canvas: Canvas = compose(&named, panels);
+            canvas.save_png(&path)?;
+            Ok(format!(
                 "screenshot {} ({}x{})",
                 path.display(),
                 canvas.width,
                 canvas.height
-            )),
-            Err(why) => self.complain(why),
-        }
+            ))
+        });
     }
 }
 
