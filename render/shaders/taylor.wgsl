@@ -1,7 +1,7 @@
-// Inclusions of point-blob fields for segment tracing and the Taylor and bottom-up methods
-// (core: primitives/point.rs ray_jet, inclusion.rs, bottom_up.rs; forward-inclusion 2023
-// §5–6, appendices A–C). Only point blobs have these bounds on the GPU; other scenes run these
-// methods on the CPU. `METHOD` is set by the composer: 0 segment, 1 linear-taylor,
+// Inclusions for segment tracing and the Taylor and bottom-up methods (core: primitives/point.rs,
+// scalis.rs and shapes.rs ray_jet, inclusion.rs, bottom_up.rs; forward-inclusion 2023 §5–6,
+// appendices A–C) over point blobs, SCALIS segments and planes; scenes with other primitives run
+// these methods on the CPU. `METHOD` is set by the composer: 0 segment, 1 linear-taylor,
 // 2 quadratic-taylor, 3 bottom-up-quadratic.
 
 struct Jet {
@@ -106,12 +106,201 @@ fn overlaps(item: SupportItem, lo: f32, hi: f32) -> bool {
     return item.span.x <= item.span.y && item.span.x <= hi && item.span.y >= lo;
 }
 
+// ---- interval arithmetic on (lo, hi) pairs (interval.rs) ----
+
+// End-point product with the interval convention 0 · ∞ = 0.
+fn mul_ends(a: f32, b: f32) -> f32 {
+    if a == 0.0 || b == 0.0 {
+        return 0.0;
+    }
+    return a * b;
+}
+
+fn i_mul(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let p = vec4<f32>(mul_ends(a.x, b.x), mul_ends(a.x, b.y), mul_ends(a.y, b.x), mul_ends(a.y, b.y));
+    return vec2<f32>(min(min(p.x, p.y), min(p.z, p.w)), max(max(p.x, p.y), max(p.z, p.w)));
+}
+
+fn i_scale(a: vec2<f32>, k: f32) -> vec2<f32> {
+    let p = vec2<f32>(mul_ends(a.x, k), mul_ends(a.y, k));
+    return vec2<f32>(min(p.x, p.y), max(p.x, p.y));
+}
+
+fn i_square(a: vec2<f32>) -> vec2<f32> {
+    if a.x >= 0.0 {
+        return a * a;
+    }
+    if a.y <= 0.0 {
+        return vec2<f32>(a.y * a.y, a.x * a.x);
+    }
+    return vec2<f32>(0.0, max(a.x * a.x, a.y * a.y));
+}
+
+fn i_new(a: f32, b: f32) -> vec2<f32> {
+    return vec2<f32>(min(a, b), max(a, b));
+}
+
+fn jet_scale(f: Jet, k: f32) -> Jet {
+    return Jet(i_scale(f.value, k), i_scale(f.d1, k), i_scale(f.d2, k));
+}
+
+// Ranges of K, K′, K″ over x ∈ xs (kernel.rs KernelProfile::ranges), and whether xs straddles
+// the support boundary of a kinked kernel.
+struct KernelRanges {
+    value: vec2<f32>,
+    d1: vec2<f32>,
+    d2: vec2<f32>,
+    kink: bool,
+};
+
+fn kernel_ranges(k: Kernel, xs: vec2<f32>) -> KernelRanges {
+    let lo = max(xs.x, 0.0);
+    let hi = max(xs.y, lo);
+    if lo >= k.support_sq {
+        return KernelRanges(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), false);
+    }
+    let at_lo = kernel_d2_inside(k, lo);
+    if hi >= k.support_sq {
+        let edge = kernel_raw(k, k.support_sq).y * k.clip_scale;
+        return KernelRanges(vec2<f32>(0.0, at_lo.x),
+                            hull_with(vec2<f32>(at_lo.y, max(edge, at_lo.y)), 0.0),
+                            vec2<f32>(0.0, at_lo.z), k.kinked != 0u);
+    }
+    let at_hi = kernel_d2_inside(k, hi);
+    return KernelRanges(vec2<f32>(at_hi.x, at_lo.x), vec2<f32>(at_lo.y, at_hi.y),
+                        vec2<f32>(at_hi.z, at_lo.z), false);
+}
+
+// Squared distance between the segments [p0, p1] and [q0, q1] (geometry.rs).
+fn segment_segment_distance_sq(p0: vec3<f32>, p1: vec3<f32>, q0: vec3<f32>, q1: vec3<f32>) -> f32 {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = dot(d1, d1);
+    let e = dot(d2, d2);
+    let f = dot(d2, r);
+    let tiny = 1.2e-7;
+    var s = 0.0;
+    var t = 0.0;
+    if a <= tiny && e <= tiny {
+        return dot(r, r);
+    }
+    if a <= tiny {
+        t = clamp(f / e, 0.0, 1.0);
+    } else {
+        let c = dot(d1, r);
+        if e <= tiny {
+            s = clamp(-c / a, 0.0, 1.0);
+        } else {
+            let b = dot(d1, d2);
+            let denom = a * e - b * b;
+            var s0 = 0.0;
+            if denom > 0.0 {
+                s0 = clamp((b * f - c * e) / denom, 0.0, 1.0);
+            }
+            let t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                s = clamp(-c / a, 0.0, 1.0);
+            } else if t0 > 1.0 {
+                t = 1.0;
+                s = clamp((b - c) / a, 0.0, 1.0);
+            } else {
+                t = t0;
+                s = s0;
+            }
+        }
+    }
+    let gap = (p0 + s * d1) - (q0 + t * d2);
+    return dot(gap, gap);
+}
+
+const MAX_BOUND_PIECES: f32 = 24.0;
+
+// The jet of SCALIS segment i over [lo, hi] (scalis.rs ray_jet): the segment cut into pieces;
+// on each, the ranges of the squared homothetic distance, of the kernel and of 1/τ enclose the
+// integrand's value and derivatives.
+fn scalis_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let start = prim.a.xyz;
+    let axis = prim.b.xyz;
+    let r0 = prim.a.w;
+    let len = prim.b.w;
+    let slope = prim.c.y;
+    let ray_a = ray.origin + lo * ray.dir;
+    let ray_b = ray.origin + hi * ray.dir;
+    let pieces = u32(clamp(ceil(2.0 * len / r0), 2.0, MAX_BOUND_PIECES));
+    let ds = len / f32(pieces);
+    let w_origin = dot(ray.dir, ray.origin - start);
+    let uv = dot(ray.dir, axis);
+    var jet = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
+    for (var piece = 0u; piece < pieces; piece++) {
+        let sa = f32(piece) * ds;
+        let sb = f32(piece + 1u) * ds;
+        let qa = start + sa * axis;
+        let qb = start + sb * axis;
+        let tau_a = r0 + slope * sa;
+        let tau_b = r0 + slope * sb;
+        let d_min = segment_segment_distance_sq(ray_a, ray_b, qa, qb);
+        let corners = vec4<f32>(dot(ray_a - qa, ray_a - qa), dot(ray_a - qb, ray_a - qb),
+                                dot(ray_b - qa, ray_b - qa), dot(ray_b - qb, ray_b - qb));
+        let d_max = max(max(corners.x, corners.y), max(corners.z, corners.w));
+        let x = i_new(d_min / (tau_b * tau_b), d_max / (tau_a * tau_a));
+        if x.x >= k.support_sq {
+            continue;
+        }
+        let w = hull_with(hull_with(i_new(w_origin + lo - sa * uv, w_origin + lo - sb * uv),
+                                    w_origin + hi - sa * uv), w_origin + hi - sb * uv);
+        let inv_tau = i_new(1.0 / tau_b, 1.0 / tau_a);
+        let inv_tau3 = i_mul(i_square(inv_tau), inv_tau);
+        let kr = kernel_ranges(k, x);
+        var d2 = i_scale(i_mul(i_mul(i_mul(kr.d2, i_square(w)), inv_tau3), i_square(inv_tau)), 4.0)
+            + i_scale(i_mul(kr.d1, inv_tau3), 2.0);
+        if kr.kink {
+            d2.y = INF;
+        }
+        let piece_jet = Jet(i_mul(kr.value, inv_tau), i_scale(i_mul(i_mul(kr.d1, w), inv_tau3), 2.0), d2);
+        jet = jet_add(jet, jet_scale(piece_jet, ds));
+    }
+    return jet_scale(jet, prim.c.x);
+}
+
+// The jet of plane i over [lo, hi] (shapes.rs ray_jet): the kernel of the exact squared
+// distance, an affine function of t squared, over ρ².
+fn plane_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let a = dot(prim.a.xyz, ray.origin) - prim.a.w;
+    let b = dot(prim.a.xyz, ray.dir);
+    let distance = i_new(a + b * lo, a + b * hi);
+    let inv_r2 = 1.0 / (prim.b.x * prim.b.x);
+    // x = d²/ρ²: value, x′ = 2 d d′/ρ², x″ = 2 d′²/ρ².
+    let x = Jet(i_scale(i_square(distance), inv_r2), i_scale(distance, 2.0 * b * inv_r2),
+                vec2<f32>(2.0 * b * b * inv_r2));
+    let kr = kernel_ranges(k, x.value);
+    var d2 = i_mul(kr.d2, i_square(x.d1)) + i_mul(kr.d1, x.d2);
+    if kr.kink {
+        d2.y = INF;
+    }
+    return jet_scale(Jet(kr.value, i_mul(kr.d1, x.d1), d2), prim.c.x);
+}
+
+fn primitive_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let kind = primitives[i].kind;
+    if kind == 0u {
+        return point_jet(ray, i, lo, hi);
+    } else if kind == 2u {
+        return scalis_jet(ray, i, lo, hi);
+    }
+    return plane_jet(ray, i, lo, hi);
+}
+
 // The jet of an overlapping item over [lo, hi] (primitives/mod.rs ray_jet): taken on the part
 // inside the support and extended by zero; where a kinked kernel's support boundary lies in
 // [lo, hi], the upper f″ bound is infinite.
 fn item_jet(ray: Ray, item: SupportItem, lo: f32, hi: f32) -> Jet {
     let inside = vec2<f32>(max(lo, item.span.x), min(hi, item.span.y));
-    let jet = point_jet(ray, item.id, inside.x, inside.y);
+    let jet = primitive_jet(ray, item.id, inside.x, inside.y);
     if inside.x == lo && inside.y == hi {
         return jet;
     }
@@ -222,6 +411,20 @@ fn point_quadratic(ray: Ray, i: u32, t0: f32, h_in: f32) -> Inclusion {
                      vec2<f32>(n * chord * x1, n * chord * x2), h);
 }
 
+// Quadratic Taylor inclusion (inclusion.rs ForwardInclusion::quadratic): a side whose f″ bound
+// is infinite falls back to linear Taylor.
+fn quadratic_taylor(f: f32, d: f32, jet: Jet, h: f32) -> Inclusion {
+    var lower = vec2<f32>(d, 0.5 * jet.d2.x);
+    var upper = vec2<f32>(d, 0.5 * jet.d2.y);
+    if abs(jet.d2.x) >= INF {
+        lower = vec2<f32>(jet.d1.x, 0.0);
+    }
+    if abs(jet.d2.y) >= INF {
+        upper = vec2<f32>(jet.d1.y, 0.0);
+    }
+    return Inclusion(f, lower, upper, h);
+}
+
 fn inclusion_add(a: Inclusion, b: Inclusion) -> Inclusion {
     return Inclusion(a.start + b.start, a.lower + b.lower, a.upper + b.upper, min(a.length, b.length));
 }
@@ -284,7 +487,15 @@ fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32)
         }
         let i = item.id;
         let g = primitives[i].group;
-        groups[g] = inclusion_add(groups[g], point_quadratic(ray, i, t, h));
+        var own: Inclusion;
+        if primitives[i].kind == 0u {
+            own = point_quadratic(ray, i, t, h);
+        } else {
+            // No bottom-up rule: the primitive's own quadratic Taylor inclusion (primitive_taylor).
+            let vg = primitive_value_gradient(i, ray.origin + t * ray.dir);
+            own = quadratic_taylor(vg.x, dot(vg.yzw, ray.dir), item_jet(ray, item, t, t + h), h);
+        }
+        groups[g] = inclusion_add(groups[g], own);
     }
     if globals.counts.z == 0u {
         var out = groups[0];
@@ -308,14 +519,5 @@ fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32
     if METHOD == 1u {
         return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);
     }
-    // Quadratic Taylor: a side whose f″ bound is infinite falls back to linear Taylor.
-    var lower = vec2<f32>(d, 0.5 * jet.d2.x);
-    var upper = vec2<f32>(d, 0.5 * jet.d2.y);
-    if abs(jet.d2.x) >= INF {
-        lower = vec2<f32>(jet.d1.x, 0.0);
-    }
-    if abs(jet.d2.y) >= INF {
-        upper = vec2<f32>(jet.d1.y, 0.0);
-    }
-    return Inclusion(f, lower, upper, h);
+    return quadratic_taylor(f, d, jet, h);
 }

@@ -3,7 +3,7 @@
 
 use skeletrace_core::FieldProgram;
 use skeletrace_core::kernel::Kernel;
-use skeletrace_core::primitives::Primitive;
+use skeletrace_core::primitives::{Primitive, Solid};
 
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
 const MARCH: &str = include_str!("../shaders/march.wgsl");
@@ -24,13 +24,13 @@ pub enum GpuMethod {
     Sphere,
     /// `sphere-enhanced`.
     SphereEnhanced,
-    /// `segment` (point blobs).
+    /// `segment` (point blobs, SCALIS segments, planes).
     Segment,
-    /// `linear-taylor` (point blobs).
+    /// `linear-taylor` (point blobs, SCALIS segments, planes).
     LinearTaylor,
-    /// `quadratic-taylor` (point blobs).
+    /// `quadratic-taylor` (point blobs, SCALIS segments, planes).
     QuadraticTaylor,
-    /// `bottom-up-quadratic` (point blobs).
+    /// `bottom-up-quadratic` (point blobs; Taylor for SCALIS segments and planes).
     BottomUpQuadratic,
     /// `scalis-quadratic` (SCALIS skeletons).
     ScalisQuadratic,
@@ -81,16 +81,22 @@ impl GpuMethod {
             .primitives()
             .iter()
             .all(|p| matches!(p, Primitive::Point(_)));
+        // The inclusion shaders bound point blobs, SCALIS segments and planes.
+        let bounded = program.primitives().iter().all(|p| match p {
+            Primitive::Point(_) | Primitive::Scalis(_) => true,
+            Primitive::Shape(s) => matches!(s.solid, Solid::Plane { .. }),
+            Primitive::Distance(_) | Primitive::Hrbf(_) => false,
+        });
         match self {
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
             | Self::BottomUpQuadratic
-                if !only_points =>
+                if !bounded =>
             {
                 Err(format!(
-                    "{} runs on the GPU for point-blob scenes only (its bounds for segments and \
-                     shapes are CPU-only)",
+                    "{} runs on the GPU for point blobs, SCALIS segments and planes only (its \
+                     bounds for distance segments, HRBF sets and other shapes are CPU-only)",
                     self.name()
                 ))
             }
