@@ -382,16 +382,18 @@ fn file_menu(h: &mut Harness<'static, Editor>, entry: &str) {
     h.step();
 }
 
-/// Runs frames until the screenshots and meshes written in the background are done.
+/// Runs frames until the screenshots and meshes written in the background are done. They share
+/// the CPU (and rayon's pool) with the other tests' renders, so the deadline is generous.
 fn wait_for_writes(h: &mut Harness<'static, Editor>) {
-    for _ in 0..6000 {
-        if h.state().background_writes() == 0 {
-            return;
-        }
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(300);
+    while h.state().background_writes() > 0 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the background writes did not finish in 300 s"
+        );
         std::thread::sleep(std::time::Duration::from_millis(10));
         h.step();
     }
-    panic!("the background writes did not finish");
 }
 
 /// The File menu through (scripted) system dialogs: Save As names a file without an extension
