@@ -1,7 +1,7 @@
 // Inclusions for segment tracing and the Taylor and bottom-up methods (core: primitives/point.rs,
-// scalis.rs and shapes.rs ray_jet, inclusion.rs, bottom_up.rs; forward-inclusion 2023 §5–6,
-// appendices A–C) over point blobs, SCALIS segments and planes; scenes with other primitives run
-// these methods on the CPU. `METHOD` is set by the composer: 0 segment, 1 linear-taylor,
+// segment.rs, scalis.rs and shapes.rs ray_jet, inclusion.rs, bottom_up.rs; forward-inclusion
+// 2023 §5–6, appendices A–C) over point blobs, distance and SCALIS segments and planes; scenes
+// with other primitives run these methods on the CPU. `METHOD` is set by the composer: 0 segment, 1 linear-taylor,
 // 2 quadratic-taylor, 3 bottom-up-quadratic.
 
 struct Jet {
@@ -277,18 +277,138 @@ fn plane_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     // x = d²/ρ²: value, x′ = 2 d d′/ρ², x″ = 2 d′²/ρ².
     let x = Jet(i_scale(i_square(distance), inv_r2), i_scale(distance, 2.0 * b * inv_r2),
                 vec2<f32>(2.0 * b * b * inv_r2));
+    return jet_scale(jet_compose(k, x), prim.c.x);
+}
+
+// ---- jets of functions of t (interval.rs Jet) ----
+
+const ENTIRE: vec2<f32> = vec2<f32>(-INF, INF);
+
+fn i_recip(a: vec2<f32>) -> vec2<f32> {
+    if a.x > 0.0 || a.y < 0.0 {
+        return i_new(1.0 / a.x, 1.0 / a.y);
+    }
+    return ENTIRE;
+}
+
+fn jet_affine(a: f32, b: f32, lo: f32, hi: f32) -> Jet {
+    return Jet(i_new(a + b * lo, a + b * hi), vec2<f32>(b), vec2<f32>(0.0));
+}
+
+// Exact jet of a t² + b t + c over [lo, hi].
+fn jet_quadratic(a: f32, b: f32, c: f32, lo: f32, hi: f32) -> Jet {
+    var value = i_new((a * lo + b) * lo + c, (a * hi + b) * hi + c);
+    if a != 0.0 {
+        let apex = -b / (2.0 * a);
+        if apex >= lo && apex <= hi {
+            value = hull_with(value, (a * apex + b) * apex + c);
+        }
+    }
+    return Jet(value, i_new(2.0 * a * lo + b, 2.0 * a * hi + b), vec2<f32>(2.0 * a));
+}
+
+fn jet_hull(f: Jet, g: Jet) -> Jet {
+    return Jet(vec2<f32>(min(f.value.x, g.value.x), max(f.value.y, g.value.y)),
+               vec2<f32>(min(f.d1.x, g.d1.x), max(f.d1.y, g.d1.y)),
+               vec2<f32>(min(f.d2.x, g.d2.x), max(f.d2.y, g.d2.y)));
+}
+
+// The hull of x and j, or j alone when x holds nothing yet.
+fn hull_or(x: Jet, any: bool, j: Jet) -> Jet {
+    if any {
+        return jet_hull(x, j);
+    }
+    return j;
+}
+
+fn jet_mul(f: Jet, g: Jet) -> Jet {
+    return Jet(i_mul(f.value, g.value),
+               i_mul(f.d1, g.value) + i_mul(f.value, g.d1),
+               i_mul(f.d2, g.value) + i_scale(i_mul(f.d1, g.d1), 2.0) + i_mul(f.value, g.d2));
+}
+
+// 1/f: (1/f)′ = −f′ r², (1/f)″ = 2 f′² r³ − f″ r² with r = 1/f.
+fn jet_recip(f: Jet) -> Jet {
+    let r = i_recip(f.value);
+    let r2 = i_square(r);
+    let d2a = i_mul(i_mul(i_scale(i_square(f.d1), 2.0), r2), r);
+    let d2b = i_mul(f.d2, r2);
+    return Jet(r, -i_mul(f.d1, r2).yx, vec2<f32>(d2a.x - d2b.y, d2a.y - d2b.x));
+}
+
+fn jet_div(f: Jet, g: Jet) -> Jet {
+    return jet_mul(f, jet_recip(g));
+}
+
+// K ∘ x from a jet of x (kernel.rs compose): (K∘x)′ = K′x′, (K∘x)″ = K″x′² + K′x″, the upper
+// f″ bound infinite where x straddles a kinked kernel's support boundary.
+fn jet_compose(k: Kernel, x: Jet) -> Jet {
     let kr = kernel_ranges(k, x.value);
     var d2 = i_mul(kr.d2, i_square(x.d1)) + i_mul(kr.d1, x.d2);
     if kr.kink {
         d2.y = INF;
     }
-    return jet_scale(Jet(kr.value, i_mul(kr.d1, x.d1), d2), prim.c.x);
+    return Jet(kr.value, i_mul(kr.d1, x.d1), d2);
+}
+
+// The jet of distance segment i over [lo, hi] (segment.rs ray_jet): the squared homothetic
+// distance x is the hull of the formulas that can hold on the interval — either end cap, the
+// side of the cone — as jets of t, composed with the kernel.
+fn distance_segment_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let start = prim.a.xyz;
+    let axis = prim.b.xyz;
+    let r0 = prim.a.w;
+    let len = prim.b.w;
+    let d = prim.c.y;
+    let u = ray.dir;
+    let w0 = ray.origin - start;
+    let a0 = dot(w0, axis);
+    let a1 = dot(u, axis);
+    let along = jet_affine(a0, a1, lo, hi);
+    let lateral = max(dot(w0, w0) - a0 * a0, 0.0);
+    let b2 = jet_quadratic(1.0 - a1 * a1, 2.0 * (dot(w0, u) - a0 * a1), lateral, lo, hi);
+    let y0 = r0 + d * a0;
+    let y1 = d * a1;
+    let y = jet_affine(y0, y1, lo, hi);
+    var s_star = along;
+    if d > 0.0 {
+        s_star = jet_add(along, jet_scale(jet_div(b2, y), d));
+    }
+    let s_range = s_star.value;
+    let y_may_vanish = y.value.x <= 0.0;
+    var x = Jet(ENTIRE, ENTIRE, ENTIRE);
+    var any = false;
+    if s_range.x <= 0.0 && !y_may_vanish {
+        let wc = ray.origin - start;
+        x = jet_scale(jet_quadratic(1.0, 2.0 * dot(wc, u), dot(wc, wc), lo, hi), 1.0 / (r0 * r0));
+        any = true;
+    }
+    if s_range.y >= len || y_may_vanish {
+        let r1 = r0 + d * len;
+        let wc = ray.origin - (start + len * axis);
+        let cap = jet_scale(jet_quadratic(1.0, 2.0 * dot(wc, u), dot(wc, wc), lo, hi), 1.0 / (r1 * r1));
+        x = hull_or(x, any, cap);
+        any = true;
+    }
+    if (s_range.y > 0.0 && s_range.x < len) || y_may_vanish {
+        let denominator = jet_quadratic(y1 * y1 + d * d * (1.0 - a1 * a1),
+                                        2.0 * y0 * y1 + d * d * 2.0 * (dot(w0, u) - a0 * a1),
+                                        y0 * y0 + d * d * lateral, lo, hi);
+        let side = jet_div(b2, denominator);
+        x = hull_or(x, any, side);
+    }
+    x.value.x = max(x.value.x, 0.0);
+    return jet_scale(jet_compose(k, x), prim.c.x);
 }
 
 fn primitive_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     let kind = primitives[i].kind;
     if kind == 0u {
         return point_jet(ray, i, lo, hi);
+    } else if kind == 1u {
+        return distance_segment_jet(ray, i, lo, hi);
     } else if kind == 2u {
         return scalis_jet(ray, i, lo, hi);
     }

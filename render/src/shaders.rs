@@ -24,13 +24,13 @@ pub enum GpuMethod {
     Sphere,
     /// `sphere-enhanced`.
     SphereEnhanced,
-    /// `segment` (point blobs, SCALIS segments, planes).
+    /// `segment` (point blobs, segments, planes).
     Segment,
-    /// `linear-taylor` (point blobs, SCALIS segments, planes).
+    /// `linear-taylor` (point blobs, segments, planes).
     LinearTaylor,
-    /// `quadratic-taylor` (point blobs, SCALIS segments, planes).
+    /// `quadratic-taylor` (point blobs, segments, planes).
     QuadraticTaylor,
-    /// `bottom-up-quadratic` (point blobs; Taylor for SCALIS segments and planes).
+    /// `bottom-up-quadratic` (point blobs; Taylor for segments and planes).
     BottomUpQuadratic,
     /// `scalis-quadratic` (SCALIS skeletons).
     ScalisQuadratic,
@@ -81,11 +81,11 @@ impl GpuMethod {
             .primitives()
             .iter()
             .all(|p| matches!(p, Primitive::Point(_)));
-        // The inclusion shaders bound point blobs, SCALIS segments and planes.
+        // The inclusion shaders bound point blobs, distance and SCALIS segments and planes.
         let bounded = program.primitives().iter().all(|p| match p {
-            Primitive::Point(_) | Primitive::Scalis(_) => true,
+            Primitive::Point(_) | Primitive::Distance(_) | Primitive::Scalis(_) => true,
             Primitive::Shape(s) => matches!(s.solid, Solid::Plane { .. }),
-            Primitive::Distance(_) | Primitive::Hrbf(_) => false,
+            Primitive::Hrbf(_) => false,
         });
         match self {
             Self::Segment
@@ -95,8 +95,8 @@ impl GpuMethod {
                 if !bounded =>
             {
                 Err(format!(
-                    "{} runs on the GPU for point blobs, SCALIS segments and planes only (its \
-                     bounds for distance segments, HRBF sets and other shapes are CPU-only)",
+                    "{} runs on the GPU for point blobs, segments and planes only (its bounds for \
+                     HRBF sets and other shapes are CPU-only)",
                     self.name()
                 ))
             }

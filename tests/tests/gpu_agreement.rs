@@ -281,6 +281,31 @@ fn smooth_blends_match_the_cpu_tracer() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
+/// Distance segments (scalis eq. 7): the hand with every skeleton switched from SCALIS to the
+/// kernel of the homothetic distance, whose ray jets (segment.rs) hull the end caps and the
+/// cone side.
+#[test]
+fn distance_segments_match_the_cpu_tracer() {
+    let mut gpu = GpuRenderer::new()
+        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let mut failures = Vec::new();
+    let mut scene = load("hand");
+    for group in &mut scene.groups {
+        for skeleton in &mut group.skeletons {
+            skeleton.field = skeletrace_core::scene::SkeletonField::Distance;
+        }
+    }
+    let hits = check_agreement(
+        &mut gpu,
+        "hand-distance",
+        &scene,
+        &[scene.camera],
+        &mut failures,
+    );
+    assert!(hits > SIZE * SIZE / 10, "only {hits} pixels hit");
+    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
 #[test]
 fn editing_one_primitive_re_uploads_only_that_primitive() {
     let mut gpu = GpuRenderer::new()
