@@ -199,16 +199,8 @@ impl Editor {
         }
         let request = self.dialog_request(purpose);
         let dialogs = Arc::clone(&self.file_dialogs);
-        let (send, answer) = mpsc::channel();
-        let repaint = ctx.clone();
-        let spawned = std::thread::Builder::new()
-            .name("file dialog".into())
-            .spawn(move || {
-                let _ = send.send(dialogs.pick(&request));
-                repaint.request_repaint();
-            });
-        match spawned {
-            Ok(_) => self.pending_dialog = Some(PendingDialog { purpose, answer }),
+        match answer_on_thread(ctx, "file dialog", move || dialogs.pick(&request)) {
+            Ok(answer) => self.pending_dialog = Some(PendingDialog { purpose, answer }),
             Err(why) => self.without_dialog(ctx, purpose, &format!("no file dialog thread: {why}")),
         }
     }
@@ -251,16 +243,8 @@ impl Editor {
         what: String,
         write: impl FnOnce() -> Result<String, String> + Send + 'static,
     ) {
-        let (send, done) = mpsc::channel();
-        let repaint = ctx.clone();
-        let spawned = std::thread::Builder::new()
-            .name("file writer".into())
-            .spawn(move || {
-                let _ = send.send(write());
-                repaint.request_repaint();
-            });
-        match spawned {
-            Ok(_) => {
+        match answer_on_thread(ctx, "file writer", write) {
+            Ok(done) => {
                 self.tell(format!("writing {what}…"));
                 self.background_writes.push(BackgroundWrite { what, done });
             }
@@ -559,6 +543,24 @@ impl Editor {
             self.close_prompt = true;
         }
     }
+}
+
+/// Runs `work` on a thread named `name`; its result arrives on the returned channel, and the UI
+/// is woken to take it.
+fn answer_on_thread<T: Send + 'static>(
+    ctx: &egui::Context,
+    name: &str,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> std::io::Result<mpsc::Receiver<T>> {
+    let (send, answer) = mpsc::channel();
+    let repaint = ctx.clone();
+    std::thread::Builder::new()
+        .name(name.to_owned())
+        .spawn(move || {
+            let _ = send.send(work());
+            repaint.request_repaint();
+        })?;
+    Ok(answer)
 }
 
 /// `path` with the purpose's extension when the user typed none.
