@@ -1,6 +1,8 @@
 //! `skeletrace bench`: milliseconds per full frame per method (median of several frames after
 //! a warm-up frame that also compiles the GPU pipelines), on the CPU tracer or the GPU backend,
-//! with the adapter name.
+//! with the adapter name. On the GPU, where the adapter has timestamp queries, also the GPU's own
+//! time for the trace pass and the tile binning: the wall-clock frame holds the readback and
+//! the conversion to frames as well.
 
 use std::time::Instant;
 
@@ -17,6 +19,15 @@ fn median(mut v: Vec<f64>) -> f64 {
     v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
+/// One method's timings.
+struct Row {
+    name: &'static str,
+    /// Median wall-clock milliseconds per frame.
+    frame_ms: f64,
+    /// Median GPU milliseconds of the trace pass and of the binning passes.
+    passes: Option<(f64, f64)>,
+}
+
 /// Runs `bench`.
 ///
 /// # Errors
@@ -27,7 +38,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     let settings = TraceSettings::for_program(&program);
     let frames = args.frames.max(1);
     let chosen = crate::chosen_methods(&args.methods, &program)?;
-    let mut rows: Vec<(&'static str, f64)> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     let device = match args.backend {
         Backend::Cpu => {
             let device = format!("CPU, {} threads", rayon::current_num_threads());
@@ -48,7 +59,11 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                         start.elapsed().as_secs_f64() * 1e3
                     })
                     .collect();
-                rows.push((method.name(), median(times)));
+                rows.push(Row {
+                    name: method.name(),
+                    frame_ms: median(times),
+                    passes: None,
+                });
             }
             device
         }
@@ -84,12 +99,21 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                 };
                 frame(&mut gpu)?;
                 let mut times = Vec::with_capacity(frames);
+                let (mut trace, mut binning) = (Vec::new(), Vec::new());
                 for _ in 0..frames {
                     let start = Instant::now();
                     frame(&mut gpu)?;
                     times.push(start.elapsed().as_secs_f64() * 1e3);
+                    if let Some(passes) = gpu.last_pass_times() {
+                        trace.extend(passes.trace_ms.first().copied());
+                        binning.push(passes.binning_ms);
+                    }
                 }
-                rows.push((m.name(), median(times)));
+                rows.push(Row {
+                    name: m.name(),
+                    frame_ms: median(times),
+                    passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
+                });
             }
             gpu.adapter_name().to_owned()
         }
@@ -97,7 +121,15 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     if args.json {
         let methods: Vec<String> = rows
             .iter()
-            .map(|(name, ms)| format!("{{\"name\": \"{name}\", \"ms_per_frame\": {ms:.3}}}"))
+            .map(|row| {
+                let passes = row.passes.map_or(String::new(), |(trace, binning)| {
+                    format!(", \"gpu_trace_ms\": {trace:.3}, \"gpu_binning_ms\": {binning:.3}")
+                });
+                format!(
+                    "{{\"name\": \"{}\", \"ms_per_frame\": {:.3}{passes}}}",
+                    row.name, row.frame_ms
+                )
+            })
             .collect();
         println!(
             "{{\"scene\": \"{}\", \"device\": \"{}\", \"width\": {width}, \"height\": {height}, \"frames\": {frames}, \"methods\": [{}]}}",
@@ -110,8 +142,11 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             "{}: {width}x{height} on {device}, median of {frames} frames",
             args.scene.display()
         );
-        for (name, ms) in rows {
-            println!("{name:<28} {ms:>10.2} ms/frame");
+        for row in rows {
+            let passes = row.passes.map_or(String::new(), |(trace, binning)| {
+                format!("   (GPU: trace {trace:.3} ms, binning {binning:.3} ms)")
+            });
+            println!("{:<28} {:>10.2} ms/frame{passes}", row.name, row.frame_ms);
         }
     }
     Ok(())

@@ -9,5 +9,5 @@ pub mod buffers;
 pub mod renderer;
 pub mod shaders;
 
-pub use renderer::{GpuRenderer, View};
+pub use renderer::{GpuRenderer, PassTimes, View};
 pub use shaders::GpuMethod;

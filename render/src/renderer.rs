@@ -7,6 +7,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
 use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::render::{Frame, PinholeCamera, far_distance};
 use skeletrace_core::scene::{Camera, Scene};
@@ -90,6 +91,61 @@ pub struct GpuRenderer {
     scene: Option<SceneBuffers>,
     /// Primitive uploads in bytes, for the tests of partial re-upload.
     uploaded_bytes: u64,
+    /// Whether the device writes pass timestamps (`Features::TIMESTAMP_QUERY`).
+    timestamps: bool,
+    /// The GPU's own time for the passes of the last [`GpuRenderer::render`].
+    last_pass_times: Option<PassTimes>,
+    /// Output and readback buffers of the last frame size, reused while the size holds.
+    outputs: Option<OutputBuffers>,
+}
+
+/// Per-pixel outputs of the trace passes and their `MAP_READ` copies.
+struct OutputBuffers {
+    /// Pixels of the side-by-side frame.
+    pixels: u64,
+    /// Written by the trace passes: packed sRGB8 colour, depth, steps.
+    written: [wgpu::Buffer; 3],
+    /// Mapped after each frame.
+    read: [wgpu::Buffer; 3],
+}
+
+impl OutputBuffers {
+    fn new(device: &wgpu::Device, pixels: u64) -> Self {
+        let buffer = |label: &str, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: pixels * 4,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let written = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let read = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        Self {
+            pixels,
+            written: [
+                buffer("colour", written),
+                buffer("depth", written),
+                buffer("steps", written),
+            ],
+            read: [
+                buffer("colour readback", read),
+                buffer("depth readback", read),
+                buffer("steps readback", read),
+            ],
+        }
+    }
+}
+
+/// How long the last frame's passes ran on the GPU, from timestamp queries: the wall-clock
+/// frame time also holds the two submissions' round trips, the readback and the conversion to
+/// [`Frame`]s, which dominate on a fast GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassTimes {
+    /// Counting and filling the tile lists, in milliseconds.
+    pub binning_ms: f64,
+    /// One trace pass per method, in the order asked, in milliseconds.
+    pub trace_ms: Vec<f64>,
 }
 
 fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
@@ -168,8 +224,14 @@ impl GpuRenderer {
         }))
         .map_err(|e| format!("no GPU adapter: {e}"))?;
         let info = adapter.get_info();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("skeletrace"),
+            required_features: if timestamps {
+                wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             required_limits: adapter.limits(),
             ..Default::default()
         }))
@@ -202,6 +264,9 @@ impl GpuRenderer {
             trace_pipelines: HashMap::new(),
             scene: None,
             uploaded_bytes: 0,
+            timestamps,
+            last_pass_times: None,
+            outputs: None,
         };
         renderer.check()?;
         Ok(renderer)
@@ -211,6 +276,13 @@ impl GpuRenderer {
     #[must_use]
     pub fn adapter_name(&self) -> &str {
         &self.adapter
+    }
+
+    /// The GPU's own time for the passes of the last frame; `None` where the adapter has no
+    /// timestamp queries, or before the first frame.
+    #[must_use]
+    pub fn last_pass_times(&self) -> Option<&PassTimes> {
+        self.last_pass_times.as_ref()
     }
 
     /// Bytes of primitive data uploaded so far.
@@ -356,6 +428,24 @@ impl GpuRenderer {
         let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
         let tiles = (tiles_x * tiles_y) as usize;
         let n_prims = scene.packed.primitives.len() as u32;
+        // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each).
+        let passes = 2 + methods.len() as u32;
+        let queries = self.timestamps.then(|| {
+            d.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2 * passes,
+            })
+        });
+        let timed = |pass: u32| {
+            queries
+                .as_ref()
+                .map(|query_set| wgpu::ComputePassTimestampWrites {
+                    query_set,
+                    beginning_of_pass_write_index: Some(2 * pass),
+                    end_of_pass_write_index: Some(2 * pass + 1),
+                })
+        };
 
         // Pass 1: count supports per tile.
         let binning = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -402,7 +492,10 @@ impl GpuRenderer {
         });
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("count tiles"),
+                timestamp_writes: timed(0),
+            });
             pass.set_pipeline(&self.count_pipeline);
             pass.set_bind_group(0, &count_group, &[]);
             pass.dispatch_workgroups(n_prims.div_ceil(64).max(1), 1, 1);
@@ -440,15 +533,11 @@ impl GpuRenderer {
         let panels = methods.len() as u32;
         let out_width = width * panels;
         let pixels = u64::from(out_width) * u64::from(height);
-        let output = |label: &str| {
-            d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: pixels * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
-        let (colour, depth, steps) = (output("colour"), output("depth"), output("steps"));
+        if self.outputs.as_ref().is_none_or(|o| o.pixels != pixels) {
+            self.outputs = Some(OutputBuffers::new(d, pixels));
+        }
+        let outputs = self.outputs.as_ref().ok_or("no output buffers")?;
+        let [colour, depth, steps] = &outputs.written;
         let far = far_distance(program, camera);
         let (heat_max, heat_view, shading) = match view {
             View::Shaded(shading) => (1.0, 0.0, shading),
@@ -459,7 +548,10 @@ impl GpuRenderer {
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
         encoder.clear_buffer(&counts, 0, None);
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("fill tiles"),
+                timestamp_writes: timed(1),
+            });
             pass.set_pipeline(&self.fill_pipeline);
             pass.set_bind_group(0, &fill_group, &[]);
             pass.dispatch_workgroups(n_prims.div_ceil(64).max(1), 1, 1);
@@ -515,58 +607,105 @@ impl GpuRenderer {
                     entry(4, &scene.lights),
                     entry(5, &ranges_buffer),
                     entry(6, &items),
-                    entry(7, &colour),
-                    entry(8, &depth),
-                    entry(9, &steps),
+                    entry(7, colour),
+                    entry(8, depth),
+                    entry(9, steps),
                 ],
             });
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(method.name()),
+                timestamp_writes: timed(2 + panel as u32),
+            });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
         }
-        let readback = |encoder: &mut wgpu::CommandEncoder, source: &wgpu::Buffer| {
+        for (source, target) in outputs.written.iter().zip(&outputs.read) {
+            encoder.copy_buffer_to_buffer(source, 0, target, 0, pixels * 4);
+        }
+        let stamps_read = queries.as_ref().map(|query_set| {
+            let bytes = u64::from(2 * passes) * wgpu::QUERY_SIZE as u64;
+            let resolved = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            encoder.resolve_query_set(query_set, 0..2 * passes, &resolved, 0);
             let target = d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("readback"),
-                size: pixels * 4,
+                label: Some("pass timestamps readback"),
+                size: bytes,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            encoder.copy_buffer_to_buffer(source, 0, &target, 0, pixels * 4);
+            encoder.copy_buffer_to_buffer(&resolved, 0, &target, 0, bytes);
             target
-        };
-        let colour_read = readback(&mut encoder, &colour);
-        let depth_read = readback(&mut encoder, &depth);
-        let steps_read = readback(&mut encoder, &steps);
+        });
         self.queue.submit([encoder.finish()]);
-        let colour: Vec<u32> = read_back(d, &colour_read)?;
-        let depth: Vec<f32> = read_back(d, &depth_read)?;
-        let steps: Vec<u32> = read_back(d, &steps_read)?;
-        self.check()?;
-        let (w, h) = (width as usize, height as usize);
-        Ok((0..methods.len())
-            .map(|panel| {
-                let index = |i: usize| (i / w) * out_width as usize + panel * w + i % w;
-                Frame {
-                    width: w,
-                    height: h,
-                    colour: (0..w * h)
-                        .map(|i| linear_from_packed(colour[index(i)]))
-                        .collect(),
-                    depth: (0..w * h)
-                        .map(|i| {
-                            let v = depth[index(i)];
-                            if v >= 3.0e38 {
-                                f64::INFINITY
-                            } else {
-                                f64::from(v)
+        if let Err(e) = map_for_reading(d, &outputs.read.iter().collect::<Vec<_>>()) {
+            for buffer in &outputs.read {
+                buffer.unmap();
+            }
+            return Err(e);
+        }
+        let views = outputs
+            .read
+            .iter()
+            .map(|b| b.slice(..).get_mapped_range())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| format!("GPU readback failed: {e}"));
+        let frames = views.map(|views| {
+            let colour: &[u32] = bytemuck::cast_slice(&views[0]);
+            let depth: &[f32] = bytemuck::cast_slice(&views[1]);
+            let steps: &[u32] = bytemuck::cast_slice(&views[2]);
+            let (w, h) = (width as usize, height as usize);
+            (0..methods.len())
+                .map(|panel| {
+                    let row = |y: usize| (y * out_width as usize + panel * w)..;
+                    let mut frame = Frame {
+                        width: w,
+                        height: h,
+                        colour: vec![[0.0; 3]; w * h],
+                        depth: vec![0.0; w * h],
+                        steps: vec![0; w * h],
+                    };
+                    frame
+                        .colour
+                        .par_chunks_mut(w)
+                        .zip(frame.depth.par_chunks_mut(w))
+                        .zip(frame.steps.par_chunks_mut(w))
+                        .enumerate()
+                        .for_each(|(y, ((c, z), s))| {
+                            let at = row(y);
+                            for (to, &from) in c.iter_mut().zip(&colour[at.clone()]) {
+                                *to = linear_from_packed(from);
                             }
-                        })
-                        .collect(),
-                    steps: (0..w * h).map(|i| steps[index(i)]).collect(),
-                }
-            })
-            .collect())
+                            for (to, &from) in z.iter_mut().zip(&depth[at.clone()]) {
+                                *to = if from >= 3.0e38 {
+                                    f64::INFINITY
+                                } else {
+                                    f64::from(from)
+                                };
+                            }
+                            s.copy_from_slice(&steps[at][..w]);
+                        });
+                    frame
+                })
+                .collect::<Vec<_>>()
+        });
+        for buffer in &outputs.read {
+            buffer.unmap();
+        }
+        let frames = frames?;
+        self.last_pass_times = match &stamps_read {
+            Some(buffer) => Some(pass_times(
+                &read_back::<u64>(d, buffer)?,
+                f64::from(self.queue.get_timestamp_period()),
+            )),
+            None => None,
+        };
+        self.check()?;
+        Ok(frames)
     }
 }
 
@@ -577,20 +716,31 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     }
 }
 
-/// Maps a `MAP_READ` buffer and copies it out.
-fn read_back<T: Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<T>, String> {
-    let slice = buffer.slice(..);
+/// Maps `MAP_READ` buffers, waiting once for the queue.
+fn map_for_reading(device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> Result<(), String> {
     let (sender, receiver) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = sender.send(r);
-    });
+    for buffer in buffers {
+        let sender = sender.clone();
+        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sender.send(r);
+        });
+    }
     device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| format!("GPU poll failed: {e}"))?;
-    receiver
-        .recv()
-        .map_err(|e| e.to_string())?
-        .map_err(|e| format!("GPU readback failed: {e}"))?;
+    for _ in buffers {
+        receiver
+            .recv()
+            .map_err(|e| e.to_string())?
+            .map_err(|e| format!("GPU readback failed: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Maps a `MAP_READ` buffer and copies it out.
+fn read_back<T: Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<T>, String> {
+    map_for_reading(device, &[buffer])?;
+    let slice = buffer.slice(..);
     let view = slice
         .get_mapped_range()
         .map_err(|e| format!("GPU readback failed: {e}"))?;
@@ -600,15 +750,32 @@ fn read_back<T: Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec
     Ok(data)
 }
 
-/// sRGB8 packed colour to linear RGB (the inverse of the shader's encoding).
-fn linear_from_packed(c: u32) -> [f32; 3] {
-    let channel = |shift: u32| {
-        let s = ((c >> shift) & 0xff) as f32 / 255.0;
-        if s <= 0.04045 {
-            s / 12.92
-        } else {
-            ((s + 0.055) / 1.055).powf(2.4)
-        }
+/// Pass durations from `[begin, end]` timestamp pairs (count, fill, then one per trace pass) in
+/// ticks of `period_ns` nanoseconds.
+fn pass_times(stamps: &[u64], period_ns: f64) -> PassTimes {
+    let ms = |pass: usize| {
+        let (begin, end) = (stamps[2 * pass], stamps[2 * pass + 1]);
+        end.saturating_sub(begin) as f64 * period_ns * 1e-6
     };
+    PassTimes {
+        binning_ms: ms(0) + ms(1),
+        trace_ms: (2..stamps.len() / 2).map(ms).collect(),
+    }
+}
+
+/// sRGB8 packed colour to linear RGB (the inverse of the shader's encoding), through a table
+/// of the 256 channel values: a 2048² frame has 12 million channels.
+fn linear_from_packed(c: u32) -> [f32; 3] {
+    static LINEAR: std::sync::LazyLock<[f32; 256]> = std::sync::LazyLock::new(|| {
+        std::array::from_fn(|i| {
+            let s = i as f32 / 255.0;
+            if s <= 0.04045 {
+                s / 12.92
+            } else {
+                ((s + 0.055) / 1.055).powf(2.4)
+            }
+        })
+    });
+    let channel = |shift: u32| LINEAR[((c >> shift) & 0xff) as usize];
     [channel(0), channel(8), channel(16)]
 }
