@@ -74,10 +74,12 @@ fn tile_rect(i: u32) -> vec4<i32> {
         min(i32(floor(py1 / ts)), i32(binning.tiles.y) - 1));
 }
 
-// Both passes share the work of a workgroup's 64 primitives out evenly: the rectangles' areas are
-// prefix-summed in workgroup memory, and the 64 threads stride over all of the workgroup's
-// (primitive, tile) pairs. One thread per primitive would leave a primitive covering much of the
-// screen to a single thread: at 2048² (262 144 tiles) that was tens of milliseconds.
+// Both passes share out the work of each 64 primitives evenly: the rectangles' areas are
+// prefix-summed in workgroup memory, and the threads of `num_workgroups.y` workgroups (slices)
+// stride over all of those primitives' (primitive, tile) pairs. One thread per primitive would
+// leave a primitive covering much of the screen to a single thread: at 2048² (262 144 tiles)
+// that took tens of milliseconds on an H100, and one workgroup per 64 primitives still 45 ms
+// for a scene of a few dozen primitives.
 const GROUP: u32 = 64u;
 var<workgroup> group_rects: array<vec4<i32>, GROUP>;
 // Inclusive prefix sum of the rectangles' areas in tiles.
@@ -132,15 +134,18 @@ fn pair(k: u32) -> vec2<u32> {
 fn count_tiles(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) slices: vec3<u32>,
 ) {
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
     if i < binning.tiles.w {
         rect = tile_rect(i);
-        rects[i] = rect;
+        if id.y == 0u {
+            rects[i] = rect;
+        }
     }
     let total = share_rects(lid, rect);
-    for (var k = lid; k < total; k += GROUP) {
+    for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         atomicAdd(&tile_counts[pair(k).y], 1u);
     }
 }
@@ -150,6 +155,7 @@ fn count_tiles(
 fn fill_tiles(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) slices: vec3<u32>,
 ) {
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
@@ -158,7 +164,7 @@ fn fill_tiles(
     }
     let total = share_rects(lid, rect);
     let first = id.x - lid;
-    for (var k = lid; k < total; k += GROUP) {
+    for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
         let slot = atomicAdd(&tile_counts[p.y], 1u);
         let range = tile_ranges[p.y];

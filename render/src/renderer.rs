@@ -95,6 +95,9 @@ pub struct GpuRenderer {
     timestamps: bool,
     /// The GPU's own time for the passes of the last [`GpuRenderer::render`].
     last_pass_times: Option<PassTimes>,
+    /// Workgroups the binning passes aim for in all: enough to fill a GPU; few on a CPU
+    /// adapter, where each workgroup's shared prefix sum costs real time.
+    binning_workgroups: u32,
     /// Output and readback buffers of the last frame size, reused while the size holds.
     outputs: Option<OutputBuffers>,
 }
@@ -266,6 +269,11 @@ impl GpuRenderer {
             uploaded_bytes: 0,
             timestamps,
             last_pass_times: None,
+            binning_workgroups: if info.device_type == wgpu::DeviceType::Cpu {
+                64
+            } else {
+                4096
+            },
             outputs: None,
         };
         renderer.check()?;
@@ -428,6 +436,10 @@ impl GpuRenderer {
         let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
         let tiles = (tiles_x * tiles_y) as usize;
         let n_prims = scene.packed.primitives.len() as u32;
+        // Binning workgroups: one column per 64 primitives, as many slices of each column's
+        // (primitive, tile) pairs as fill `binning_workgroups` (binning.wgsl).
+        let columns = n_prims.div_ceil(64).max(1);
+        let slices = (self.binning_workgroups / columns).clamp(1, tiles as u32);
         // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each).
         let passes = 2 + methods.len() as u32;
         let queries = self.timestamps.then(|| {
@@ -498,7 +510,7 @@ impl GpuRenderer {
             });
             pass.set_pipeline(&self.count_pipeline);
             pass.set_bind_group(0, &count_group, &[]);
-            pass.dispatch_workgroups(n_prims.div_ceil(64).max(1), 1, 1);
+            pass.dispatch_workgroups(columns, slices, 1);
         }
         encoder.copy_buffer_to_buffer(&counts, 0, &counts_read, 0, (tiles * 4) as u64);
         self.queue.submit([encoder.finish()]);
@@ -554,7 +566,7 @@ impl GpuRenderer {
             });
             pass.set_pipeline(&self.fill_pipeline);
             pass.set_bind_group(0, &fill_group, &[]);
-            pass.dispatch_workgroups(n_prims.div_ceil(64).max(1), 1, 1);
+            pass.dispatch_workgroups(columns, slices, 1);
         }
         for (panel, method) in methods.iter().enumerate() {
             let globals = GpuGlobals {
