@@ -791,3 +791,20 @@ fn linear_from_packed(c: u32) -> [f32; 3] {
     let channel = |shift: u32| LINEAR[((c >> shift) & 0xff) as usize];
     [channel(0), channel(8), channel(16)]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pass_times_pair_the_timestamps_count_fill_then_one_per_method() {
+        // Ticks of 2 ns: count 0→5, fill 5→15, two trace passes 20→520 and 600→1600.
+        let times = pass_times(&[0, 5, 5, 15, 20, 520, 600, 1600], 2.0);
+        assert!((times.binning_ms - 30e-6).abs() < 1e-12, "{times:?}");
+        assert_eq!(times.trace_ms.len(), 2);
+        assert!((times.trace_ms[0] - 1e-3).abs() < 1e-12, "{times:?}");
+        assert!((times.trace_ms[1] - 2e-3).abs() < 1e-12, "{times:?}");
+        // A timestamp that went backwards (some drivers reset the counter) reads as 0.
+        assert_eq!(pass_times(&[0, 0, 0, 0, 9, 3], 1.0).trace_ms, vec![0.0]);
+    }
+}

@@ -115,6 +115,31 @@ fn compare(cpu: &Frame, gpu: &Frame) -> Agreement {
 /// Renders `scene` with every GPU method that applies on each camera and compares each frame
 /// with the CPU tracer's; the pairs that miss the thresholds (module docs) or [`FLOOR`] go to
 /// `failures`. Returns the most pixels the CPU tracer hit in one frame.
+/// The last frame's GPU pass times, which `bench` reports: one trace time per method, all
+/// finite; lavapipe has timestamp queries, so there they must be reported.
+fn check_pass_times(gpu: &GpuRenderer, label: &str, methods: usize) {
+    let Some(times) = gpu.last_pass_times() else {
+        assert!(
+            !gpu.adapter_name().contains("llvmpipe"),
+            "{label}: lavapipe has timestamp queries, but no pass times were reported"
+        );
+        return;
+    };
+    assert_eq!(times.trace_ms.len(), methods, "{label}: {times:?}");
+    assert!(
+        times
+            .trace_ms
+            .iter()
+            .chain([&times.binning_ms])
+            .all(|ms| ms.is_finite() && *ms >= 0.0),
+        "{label}: {times:?}"
+    );
+    assert!(
+        times.trace_ms.iter().all(|&ms| ms > 0.0),
+        "{label}: a trace pass took no time: {times:?}"
+    );
+}
+
 fn check_agreement(
     gpu: &mut GpuRenderer,
     label: &str,
@@ -145,6 +170,7 @@ fn check_agreement(
                 View::Shaded(skeletrace_core::shading::FieldShading::default()),
             )
             .unwrap_or_else(|e| panic!("{label}: {e}"));
+        check_pass_times(gpu, label, gpu_methods.len());
         for (method, gpu_frame) in gpu_methods.iter().zip(&frames) {
             let cpu_method = methods::by_name(method.name()).unwrap_or_else(|e| panic!("{e}"));
             let tracer = cpu_method.prepare(&program, settings);
