@@ -1,5 +1,6 @@
 //! `skeletrace bench`: milliseconds per full frame per method (median of several frames after
-//! a warm-up frame that also compiles the GPU pipelines), on the CPU tracer or the GPU backend,
+//! a warm-up that also compiles the GPU pipelines and lasts at least [`WARM_UP`], so that a GPU
+//! has left its idle clock), on the CPU tracer or the GPU backend,
 //! with the adapter name. On the GPU, where the adapter has timestamp queries, also the GPU's own
 //! time for the trace pass and the tile binning: the wall-clock frame holds the readback and
 //! the conversion to frames as well.
@@ -13,6 +14,21 @@ use skeletrace_render::{GpuMethod, GpuRenderer, View};
 
 use crate::cli::{Backend, BenchArgs};
 use crate::render_cmd::parse_size;
+
+/// Shortest warm-up per method. An idle H100 runs at 345 MHz and reaches its 1 980 MHz within
+/// a few dozen frames: after one warm-up frame, the median of 7 frames of the tree read 3.9 ms
+/// where 40 frames read 2.0 ms.
+const WARM_UP: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// Renders untimed frames until [`WARM_UP`] has passed (at least one).
+fn warm_up<E>(mut frame: impl FnMut() -> Result<(), E>) -> Result<(), E> {
+    let start = Instant::now();
+    frame()?;
+    while start.elapsed() < WARM_UP {
+        frame()?;
+    }
+    Ok(())
+}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -51,7 +67,10 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             for method in &chosen {
                 let tracer = method.prepare(&program, settings);
                 let renderer = Renderer::new(scene, &program, tracer.as_ref(), settings);
-                let _ = renderer.render(&scene.camera, options);
+                warm_up(|| {
+                    let _ = renderer.render(&scene.camera, options);
+                    Ok::<(), String>(())
+                })?;
                 let times = (0..frames)
                     .map(|_| {
                         let start = Instant::now();
@@ -97,7 +116,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                         View::Shaded(skeletrace_core::shading::FieldShading::default()),
                     )
                 };
-                frame(&mut gpu)?;
+                warm_up(|| frame(&mut gpu).map(drop))?;
                 let mut times = Vec::with_capacity(frames);
                 let (mut trace, mut binning) = (Vec::new(), Vec::new());
                 for _ in 0..frames {

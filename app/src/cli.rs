@@ -64,7 +64,7 @@ pub struct BenchArgs {
     /// `all` (every method the backend runs on this scene) or a comma-separated list.
     #[arg(long, default_value = "all")]
     pub methods: String,
-    /// Timed frames per method (after one untimed warm-up frame).
+    /// Timed frames per method (after untimed warm-up frames for at least 0.5 s).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
     /// Print JSON instead of a table.
