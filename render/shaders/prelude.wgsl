@@ -30,6 +30,21 @@ struct Primitive {
     bound: vec4<f32>,  // bounding sphere of the support; w < 0: unbounded
 };
 
+// A segment's sphere-cone (segment.rs, scalis.rs), unpacked from its `Primitive`: the start
+// (smaller radius) end, the unit axis, the length, the radius at the start and its growth per
+// unit length.
+struct Cone {
+    start: vec3<f32>,
+    axis: vec3<f32>,
+    length: f32,
+    radius: f32,
+    slope: f32,
+};
+
+fn cone_of(prim: Primitive) -> Cone {
+    return Cone(prim.a.xyz, prim.b.xyz, prim.b.w, prim.a.w, prim.c.y);
+}
+
 // Twin of `GpuKernel`. family: 0 compact (1 − x/σ²)^m, 1 Cauchy (1 + x/σ²)^(−n), 2 Gaussian.
 struct Kernel {
     family: u32,
@@ -149,18 +164,17 @@ fn primitive_value_gradient(i: u32, p: vec3<f32>) -> vec4<f32> {
 
 // Homothetic-distance segment (segment.rs): closest homothetic point and the envelope gradient.
 fn distance_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
-    let w = p - prim.a.xyz;
-    let axis = prim.b.xyz;
-    let a = dot(w, axis);
+    let cone = cone_of(prim);
+    let w = p - cone.start;
+    let a = dot(w, cone.axis);
     let b2 = max(dot(w, w) - a * a, 0.0);
-    let slope = prim.c.y;
-    let y = prim.a.w + slope * a;
-    var s = prim.b.w;
+    let y = cone.radius + cone.slope * a;
+    var s = cone.length;
     if y > 0.0 {
-        s = clamp(a + slope * b2 / y, 0.0, prim.b.w);
+        s = clamp(a + cone.slope * b2 / y, 0.0, cone.length);
     }
-    let q = prim.a.xyz + s * axis;
-    let tau = prim.a.w + slope * s;
+    let q = cone.start + s * cone.axis;
+    let tau = cone.radius + cone.slope * s;
     let d = p - q;
     let inv_t2 = 1.0 / (tau * tau);
     let v = kernel_d1(k, dot(d, d) * inv_t2);
@@ -175,42 +189,38 @@ const GL_WEIGHTS: array<f32, 6> = array<f32, 6>(0.2491470458134028, 0.2334925365
 // contains p, in u = ln τ (or arc length when the radius barely varies), in panels for clipped
 // kernels.
 fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
-    let start = prim.a.xyz;
-    let axis = prim.b.xyz;
-    let r0 = prim.a.w;
-    let slope = prim.c.y;
-    let len = prim.b.w;
+    let cone = cone_of(prim);
     let inv_r2 = 1.0 / k.support_sq;
-    let w = p - start;
-    let qa = inv_r2 - slope * slope;
-    let qb = dot(w, axis) * inv_r2 + r0 * slope;
-    let qc = dot(w, w) * inv_r2 - r0 * r0;
+    let w = p - cone.start;
+    let qa = inv_r2 - cone.slope * cone.slope;
+    let qb = dot(w, cone.axis) * inv_r2 + cone.radius * cone.slope;
+    let qc = dot(w, w) * inv_r2 - cone.radius * cone.radius;
     let disc = qb * qb - qa * qc;
     if disc < 0.0 {
         return vec4<f32>(0.0);
     }
     let big = qb + sqrt(disc);
-    if big <= 0.0 || len * big < qc {
+    if big <= 0.0 || cone.length * big < qc {
         return vec4<f32>(0.0);
     }
     let l1 = max(qc / big, 0.0);
-    let l2 = min(big / qa, len);
+    let l2 = min(big / qa, cone.length);
     if l1 >= l2 {
         return vec4<f32>(0.0);
     }
-    let tau1 = r0 + slope * l1;
+    let tau1 = cone.radius + cone.slope * l1;
     var panels = 1u;
     if k.clip > 0.0 {
         panels = u32(clamp(ceil((l2 - l1) / (2.0 * tau1)), 1.0, 16.0));
     }
     var sum = 0.0;
     var grad = vec3<f32>(0.0);
-    let arc = slope * (l2 - l1) < 0.05;
+    let arc = cone.slope * (l2 - l1) < 0.05;
     var lo = l1;
     var hi = l2;
     if !arc {
         lo = log(tau1);
-        hi = log(r0 + slope * l2);
+        hi = log(cone.radius + cone.slope * l2);
     }
     let h = (hi - lo) / f32(panels);
     for (var panel = 0u; panel < panels; panel++) {
@@ -226,14 +236,14 @@ fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
             var measure: f32;
             if arc {
                 s = mid + 0.5 * h * xi;
-                tau = r0 + slope * s;
+                tau = cone.radius + cone.slope * s;
                 measure = 0.5 * h * wi / tau;
             } else {
                 tau = exp(mid + 0.5 * h * xi);
-                s = (tau - r0) / slope;
-                measure = 0.5 * h * wi / slope;
+                s = (tau - cone.radius) / cone.slope;
+                measure = 0.5 * h * wi / cone.slope;
             }
-            let offset = p - (start + s * axis);
+            let offset = p - (cone.start + s * cone.axis);
             let kv = kernel_d1(k, dot(offset, offset) / (tau * tau));
             sum += kv.x * measure;
             grad += (2.0 * kv.y * measure / (tau * tau)) * offset;
@@ -281,17 +291,15 @@ fn quadratic_roots(a: f32, b: f32, c: f32) -> vec2<f32> {
 
 // Exact interval of the ray inside a sphere-cone scaled by `scale` (SphereCone::ray_interval).
 fn cone_interval(ray: Ray, prim: Primitive, scale: f32) -> vec2<f32> {
-    let start = prim.a.xyz;
-    let axis = prim.b.xyz;
-    let len = prim.b.w;
-    let r0 = prim.a.w * scale;
-    let d = prim.c.y * scale;
-    var hull = ball_interval(ray, start, r0);
-    let e1 = ball_interval(ray, start + len * axis, r0 + d * len);
+    let cone = cone_of(prim);
+    let r0 = cone.radius * scale;
+    let d = cone.slope * scale;
+    var hull = ball_interval(ray, cone.start, r0);
+    let e1 = ball_interval(ray, cone.start + cone.length * cone.axis, r0 + d * cone.length);
     hull = vec2<f32>(min(hull.x, e1.x), max(hull.y, e1.y));
-    let w0 = ray.origin - start;
-    let a0 = dot(w0, axis);
-    let a1 = dot(ray.dir, axis);
+    let w0 = ray.origin - cone.start;
+    let a0 = dot(w0, cone.axis);
+    let a1 = dot(ray.dir, cone.axis);
     let b0 = dot(w0, w0) - a0 * a0;
     let b1 = 2.0 * (dot(w0, ray.dir) - a0 * a1);
     let b2 = 1.0 - a1 * a1;
@@ -303,7 +311,7 @@ fn cone_interval(ray: Ray, prim: Primitive, scale: f32) -> vec2<f32> {
             let t = select(roots.y, roots.x, i == 0);
             let a = a0 + a1 * t;
             let s = (a + d * r0) / e;
-            if r0 + d * a > 0.0 && s >= 0.0 && s <= len {
+            if r0 + d * a > 0.0 && s >= 0.0 && s <= cone.length {
                 hull = vec2<f32>(min(hull.x, t), max(hull.y, t));
             }
         }

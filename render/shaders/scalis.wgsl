@@ -59,33 +59,33 @@ fn flip(h: Hermite, sign: f32) -> Hermite {
 // Ray parameter of the minimum of the homothetic distance of segment i to the ray (eq. 16–19).
 fn homothetic_argmin(ray: Ray, i: u32) -> f32 {
     let prim = primitives[i];
-    let m = prim.a.xyz - ray.origin;
+    let cone = cone_of(prim);
+    let m = cone.start - ray.origin;
     let m_p = m - dot(m, ray.dir) * ray.dir;
-    let u_p = prim.b.xyz - dot(prim.b.xyz, ray.dir) * ray.dir;
+    let u_p = cone.axis - dot(cone.axis, ray.dir) * ray.dir;
     let a = dot(m_p, m_p);
     let b = dot(m_p, u_p);
     let c = dot(u_p, u_p);
-    let tau0 = prim.a.w;
-    let delta = prim.c.y;
-    let len = prim.b.w;
     var best_s = 0.0;
-    var best = a / (tau0 * tau0);
-    let at_end = (a + len * (2.0 * b + c * len)) / pow(tau0 + delta * len, 2.0);
+    var best = a / (cone.radius * cone.radius);
+    let tau_end = cone.radius + cone.slope * cone.length;
+    let at_end = (a + cone.length * (2.0 * b + c * cone.length)) / (tau_end * tau_end);
     if at_end < best {
         best = at_end;
-        best_s = len;
+        best_s = cone.length;
     }
-    let den = c * tau0 - delta * b;
+    let den = c * cone.radius - cone.slope * b;
     if abs(den) > 0.0 {
-        let s = (delta * a - b * tau0) / den;
-        if s >= 0.0 && s <= len {
-            let r = (a + s * (2.0 * b + c * s)) / pow(tau0 + delta * s, 2.0);
+        let s = (cone.slope * a - b * cone.radius) / den;
+        if s >= 0.0 && s <= cone.length {
+            let tau = cone.radius + cone.slope * s;
+            let r = (a + s * (2.0 * b + c * s)) / (tau * tau);
             if r < best {
                 best_s = s;
             }
         }
     }
-    return dot(prim.a.xyz + best_s * prim.b.xyz - ray.origin, ray.dir);
+    return dot(cone.start + best_s * cone.axis - ray.origin, ray.dir);
 }
 
 // First root in [0, 1] of the rational quadratic Bézier (p, weight w) and its abscissa; −INF if none.

@@ -221,26 +221,22 @@ const MAX_BOUND_PIECES: f32 = 24.0;
 // integrand's value and derivatives.
 fn scalis_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     let prim = primitives[i];
+    let cone = cone_of(prim);
     let k = kernels[prim.group];
-    let start = prim.a.xyz;
-    let axis = prim.b.xyz;
-    let r0 = prim.a.w;
-    let len = prim.b.w;
-    let slope = prim.c.y;
     let ray_a = ray.origin + lo * ray.dir;
     let ray_b = ray.origin + hi * ray.dir;
-    let pieces = u32(clamp(ceil(2.0 * len / r0), 2.0, MAX_BOUND_PIECES));
-    let ds = len / f32(pieces);
-    let w_origin = dot(ray.dir, ray.origin - start);
-    let uv = dot(ray.dir, axis);
+    let pieces = u32(clamp(ceil(2.0 * cone.length / cone.radius), 2.0, MAX_BOUND_PIECES));
+    let ds = cone.length / f32(pieces);
+    let w_origin = dot(ray.dir, ray.origin - cone.start);
+    let uv = dot(ray.dir, cone.axis);
     var jet = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     for (var piece = 0u; piece < pieces; piece++) {
         let sa = f32(piece) * ds;
         let sb = f32(piece + 1u) * ds;
-        let qa = start + sa * axis;
-        let qb = start + sb * axis;
-        let tau_a = r0 + slope * sa;
-        let tau_b = r0 + slope * sb;
+        let qa = cone.start + sa * cone.axis;
+        let qb = cone.start + sb * cone.axis;
+        let tau_a = cone.radius + cone.slope * sa;
+        let tau_b = cone.radius + cone.slope * sb;
         let d_min = segment_segment_distance_sq(ray_a, ray_b, qa, qb);
         let corners = vec4<f32>(dot(ray_a - qa, ray_a - qa), dot(ray_a - qb, ray_a - qb),
                                 dot(ray_b - qa, ray_b - qa), dot(ray_b - qb, ray_b - qb));
@@ -351,51 +347,53 @@ fn jet_compose(k: Kernel, x: Jet) -> Jet {
     return Jet(kr.value, i_mul(kr.d1, x.d1), d2);
 }
 
+// The jet of |ray(t) − centre|² / radius² over [lo, hi]: a distance segment's squared
+// homothetic distance where the closest point is an end cap (segment.rs `cap`).
+fn cap_jet(ray: Ray, centre: vec3<f32>, radius: f32, lo: f32, hi: f32) -> Jet {
+    let wc = ray.origin - centre;
+    let x = jet_quadratic(1.0, 2.0 * dot(wc, ray.dir), dot(wc, wc), lo, hi);
+    return jet_scale(x, 1.0 / (radius * radius));
+}
+
 // The jet of distance segment i over [lo, hi] (segment.rs ray_jet): the squared homothetic
 // distance x is the hull of the formulas that can hold on the interval — either end cap, the
 // side of the cone — as jets of t, composed with the kernel.
 fn distance_segment_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     let prim = primitives[i];
+    let cone = cone_of(prim);
     let k = kernels[prim.group];
-    let start = prim.a.xyz;
-    let axis = prim.b.xyz;
-    let r0 = prim.a.w;
-    let len = prim.b.w;
-    let d = prim.c.y;
     let u = ray.dir;
-    let w0 = ray.origin - start;
-    let a0 = dot(w0, axis);
-    let a1 = dot(u, axis);
+    let w0 = ray.origin - cone.start;
+    let a0 = dot(w0, cone.axis);
+    let a1 = dot(u, cone.axis);
     let along = jet_affine(a0, a1, lo, hi);
     let lateral = max(dot(w0, w0) - a0 * a0, 0.0);
     let b2 = jet_quadratic(1.0 - a1 * a1, 2.0 * (dot(w0, u) - a0 * a1), lateral, lo, hi);
-    let y0 = r0 + d * a0;
-    let y1 = d * a1;
+    let y0 = cone.radius + cone.slope * a0;
+    let y1 = cone.slope * a1;
     let y = jet_affine(y0, y1, lo, hi);
     var s_star = along;
-    if d > 0.0 {
-        s_star = jet_add(along, jet_scale(jet_div(b2, y), d));
+    if cone.slope > 0.0 {
+        s_star = jet_add(along, jet_scale(jet_div(b2, y), cone.slope));
     }
     let s_range = s_star.value;
     let y_may_vanish = y.value.x <= 0.0;
     var x = Jet(ENTIRE, ENTIRE, ENTIRE);
     var any = false;
     if s_range.x <= 0.0 && !y_may_vanish {
-        let wc = ray.origin - start;
-        x = jet_scale(jet_quadratic(1.0, 2.0 * dot(wc, u), dot(wc, wc), lo, hi), 1.0 / (r0 * r0));
+        x = cap_jet(ray, cone.start, cone.radius, lo, hi);
         any = true;
     }
-    if s_range.y >= len || y_may_vanish {
-        let r1 = r0 + d * len;
-        let wc = ray.origin - (start + len * axis);
-        let cap = jet_scale(jet_quadratic(1.0, 2.0 * dot(wc, u), dot(wc, wc), lo, hi), 1.0 / (r1 * r1));
-        x = hull_or(x, any, cap);
+    if s_range.y >= cone.length || y_may_vanish {
+        let end = cone.start + cone.length * cone.axis;
+        x = hull_or(x, any, cap_jet(ray, end, cone.radius + cone.slope * cone.length, lo, hi));
         any = true;
     }
-    if (s_range.y > 0.0 && s_range.x < len) || y_may_vanish {
-        let denominator = jet_quadratic(y1 * y1 + d * d * (1.0 - a1 * a1),
-                                        2.0 * y0 * y1 + d * d * 2.0 * (dot(w0, u) - a0 * a1),
-                                        y0 * y0 + d * d * lateral, lo, hi);
+    if (s_range.y > 0.0 && s_range.x < cone.length) || y_may_vanish {
+        let d2 = cone.slope * cone.slope;
+        let denominator = jet_quadratic(y1 * y1 + d2 * (1.0 - a1 * a1),
+                                        2.0 * y0 * y1 + d2 * 2.0 * (dot(w0, u) - a0 * a1),
+                                        y0 * y0 + d2 * lateral, lo, hi);
         let side = jet_div(b2, denominator);
         x = hull_or(x, any, side);
     }
