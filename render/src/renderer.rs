@@ -1,7 +1,8 @@
 //! Headless GPU rendering: device set-up, scene upload (re-uploading only what changed), tile
 //! binning, one trace pass per method into one side-by-side frame, readback into core
-//! [`Frame`]s. wgpu errors and a lost device are reported as `Err`, never as a panic; callers
-//! fall back to the CPU tracer.
+//! [`Frame`]s (through output buffers kept while the frame size holds), and each pass's GPU
+//! time from timestamp queries where the adapter has them ([`PassTimes`]). wgpu errors and a
+//! lost device are reported as `Err`, never as a panic; callers fall back to the CPU tracer.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
