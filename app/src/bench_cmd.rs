@@ -1,9 +1,9 @@
 //! `skeletrace bench`: milliseconds per full frame per method (median of several frames after
 //! a warm-up that also compiles the GPU pipelines and lasts at least [`WARM_UP`], so that a GPU
-//! has left its idle clock), on the CPU tracer or the GPU backend,
-//! with the adapter name. On the GPU, where the adapter has timestamp queries, also the GPU's own
-//! time for the trace pass and the tile binning: the wall-clock frame holds the readback and
-//! the conversion to frames as well.
+//! has left its idle clock), on the CPU tracer or the GPU backend, with the adapter name. On the
+//! GPU, where the adapter has timestamp queries, also the GPU's own time for the trace pass and
+//! the tile binning: the wall-clock frame holds the readback and the conversion to frames as
+//! well.
 
 use std::time::Instant;
 

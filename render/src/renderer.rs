@@ -655,68 +655,31 @@ impl GpuRenderer {
             target
         });
         self.queue.submit([encoder.finish()]);
-        if let Err(e) = map_for_reading(d, &outputs.read.iter().collect::<Vec<_>>()) {
-            for buffer in &outputs.read {
-                buffer.unmap();
-            }
-            return Err(e);
-        }
-        let views = outputs
-            .read
-            .iter()
-            .map(|b| b.slice(..).get_mapped_range())
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| format!("GPU readback failed: {e}"));
-        let frames = views.map(|views| {
-            let colour: &[u32] = bytemuck::cast_slice(&views[0]);
-            let depth: &[f32] = bytemuck::cast_slice(&views[1]);
-            let steps: &[u32] = bytemuck::cast_slice(&views[2]);
-            let (w, h) = (width as usize, height as usize);
-            (0..methods.len())
-                .map(|panel| {
-                    let row = |y: usize| (y * out_width as usize + panel * w)..;
-                    let mut frame = Frame {
-                        width: w,
-                        height: h,
-                        colour: vec![[0.0; 3]; w * h],
-                        depth: vec![0.0; w * h],
-                        steps: vec![0; w * h],
-                    };
-                    frame
-                        .colour
-                        .par_chunks_mut(w)
-                        .zip(frame.depth.par_chunks_mut(w))
-                        .zip(frame.steps.par_chunks_mut(w))
-                        .enumerate()
-                        .for_each(|(y, ((c, z), s))| {
-                            let at = row(y);
-                            for (to, &from) in c.iter_mut().zip(&colour[at.clone()]) {
-                                *to = linear_from_packed(from);
-                            }
-                            for (to, &from) in z.iter_mut().zip(&depth[at.clone()]) {
-                                *to = if from >= 3.0e38 {
-                                    f64::INFINITY
-                                } else {
-                                    f64::from(from)
-                                };
-                            }
-                            s.copy_from_slice(&steps[at][..w]);
-                        });
-                    frame
-                })
-                .collect::<Vec<_>>()
-        });
+        // Mapped, then unmapped on every path, the failing ones included.
+        let frames = map_for_reading(d, &outputs.read.iter().collect::<Vec<_>>())
+            .and_then(|()| {
+                outputs
+                    .read
+                    .iter()
+                    .map(|b| b.slice(..).get_mapped_range())
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|e| format!("GPU readback failed: {e}"))
+            })
+            .map(|views| {
+                split_panels(
+                    [&views[0], &views[1], &views[2]],
+                    (width as usize, height as usize),
+                    methods.len(),
+                )
+            });
         for buffer in &outputs.read {
             buffer.unmap();
         }
         let frames = frames?;
-        self.last_pass_times = match &stamps_read {
-            Some(buffer) => Some(pass_times(
-                &read_back::<u64>(d, buffer)?,
-                f64::from(self.queue.get_timestamp_period()),
-            )),
-            None => None,
-        };
+        let period_ns = f64::from(self.queue.get_timestamp_period());
+        self.last_pass_times = stamps_read
+            .map(|buffer| read_back::<u64>(d, &buffer).map(|t| pass_times(&t, period_ns)))
+            .transpose()?;
         self.check()?;
         Ok(frames)
     }
@@ -761,6 +724,47 @@ fn read_back<T: Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec
     drop(view);
     buffer.unmap();
     Ok(data)
+}
+
+/// Splits the mapped side-by-side outputs (packed sRGB8 colour, depth, steps; `panels` frames
+/// of `width × height` in a row) into one [`Frame`] per panel, a row at a time in parallel.
+fn split_panels(mapped: [&[u8]; 3], (w, h): (usize, usize), panels: usize) -> Vec<Frame> {
+    let colour: &[u32] = bytemuck::cast_slice(mapped[0]);
+    let depth: &[f32] = bytemuck::cast_slice(mapped[1]);
+    let steps: &[u32] = bytemuck::cast_slice(mapped[2]);
+    (0..panels)
+        .map(|panel| {
+            let row = |y: usize| (y * panels + panel) * w..;
+            let mut frame = Frame {
+                width: w,
+                height: h,
+                colour: vec![[0.0; 3]; w * h],
+                depth: vec![0.0; w * h],
+                steps: vec![0; w * h],
+            };
+            frame
+                .colour
+                .par_chunks_mut(w)
+                .zip(frame.depth.par_chunks_mut(w))
+                .zip(frame.steps.par_chunks_mut(w))
+                .enumerate()
+                .for_each(|(y, ((c, z), s))| {
+                    let at = row(y);
+                    for (to, &from) in c.iter_mut().zip(&colour[at.clone()]) {
+                        *to = linear_from_packed(from);
+                    }
+                    for (to, &from) in z.iter_mut().zip(&depth[at.clone()]) {
+                        *to = if from >= 3.0e38 {
+                            f64::INFINITY
+                        } else {
+                            f64::from(from)
+                        };
+                    }
+                    s.copy_from_slice(&steps[at][..w]);
+                });
+            frame
+        })
+        .collect()
 }
 
 /// Pass durations from `[begin, end]` timestamp pairs (count, fill, then one per trace pass) in

@@ -112,9 +112,6 @@ fn compare(cpu: &Frame, gpu: &Frame) -> Agreement {
     }
 }
 
-/// Renders `scene` with every GPU method that applies on each camera and compares each frame
-/// with the CPU tracer's; the pairs that miss the thresholds (module docs) or [`FLOOR`] go to
-/// `failures`. Returns the most pixels the CPU tracer hit in one frame.
 /// The last frame's GPU pass times, which `bench` reports: one trace time per method, all
 /// finite; lavapipe has timestamp queries, so there they must be reported.
 fn check_pass_times(gpu: &GpuRenderer, label: &str, methods: usize) {
@@ -140,6 +137,9 @@ fn check_pass_times(gpu: &GpuRenderer, label: &str, methods: usize) {
     );
 }
 
+/// Renders `scene` with every GPU method that applies on each camera and compares each frame
+/// with the CPU tracer's; the pairs that miss the thresholds (module docs) or [`FLOOR`] go to
+/// `failures`. Returns the most pixels the CPU tracer hit in one frame.
 fn check_agreement(
     gpu: &mut GpuRenderer,
     label: &str,
