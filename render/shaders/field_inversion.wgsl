@@ -2,7 +2,8 @@
 // D = ρ(σ√(−ln F) − 1), steps of 1.2·D, hit when D < 0.0125ρ or inside, 32 steps per part.
 // globals.method: (unused, σ, smallest radius ρ, N0).
 
-fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
+// Traced in one dispatch: never suspends (`resume` is unused; parts.wgsl).
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     let c = globals.up.w;
     let sigma = globals.method.y;

@@ -157,11 +157,22 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= globals.size.x || id.y >= globals.size.y {
         return;
     }
+    // A marching method is dispatched until every ray's budget is spent (parts.wgsl).
+    let pixel = id.y * globals.size.x + id.x;
+    var resume = suspensions[pixel];
+    if (resume.flags & FINISHED) != 0u {
+        return;
+    }
     let ray = pixel_ray(id.x, id.y);
     var supports: RaySupports;
     let sp = &supports;
     gather_supports(sp, ray, id.x, id.y);
-    let trace = trace_ray(sp, ray);
+    let trace = trace_ray(sp, ray, &resume);
+    if (resume.flags & SUSPENDED) != 0u {
+        suspensions[pixel] = resume;
+        return;
+    }
+    suspensions[pixel].flags = FINISHED;
     let out = id.y * globals.tile.w + globals.tile.z + id.x;
     out_steps[out] = trace.steps;
     out_depth[out] = select(INF, trace.t, trace.hit);

@@ -29,16 +29,22 @@ fn symmetric(start: f32, lambda: f32, length: f32) -> Inclusion {
     return Inclusion(start, vec2<f32>(-lambda, 0.0), vec2<f32>(lambda, 0.0), length);
 }
 
-fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
+// State carried between dispatches (parts.wgsl): carry0 the next interval h, carry1 the
+// previous sample's t; flags 1: there is a previous sample, 2: it was inside.
+fn march_start(part: vec2<f32>) -> MarchState {
+    return MarchState(part.x, globals.march.w, 0.0, 0u);
+}
+
+fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
     let c = globals.up.w;
     let eps = globals.march.x;
     let min_step = globals.march.y;
-    var t = part.x;
-    var h = globals.march.w;
-    var has_previous = false;
-    var previous_t = 0.0;
-    var previous_inside = false;
-    while t < part.y && (*trace).steps < globals.counts.w {
+    var t = (*state).t;
+    var h = (*state).carry0;
+    var has_previous = ((*state).flags & 1u) != 0u;
+    var previous_t = (*state).carry1;
+    var previous_inside = ((*state).flags & 2u) != 0u;
+    while t < part.y && (*trace).steps < allowance {
         (*trace).steps += 1u;
         let fd = along_ray(sp, ray, t);
         let inside = fd.x >= c;
@@ -85,4 +91,5 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             h = globals.march.z * limit;
         }
     }
+    *state = MarchState(t, h, previous_t, select(0u, 1u, has_previous) | select(0u, 2u, previous_inside));
 }

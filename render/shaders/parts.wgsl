@@ -1,20 +1,51 @@
 // The per-ray driver of the marching methods (core: methods/mod.rs trace_supports): the
 // method file's `march_part` on each part of the ray inside the supports, in order, until a
 // crossing or the step budget.
+//
+// A dispatch marches at most globals.resume.x steps of a ray. Lavapipe stops an invocation's
+// loops once they reach 65 535 iterations in all, and each step loops over the support window,
+// so a ray near the 2 048-step budget would be cut short in one dispatch. A ray whose
+// allowance runs out with budget left is suspended: its march state, the end of its part and
+// the floor of its support window go to its `Suspension`, and the next dispatch refills the
+// same window and goes on from the top of the same loop iteration. The renderer dispatches a
+// marching method until every budget is spent, so the result does not depend on the allowance.
 
-fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
-    var trace = Trace(0.0, false, false, 0u);
-    var start_at = 0.0;
-    loop {
-        let part = next_part(sp, ray, start_at);
-        if part.x > part.y || trace.steps >= globals.counts.w {
-            break;
+// Where a method's march stands at the top of its loop: the position, two numbers and flags of
+// the method's own (march.wgsl, sphere_enhanced.wgsl).
+struct MarchState {
+    t: f32,
+    carry0: f32,
+    carry1: f32,
+    flags: u32,
+};
+
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
+    var trace = Trace(0.0, false, false, (*resume).steps);
+    let allowance = min(trace.steps + globals.resume.x, globals.counts.w);
+    var part: vec2<f32>;
+    var state: MarchState;
+    if ((*resume).flags & SUSPENDED) != 0u {
+        fill_window(sp, ray, (*resume).window_floor);
+        part = vec2<f32>((*resume).t, (*resume).part_end);
+        state = MarchState((*resume).t, (*resume).carry0, (*resume).carry1, (*resume).flags & ~SUSPENDED);
+    } else {
+        part = next_part(sp, ray, 0.0);
+        state = march_start(part);
+    }
+    (*resume).flags = 0u;
+    while part.x <= part.y && trace.steps < globals.counts.w {
+        if trace.steps >= allowance {
+            *resume = Suspension(state.t, state.carry0, state.carry1, part.y, (*sp).floor, trace.steps, state.flags | SUSPENDED);
+            return trace;
         }
-        march_part(sp, ray, part, &trace);
+        march_part(sp, ray, part, &trace, &state, allowance);
         if trace.hit {
             break;
         }
-        start_at = part.y;
+        if state.t >= part.y {
+            part = next_part(sp, ray, part.y);
+            state = march_start(part);
+        }
     }
     return trace;
 }

@@ -16,6 +16,7 @@ struct Globals {
     tile: vec4<u32>,     // tile size in pixels, lights, panel x offset, output width
     heat: vec4<f32>,     // top of the step scale, heat view, shading flags, shading scale
     blend: vec4<f32>,    // width of the smooth operators, 0, 0, 0
+    resume: vec4<u32>,   // steps a marching method takes per ray in one dispatch (parts.wgsl), 0, 0, 0
 };
 
 // Twin of `GpuPrimitive`. kind: 0 point blob, 1 distance segment, 2 SCALIS segment, 3 plane.
@@ -77,6 +78,7 @@ struct Light {
 @group(0) @binding(7) var<storage, read_write> out_colour: array<u32>;
 @group(0) @binding(8) var<storage, read_write> out_depth: array<f32>;
 @group(0) @binding(9) var<storage, read_write> out_steps: array<u32>;
+@group(0) @binding(10) var<storage, read_write> suspensions: array<Suspension>;
 
 const INF: f32 = 3.0e38;
 const MAX_GROUPS: u32 = 8u;
@@ -87,6 +89,21 @@ struct Ray {
     origin: vec3<f32>,
     dir: vec3<f32>,
 };
+
+// A pixel's march between two dispatches of a marching method (parts.wgsl); zeroed by the
+// renderer before the first. The renderer sizes the buffer by SUSPENSION_BYTES (renderer.rs).
+struct Suspension {
+    t: f32,
+    carry0: f32,
+    carry1: f32,
+    part_end: f32,
+    window_floor: f32,
+    steps: u32,
+    flags: u32,        // SUSPENDED, FINISHED, and the method's own flags (MarchState)
+};
+
+const SUSPENDED: u32 = 0x40000000u;
+const FINISHED: u32 = 0x80000000u;
 
 // The outcome of tracing one ray (first crossing).
 struct Trace {
@@ -355,6 +372,7 @@ struct RaySupports {
     tile_start: u32,
     tile_end: u32,
     horizon: f32,
+    floor: f32,
     ids: array<u32, RAY_SUPPORTS>,
     spans: array<vec2<f32>, RAY_SUPPORTS>,
 };
@@ -373,6 +391,7 @@ fn pixel_ray(px: u32, py: u32) -> Ray {
 fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     (*sp).count = 0u;
     (*sp).horizon = INF;
+    (*sp).floor = floor;
     for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
         let i = tile_items[j];
         var span = support_interval(ray, i);

@@ -172,7 +172,8 @@ fn find_root(sp: ptr<function, RaySupports>, ray: Ray, b_in: Hermite, e_in: Herm
 // Breakpoints inside part (support boundaries and argmins), sorted, at least min_step apart.
 const MAX_BREAKPOINTS: u32 = 50u;
 
-fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray) -> Trace {
+// Traced in one dispatch: never suspends (`resume` is unused; parts.wgsl).
+fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
     scalis_steps = 0u;
     var start_at = 0.0;

@@ -2,16 +2,22 @@
 // of ω·r with ω = 1.6; when consecutive unbounding spheres do not overlap (or the side
 // changed), go back and continue with ω = 1.
 
-fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>) {
+// State carried between dispatches (parts.wgsl): carry0 the previous radius, carry1 the last
+// step; flags 1: a side was seen, 2: it was inside, 4: over-relaxed (ω = 1.6, else 1).
+fn march_start(part: vec2<f32>) -> MarchState {
+    return MarchState(part.x, 0.0, 0.0, 4u);
+}
+
+fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
     let c = globals.up.w;
     let lipschitz = globals.method.x;
-    var t = part.x;
-    var omega = 1.6;
-    var previous_radius = 0.0;
-    var step = 0.0;
-    var has_side = false;
-    var side = false;
-    while t < part.y && (*trace).steps < globals.counts.w {
+    var t = (*state).t;
+    var omega = select(1.0, 1.6, ((*state).flags & 4u) != 0u);
+    var previous_radius = (*state).carry0;
+    var step = (*state).carry1;
+    var has_side = ((*state).flags & 1u) != 0u;
+    var side = ((*state).flags & 2u) != 0u;
+    while t < part.y && (*trace).steps < allowance {
         (*trace).steps += 1u;
         let f = along_ray(sp, ray, t).x;
         let inside = f >= c;
@@ -44,4 +50,5 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
         previous_radius = radius;
         t += step;
     }
+    *state = MarchState(t, previous_radius, step, select(0u, 1u, has_side) | select(0u, 2u, side) | select(0u, 4u, omega > 1.0));
 }

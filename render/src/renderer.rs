@@ -22,6 +22,21 @@ use crate::shaders::{BINNING, GpuMethod};
 /// Tile edge in pixels.
 const TILE: u32 = 4;
 
+/// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
+/// method's rays from one dispatch to the next.
+pub const SUSPENSION_BYTES: u64 = 28;
+
+/// Steps a marching method takes per ray in one dispatch on a GPU (parts.wgsl): the 2 048-step
+/// budget in eight dispatches, none of them long (the scalis 2021 paper bounds sphere tracing
+/// to 256 steps per subinterval too).
+pub const STEPS_PER_DISPATCH: u32 = 256;
+
+/// Steps per dispatch on a CPU adapter. Lavapipe stops an invocation's loops after 65 535
+/// iterations in all; a step loops over a window of up to 64 supports, and a SCALIS segment's
+/// value over its quadrature nodes, so 256 steps of sphere tracing on the tree run into the
+/// limit, where 8 stay far below it.
+pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
+
 /// Most primitive visits the field shading terms may make per pixel (every soft-shadow and
 /// ambient-occlusion sample visits every primitive): lavapipe stops a shader invocation's loops
 /// after 65 535 iterations in all, and the march needs its share.
@@ -54,6 +69,7 @@ struct GpuGlobals {
     tile: [u32; 4],
     heat: [f32; 4],
     blend: [f32; 4],
+    resume: [u32; 4],
 }
 
 /// Twin of `Binning` in binning.wgsl.
@@ -101,20 +117,26 @@ pub struct GpuRenderer {
     binning_workgroups: u32,
     /// Output and readback buffers of the last frame size, reused while the size holds.
     outputs: Option<OutputBuffers>,
+    /// Steps a marching method takes per ray in one dispatch ([`STEPS_PER_DISPATCH`],
+    /// [`STEPS_PER_DISPATCH_CPU_ADAPTER`]).
+    steps_per_dispatch: u32,
 }
 
 /// Per-pixel outputs of the trace passes and their `MAP_READ` copies.
 struct OutputBuffers {
-    /// Pixels of the side-by-side frame.
-    pixels: u64,
+    /// Pixels of one panel, and panels side by side.
+    size: (u64, u32),
     /// Written by the trace passes: packed sRGB8 colour, depth, steps.
     written: [wgpu::Buffer; 3],
     /// Mapped after each frame.
     read: [wgpu::Buffer; 3],
+    /// One `Suspension` per pixel of a panel, cleared before each method.
+    suspensions: wgpu::Buffer,
 }
 
 impl OutputBuffers {
-    fn new(device: &wgpu::Device, pixels: u64) -> Self {
+    fn new(device: &wgpu::Device, (panel_pixels, panels): (u64, u32)) -> Self {
+        let pixels = panel_pixels * u64::from(panels);
         let buffer = |label: &str, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -126,7 +148,6 @@ impl OutputBuffers {
         let written = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         let read = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
         Self {
-            pixels,
             written: [
                 buffer("colour", written),
                 buffer("depth", written),
@@ -137,6 +158,13 @@ impl OutputBuffers {
                 buffer("depth readback", read),
                 buffer("steps readback", read),
             ],
+            suspensions: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("suspended marches"),
+                size: panel_pixels * SUSPENSION_BYTES,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            size: (panel_pixels, panels),
         }
     }
 }
@@ -228,6 +256,7 @@ impl GpuRenderer {
         }))
         .map_err(|e| format!("no GPU adapter: {e}"))?;
         let info = adapter.get_info();
+        let cpu_adapter = info.device_type == wgpu::DeviceType::Cpu;
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("skeletrace"),
@@ -270,12 +299,13 @@ impl GpuRenderer {
             uploaded_bytes: 0,
             timestamps,
             last_pass_times: None,
-            binning_workgroups: if info.device_type == wgpu::DeviceType::Cpu {
-                64
-            } else {
-                4096
-            },
+            binning_workgroups: if cpu_adapter { 64 } else { 4096 },
             outputs: None,
+            steps_per_dispatch: if cpu_adapter {
+                STEPS_PER_DISPATCH_CPU_ADAPTER
+            } else {
+                STEPS_PER_DISPATCH
+            },
         };
         renderer.check()?;
         Ok(renderer)
@@ -292,6 +322,20 @@ impl GpuRenderer {
     #[must_use]
     pub fn last_pass_times(&self) -> Option<&PassTimes> {
         self.last_pass_times.as_ref()
+    }
+
+    /// Steps a marching method takes per ray in one dispatch.
+    #[must_use]
+    pub fn steps_per_dispatch(&self) -> u32 {
+        self.steps_per_dispatch
+    }
+
+    /// Sets the steps a marching method takes per ray in one dispatch (at least 1; by default
+    /// [`STEPS_PER_DISPATCH`], or [`STEPS_PER_DISPATCH_CPU_ADAPTER`] on a CPU adapter). Frames
+    /// do not depend on it where no dispatch runs into an adapter's loop limit; the tests
+    /// check that they do not.
+    pub fn set_steps_per_dispatch(&mut self, steps: u32) {
+        self.steps_per_dispatch = steps.max(1);
     }
 
     /// Bytes of primitive data uploaded so far.
@@ -546,8 +590,9 @@ impl GpuRenderer {
         let panels = methods.len() as u32;
         let out_width = width * panels;
         let pixels = u64::from(out_width) * u64::from(height);
-        if self.outputs.as_ref().is_none_or(|o| o.pixels != pixels) {
-            self.outputs = Some(OutputBuffers::new(d, pixels));
+        let size = (u64::from(width) * u64::from(height), panels);
+        if self.outputs.as_ref().is_none_or(|o| o.size != size) {
+            self.outputs = Some(OutputBuffers::new(d, size));
         }
         let outputs = self.outputs.as_ref().ok_or("no output buffers")?;
         let [colour, depth, steps] = &outputs.written;
@@ -602,6 +647,7 @@ impl GpuRenderer {
                     shading_scale(program) as f32,
                 ],
                 blend: [scene.packed.blend_width, 0.0, 0.0, 0.0],
+                resume: [self.steps_per_dispatch, 0, 0, 0],
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("globals"),
@@ -623,15 +669,25 @@ impl GpuRenderer {
                     entry(7, colour),
                     entry(8, depth),
                     entry(9, steps),
+                    entry(10, &outputs.suspensions),
                 ],
             });
+            // A marching method goes on from where each ray stopped until every budget is spent.
+            let dispatches = if method.resumable() {
+                settings.max_steps.div_ceil(self.steps_per_dispatch).max(1)
+            } else {
+                1
+            };
+            encoder.clear_buffer(&outputs.suspensions, 0, None);
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(method.name()),
                 timestamp_writes: timed(2 + panel as u32),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+            for _ in 0..dispatches {
+                pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+            }
         }
         for (source, target) in outputs.written.iter().zip(&outputs.read) {
             encoder.copy_buffer_to_buffer(source, 0, target, 0, pixels * 4);

@@ -121,6 +121,13 @@ impl GpuMethod {
         }
     }
 
+    /// Whether the method marches through parts.wgsl, which suspends a ray after a dispatch's
+    /// allowance of steps and resumes it in the next dispatch; the others trace in one.
+    #[must_use]
+    pub fn resumable(self) -> bool {
+        !matches!(self, Self::ScalisQuadratic | Self::FieldInversion)
+    }
+
     /// The composed compute shader: prelude, the method family, the entry point.
     #[must_use]
     pub fn source(self) -> String {
@@ -162,6 +169,25 @@ mod tests {
         if let Err(e) = validator.validate(&module) {
             panic!("{name}: {}", e.emit_to_string(source));
         }
+    }
+
+    /// The renderer sizes the suspension buffer by `SUSPENSION_BYTES`; naga's layout of the
+    /// WGSL struct must agree.
+    #[test]
+    fn suspension_bytes_match_the_wgsl_struct() {
+        let source = GpuMethod::Sphere.source();
+        let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{e}"));
+        let span = module
+            .types
+            .iter()
+            .find_map(|(_, ty)| match &ty.inner {
+                naga::TypeInner::Struct { span, .. } if ty.name.as_deref() == Some("Suspension") => {
+                    Some(*span)
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("no Suspension struct in the prelude"));
+        assert_eq!(u64::from(span), crate::renderer::SUSPENSION_BYTES);
     }
 
     #[test]

@@ -438,3 +438,62 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
         "the shading terms hardly change the image"
     );
 }
+
+/// A marching method's rays are suspended when a dispatch's allowance of steps runs out and
+/// resumed by the next dispatch (parts.wgsl). Resuming must be exact: frames traced three steps
+/// per dispatch equal, bit for bit, those traced with the adapter's default allowance, on
+/// scenes whose sphere-traced rays run up to the step budget, far past the allowance.
+#[test]
+fn resumed_marches_give_the_same_frames() {
+    let mut gpu = GpuRenderer::new()
+        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let default_allowance = gpu.steps_per_dispatch();
+    for asset in ["blobs", "tree"] {
+        let scene = load(asset);
+        let program = FieldProgram::new(&scene);
+        let settings = TraceSettings::for_program(&program);
+        gpu.set_scene(&scene, &program)
+            .unwrap_or_else(|e| panic!("{asset}: {e}"));
+        let marching: Vec<GpuMethod> = GpuMethod::ALL
+            .into_iter()
+            .filter(|m| m.resumable() && m.supports(&program).is_ok())
+            .collect();
+        let mut frames = |steps_per_dispatch| {
+            gpu.set_steps_per_dispatch(steps_per_dispatch);
+            gpu.render(
+                &program,
+                &marching,
+                &scene.camera,
+                &settings,
+                (SIZE as u32, SIZE as u32),
+                View::Shaded(skeletrace_core::shading::FieldShading::default()),
+            )
+            .unwrap_or_else(|e| panic!("{asset}: {e}"))
+        };
+        let default = frames(default_allowance);
+        let sliced = frames(3);
+        gpu.set_steps_per_dispatch(default_allowance);
+        for ((method, a), b) in marching.iter().zip(&default).zip(&sliced) {
+            let longest = a.steps.iter().max().copied().unwrap_or(0);
+            eprintln!(
+                "{asset} {}: longest march {longest} steps, default allowance {default_allowance}",
+                method.name()
+            );
+            assert_eq!(a.steps, b.steps, "{asset} {}: steps", method.name());
+            assert!(
+                a.depth
+                    .iter()
+                    .zip(&b.depth)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{asset} {}: depth",
+                method.name()
+            );
+            assert_eq!(a.colour, b.colour, "{asset} {}: colour", method.name());
+        }
+        let longest_sphere = default[0].steps.iter().max().copied().unwrap_or(0);
+        assert!(
+            longest_sphere > 2 * default_allowance,
+            "{asset}: sphere tracing should outrun two dispatches ({longest_sphere} steps)"
+        );
+    }
+}
