@@ -181,7 +181,9 @@ mod tests {
             .types
             .iter()
             .find_map(|(_, ty)| match &ty.inner {
-                naga::TypeInner::Struct { span, .. } if ty.name.as_deref() == Some("Suspension") => {
+                naga::TypeInner::Struct { span, .. }
+                    if ty.name.as_deref() == Some("Suspension") =>
+                {
                     Some(*span)
                 }
                 _ => None,
