@@ -5,6 +5,14 @@
 // rectangles. Storing them matters: the two entry points are compiled separately and may round
 // the projection differently, and a rectangle one tile larger in the second pass would write
 // past its tile's range. Unbounded supports (planes) go to every tile.
+//
+// Occluders (scalis 2021 §7, "toward output sensitivity"): before counting, every primitive
+// with an occluder sphere (a ball inside the surface, buffers.rs occluder_radius) marks the
+// tiles whose rays all pass through it with the distance from the eye to its centre, which no
+// such ray's entry into the ball exceeds. Along those rays the field reaches the isovalue by
+// that depth, so a primitive whose support lies wholly beyond it (nearest point of its
+// bounding sphere farther away) cannot change the first crossing and is left out of the tile.
+// The blends for which this holds are decided in buffers.rs (sum, max, smooth union).
 
 struct Binning {
     origin: vec4<f32>,
@@ -12,14 +20,14 @@ struct Binning {
     right: vec4<f32>,    // w: aspect
     up: vec4<f32>,
     tiles: vec4<u32>,    // tiles_x, tiles_y, tile size, primitive count
-    size: vec4<u32>,     // width, height
+    size: vec4<u32>,     // width, height, occluders on (1) or off (0)
 };
 
 // Twin of `GpuPrimitive` (only the bounding sphere is read here).
 struct Primitive {
     kind: u32,
     group: u32,
-    pad0: u32,
+    occluder: f32,     // radius of a ball inside the surface (0: none; buffers.rs occluder_radius)
     pad1: u32,
     a: vec4<f32>,
     b: vec4<f32>,
@@ -33,17 +41,31 @@ struct Primitive {
 @group(0) @binding(3) var<storage, read> tile_ranges: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> tile_items: array<u32>;
 @group(0) @binding(5) var<storage, read_write> rects: array<vec4<i32>>;
+// Per tile: the least occluding depth d as !bitcast<u32>(d), so that zeroed means none and
+// atomicMax keeps the least.
+@group(0) @binding(6) var<storage, read_write> occluded: array<atomic<u32>>;
+// Per primitive: the distance from the eye to its bounding sphere (−INF when unbounded or
+// around the eye), written by the count pass and read by the fill pass, so that both passes
+// leave out the same primitives.
+@group(0) @binding(7) var<storage, read_write> nearest: array<f32>;
+
+const INF: f32 = 3.0e38;
 
 // Inclusive tile rectangle (x0, y0, x1, y1) covered by primitive i; x0 > x1 when off screen.
 fn tile_rect(i: u32) -> vec4<i32> {
-    let all_tiles = vec4<i32>(0, 0, i32(binning.tiles.x) - 1, i32(binning.tiles.y) - 1);
     let bound = primitives[i].bound;
     if bound.w < 0.0 {
-        return all_tiles;
+        return vec4<i32>(0, 0, i32(binning.tiles.x) - 1, i32(binning.tiles.y) - 1);
     }
-    let rel = bound.xyz - binning.origin.xyz;
+    return sphere_rect(bound);
+}
+
+// Inclusive tile rectangle covered by the projection of a sphere (centre, radius).
+fn sphere_rect(sphere: vec4<f32>) -> vec4<i32> {
+    let all_tiles = vec4<i32>(0, 0, i32(binning.tiles.x) - 1, i32(binning.tiles.y) - 1);
+    let rel = sphere.xyz - binning.origin.xyz;
     let z = dot(rel, binning.forward.xyz);
-    let r = bound.w;
+    let r = sphere.w;
     if z <= r * 1.0001 {
         // The sphere reaches the eye plane: it may cover any pixel.
         return all_tiles;
@@ -74,6 +96,63 @@ fn tile_rect(i: u32) -> vec4<i32> {
         min(i32(floor(py1 / ts)), i32(binning.tiles.y) - 1));
 }
 
+// The occluder ball of primitive i (centre, radius); radius 0 when it has none.
+fn occluder_of(i: u32) -> vec4<f32> {
+    let p = primitives[i];
+    if p.kind == 0u {
+        return vec4<f32>(p.a.xyz, p.occluder);
+    } else if p.kind == 1u {
+        return vec4<f32>(p.a.xyz + p.b.w * p.b.xyz, p.occluder);
+    }
+    return vec4<f32>(0.0);
+}
+
+// Direction of the ray through the centre of pixel (px, py), as prelude.wgsl pixel_ray.
+fn pixel_direction(px: u32, py: u32) -> vec3<f32> {
+    let u = (2.0 * (f32(px) + 0.5) / f32(binning.size.x) - 1.0) * binning.forward.w * binning.right.w;
+    let v = (1.0 - 2.0 * (f32(py) + 0.5) / f32(binning.size.y)) * binning.forward.w;
+    return normalize(binning.forward.xyz + u * binning.right.xyz + v * binning.up.xyz);
+}
+
+fn ray_meets_ball(dir: vec3<f32>, ball: vec4<f32>) -> bool {
+    let m = ball.xyz - binning.origin.xyz;
+    let along = dot(m, dir);
+    let off = m - along * dir;
+    return along > 0.0 && dot(off, off) < ball.w * ball.w;
+}
+
+// Whether every pixel ray of `tile` passes through `ball`: the rays that meet a ball form a
+// convex cone, so the rays of the tile's corner pixels decide.
+fn ball_covers(ball: vec4<f32>, tile: u32) -> bool {
+    let ts = binning.tiles.z;
+    let tx = tile % binning.tiles.x;
+    let ty = tile / binning.tiles.x;
+    let x0 = tx * ts;
+    let y0 = ty * ts;
+    let x1 = min(x0 + ts, binning.size.x) - 1u;
+    let y1 = min(y0 + ts, binning.size.y) - 1u;
+    return ray_meets_ball(pixel_direction(x0, y0), ball) && ray_meets_ball(pixel_direction(x1, y0), ball)
+        && ray_meets_ball(pixel_direction(x0, y1), ball) && ray_meets_ball(pixel_direction(x1, y1), ball);
+}
+
+fn occluding_depth(tile: u32) -> f32 {
+    let marked = atomicLoad(&occluded[tile]);
+    if marked == 0u {
+        return INF;
+    }
+    return bitcast<f32>(~marked);
+}
+
+// Distance from the eye to primitive i's bounding sphere; −INF when unbounded or around the eye.
+fn nearest_reach(i: u32) -> f32 {
+    let bound = primitives[i].bound;
+    if bound.w < 0.0 {
+        return -INF;
+    }
+    let d = length(bound.xyz - binning.origin.xyz) - bound.w;
+    return select(-INF, d, d > 0.0);
+}
+
 // Both passes share out the work of each 64 primitives evenly: the rectangles' areas are
 // prefix-summed in workgroup memory, and the threads of `num_workgroups.y` workgroups (slices)
 // stride over all of those primitives' (primitive, tile) pairs. One thread per primitive would
@@ -84,6 +163,8 @@ const GROUP: u32 = 64u;
 var<workgroup> group_rects: array<vec4<i32>, GROUP>;
 // Inclusive prefix sum of the rectangles' areas in tiles.
 var<workgroup> area_ends: array<u32, GROUP>;
+// Per primitive of the group: its occluder ball (occlude pass) or its nearest reach (the others).
+var<workgroup> group_balls: array<vec4<f32>, GROUP>;
 
 fn rect_area(rect: vec4<i32>) -> u32 {
     if rect.x > rect.z || rect.y > rect.w {
@@ -130,6 +211,35 @@ fn pair(k: u32) -> vec2<u32> {
     return vec2<u32>(lo, ty * binning.tiles.x + tx);
 }
 
+// First pass: marks each tile with the least occluding depth of the balls covering it.
+@compute @workgroup_size(64, 1, 1)
+fn occlude_tiles(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(num_workgroups) slices: vec3<u32>,
+) {
+    let i = id.x;
+    var rect = vec4<i32>(1, 1, 0, 0);
+    var ball = vec4<f32>(0.0);
+    if i < binning.tiles.w && binning.size.z != 0u {
+        ball = occluder_of(i);
+        // A ball around the eye, or behind the eye plane, occludes nothing here.
+        if ball.w > 0.0 && dot(ball.xyz - binning.origin.xyz, binning.forward.xyz) > ball.w * 1.0001 {
+            rect = sphere_rect(ball);
+        }
+    }
+    group_balls[lid] = ball;
+    let total = share_rects(lid, rect);
+    for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
+        let p = pair(k);
+        let b = group_balls[p.x];
+        if ball_covers(b, p.y) {
+            atomicMax(&occluded[p.y], ~bitcast<u32>(length(b.xyz - binning.origin.xyz)));
+        }
+    }
+}
+
+// Second pass: counts the primitives per tile, leaving out the occluded ones.
 @compute @workgroup_size(64, 1, 1)
 fn count_tiles(
     @builtin(global_invocation_id) id: vec3<u32>,
@@ -138,19 +248,27 @@ fn count_tiles(
 ) {
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
+    var reach = 0.0;
     if i < binning.tiles.w {
         rect = tile_rect(i);
+        reach = nearest_reach(i);
         if id.y == 0u {
             rects[i] = rect;
+            nearest[i] = reach;
         }
     }
+    group_balls[lid] = vec4<f32>(reach);
     let total = share_rects(lid, rect);
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
-        atomicAdd(&tile_counts[pair(k).y], 1u);
+        let p = pair(k);
+        if group_balls[p.x].x <= occluding_depth(p.y) {
+            atomicAdd(&tile_counts[p.y], 1u);
+        }
     }
 }
 
-// Second pass: tile_counts has been reset to 0 and is used as each tile's cursor.
+// Third pass: tile_counts has been reset to 0 and is used as each tile's cursor; the same
+// primitives as counted are left out (the stored rectangles and reaches).
 @compute @workgroup_size(64, 1, 1)
 fn fill_tiles(
     @builtin(global_invocation_id) id: vec3<u32>,
@@ -159,13 +277,19 @@ fn fill_tiles(
 ) {
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
+    var reach = 0.0;
     if i < binning.tiles.w {
         rect = rects[i];
+        reach = nearest[i];
     }
+    group_balls[lid] = vec4<f32>(reach);
     let total = share_rects(lid, rect);
     let first = id.x - lid;
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
+        if group_balls[p.x].x > occluding_depth(p.y) {
+            continue;
+        }
         let slot = atomicAdd(&tile_counts[p.y], 1u);
         let range = tile_ranges[p.y];
         if range.x + slot < range.y {

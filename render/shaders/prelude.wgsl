@@ -23,7 +23,7 @@ struct Globals {
 struct Primitive {
     kind: u32,
     group: u32,
-    pad0: u32,
+    occluder: f32,     // radius of a ball inside the surface (0: none; buffers.rs occluder_radius)
     pad1: u32,
     a: vec4<f32>,      // point: centre, radius | segment: start (smaller radius), radius | plane: normal, offset
     b: vec4<f32>,      // segment: axis, length | plane: radius

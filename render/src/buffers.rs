@@ -25,8 +25,11 @@ pub struct GpuPrimitive {
     pub kind: u32,
     /// Group index.
     pub group: u32,
+    /// Radius of the occluder sphere (0: none): a ball inside the surface, centred on a point
+    /// blob or on a distance segment's larger end ([`occluder_radius`]).
+    pub occluder: f32,
     /// Padding.
-    pub pad: [u32; 2],
+    pub pad: u32,
     /// Point: centre and radius; segment: start (smaller radius) and radius; plane: normal, offset.
     pub a: [f32; 4],
     /// Segment: unit axis and length; plane: radius in `x`.
@@ -126,6 +129,40 @@ fn flat_blend(blend: &Blend, groups: usize) -> Option<(u32, f32)> {
     seen.iter().all(|s| *s).then_some((op, width))
 }
 
+/// Fraction of a primitive's own surface radius that its occluder sphere takes: the sphere
+/// stays inside the isolated primitive's surface by a margin that f32 rounding cannot cross.
+const OCCLUDER_SHRINK: f64 = 0.999;
+
+/// The radius of a ball inside the surface for the occluding depth of the tile binning (scalis
+/// 2021 §7, "toward output sensitivity"; built from primitives in isolation, as that paper's
+/// limitations suggest): a point blob's `N₀·K(d²/ρ²)` is at least `c` within `ρ` (MATH.md §2),
+/// a distance segment's `N₀·K(h²)` within its larger end sphere (`h ≤ |p − end|/τ_end` there).
+/// The radius is checked on the primitive's own field at the point of the ball's boundary where
+/// that field is least over the ball (beyond the end along the axis for a segment); 0 where the
+/// check fails and for other primitives (a SCALIS segment's isolated surface is not its
+/// sphere-cone: scalis 2021 appendix A).
+fn occluder_radius(
+    primitive: &Primitive,
+    k: &skeletrace_core::kernel::KernelProfile,
+    isovalue: f64,
+) -> f32 {
+    let (centre, radius, outward) = match primitive {
+        Primitive::Point(x) => (x.center, x.radius, glam::DVec3::X),
+        Primitive::Distance(x) => (
+            x.cone.start + x.cone.length * x.cone.axis,
+            x.cone.radius + x.cone.slope * x.cone.length,
+            x.cone.axis,
+        ),
+        _ => return 0.0,
+    };
+    let r = OCCLUDER_SHRINK * radius;
+    if r > 0.0 && primitive.value(centre + r * outward, k) >= isovalue {
+        r as f32
+    } else {
+        0.0
+    }
+}
+
 fn kernel(k: Kernel) -> GpuKernel {
     let profile = skeletrace_core::kernel::KernelProfile::new(k);
     let (family, exponent, sigma, clip) = match k {
@@ -169,6 +206,9 @@ impl PackedScene {
              difference/Ricci"
                 .to_owned()
         })?;
+        // Occluders hold where a primitive's own field bounds the blended field from below:
+        // sums of non-negative kernels, maxima and the smooth union (≥ the maximum).
+        let occluding = matches!(blend, 0 | 1 | 3);
         let mut primitives = Vec::with_capacity(program.primitives().len());
         for (i, p) in program.primitives().iter().enumerate() {
             let k = program.kernel_of(i as u32);
@@ -221,7 +261,12 @@ impl PackedScene {
             primitives.push(GpuPrimitive {
                 kind,
                 group,
-                pad: [0; 2],
+                occluder: if occluding {
+                    occluder_radius(p, k, program.isovalue())
+                } else {
+                    0.0
+                },
+                pad: 0,
                 a,
                 b,
                 c,
@@ -295,5 +340,38 @@ impl PackedScene {
             blend,
             blend_width,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn packed(asset: &str) -> PackedScene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(format!("../assets/scenes/{asset}.ron"));
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let program = FieldProgram::new(&scene);
+        PackedScene::new(&scene, &program).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Every point blob of the blob assets (compact and Gaussian kernels, under a sum) gets an
+    /// occluder of its own radius, shrunk; SCALIS segments get none.
+    #[test]
+    fn point_blobs_occlude_and_scalis_segments_do_not() {
+        for asset in ["blobs", "molecule"] {
+            let scene = packed(asset);
+            for p in &scene.primitives {
+                assert_eq!(p.kind, 0, "{asset}");
+                let expected = (OCCLUDER_SHRINK * f64::from(p.a[3])) as f32;
+                assert!(
+                    (p.occluder - expected).abs() <= 1e-6 * expected,
+                    "{asset}: occluder {} for a blob of radius {}",
+                    p.occluder,
+                    p.a[3]
+                );
+            }
+        }
+        assert!(packed("tree").primitives.iter().all(|p| p.occluder == 0.0));
     }
 }

@@ -102,6 +102,7 @@ pub struct GpuRenderer {
     queue: wgpu::Queue,
     adapter: String,
     errors: Arc<Mutex<Vec<String>>>,
+    occlude_pipeline: wgpu::ComputePipeline,
     count_pipeline: wgpu::ComputePipeline,
     fill_pipeline: wgpu::ComputePipeline,
     trace_pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
@@ -120,6 +121,10 @@ pub struct GpuRenderer {
     /// Steps a marching method takes per ray in one dispatch ([`STEPS_PER_DISPATCH`],
     /// [`STEPS_PER_DISPATCH_CPU_ADAPTER`]).
     steps_per_dispatch: u32,
+    /// Whether binning leaves out primitives behind occluders (binning.wgsl).
+    occluders: bool,
+    /// (primitive, tile) pairs in the tile lists of the last frame.
+    last_tile_items: u64,
 }
 
 /// Per-pixel outputs of the trace passes and their `MAP_READ` copies.
@@ -285,6 +290,7 @@ impl GpuRenderer {
                 v.push(format!("device lost ({reason:?}): {message}"));
             }
         });
+        let occlude_pipeline = pipeline(&device, BINNING, "occlude_tiles");
         let count_pipeline = pipeline(&device, BINNING, "count_tiles");
         let fill_pipeline = pipeline(&device, BINNING, "fill_tiles");
         let renderer = Self {
@@ -292,6 +298,7 @@ impl GpuRenderer {
             queue,
             adapter: format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type),
             errors,
+            occlude_pipeline,
             count_pipeline,
             fill_pipeline,
             trace_pipelines: HashMap::new(),
@@ -306,6 +313,8 @@ impl GpuRenderer {
             } else {
                 STEPS_PER_DISPATCH
             },
+            occluders: true,
+            last_tile_items: 0,
         };
         renderer.check()?;
         Ok(renderer)
@@ -336,6 +345,19 @@ impl GpuRenderer {
     /// check that they do not.
     pub fn set_steps_per_dispatch(&mut self, steps: u32) {
         self.steps_per_dispatch = steps.max(1);
+    }
+
+    /// Turns the occluders of the tile binning on (the default) or off. Frames have the same
+    /// hits and depths either way; step counts may differ where a march's interval reaches
+    /// past the occluding depth.
+    pub fn set_occluders(&mut self, on: bool) {
+        self.occluders = on;
+    }
+
+    /// (primitive, tile) pairs in the tile lists of the last frame.
+    #[must_use]
+    pub fn last_tile_items(&self) -> u64 {
+        self.last_tile_items
     }
 
     /// Bytes of primitive data uploaded so far.
@@ -513,7 +535,7 @@ impl GpuRenderer {
                 right: f4(right, aspect),
                 up: f4(up, 0.0),
                 tiles: [tiles_x, tiles_y, TILE, n_prims],
-                size: [width, height, 0, 0],
+                size: [width, height, u32::from(self.occluders), 0],
             }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
@@ -537,6 +559,27 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
+        let occluded = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("occluding depths"),
+            size: (tiles * 4) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let nearest = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("nearest reaches"),
+            size: u64::from(n_prims.max(1)) * 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let occlude_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("occlude tiles"),
+            layout: &self.occlude_pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &binning),
+                entry(1, &scene.primitives),
+                entry(6, &occluded),
+            ],
+        });
         let count_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("count tiles"),
             layout: &self.count_pipeline.get_bind_group_layout(0),
@@ -545,14 +588,21 @@ impl GpuRenderer {
                 entry(1, &scene.primitives),
                 entry(2, &counts),
                 entry(5, &rects),
+                entry(6, &occluded),
+                entry(7, &nearest),
             ],
         });
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        encoder.clear_buffer(&occluded, 0, None);
         {
+            // The occluding depths, then the counts (binning.wgsl).
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("count tiles"),
                 timestamp_writes: timed(0),
             });
+            pass.set_pipeline(&self.occlude_pipeline);
+            pass.set_bind_group(0, &occlude_group, &[]);
+            pass.dispatch_workgroups(columns, slices, 1);
             pass.set_pipeline(&self.count_pipeline);
             pass.set_bind_group(0, &count_group, &[]);
             pass.dispatch_workgroups(columns, slices, 1);
@@ -567,6 +617,7 @@ impl GpuRenderer {
             ranges.push([total, total + c]);
             total += c;
         }
+        self.last_tile_items = u64::from(total);
 
         // Pass 2: fill the tile lists, then trace every method.
         let ranges_buffer = storage(d, "tile ranges", bytemuck::cast_slice(&ranges));
@@ -585,6 +636,8 @@ impl GpuRenderer {
                 entry(3, &ranges_buffer),
                 entry(4, &items),
                 entry(5, &rects),
+                entry(6, &occluded),
+                entry(7, &nearest),
             ],
         });
         let panels = methods.len() as u32;

@@ -5,22 +5,36 @@
 //! Mesa's lavapipe in CI — and fails, never skips, when there is none.
 //!
 //! The issue's thresholds (hit masks equal on ≥ 99.9 % of pixels, depth within 10⁻³ of the
-//! support diagonal, steps equal on ≥ 99 %) are asserted for every method but the sphere
-//! family, with one measured allowance for step counts. Bottom-up-quadratic and
-//! scalis-quadratic step counts are sensitive to perturbations far below f32 precision even
-//! in f64: on the CPU alone, moving the camera by 2.4·10⁻⁷ of its distance (two f32 ulps)
-//! changes the step count of 1–3 % of the pixels (a ray passing a blob's closest point just
-//! inside or just outside the interval gets a validity interval of almost nothing or of all of
-//! it, and one more or one fewer step). No f32 march can agree with the f64 one better than the
-//! f64 march agrees with itself, so where the GPU misses 99 %, the test measures that CPU
-//! self-agreement ([`cpu_self_agreement`]) and asks for the GPU to be within
-//! [`PERTURBATION_MARGIN`] of it. Hit masks and depths are held as they are.
+//! support diagonal, steps equal on ≥ 99 %) are asserted for every method, with one measured
+//! allowance for step counts. Some step counts are sensitive to perturbations at f32
+//! precision:
+//! - bottom-up-quadratic and scalis-quadratic even in f64: on the CPU alone, moving the camera
+//!   by 2.4·10⁻⁷ of its distance (two f32 ulps) changes the step count of 1–3 % of the pixels
+//!   (a ray passing a blob's closest point just inside or just outside the interval gets a
+//!   validity interval of almost nothing or of all of it, and one more or one fewer step);
+//! - sphere tracing and its over-relaxed variant in f32: hundreds of steps, each rounding the
+//!   ray parameter to an f32 ulp, decide whether the last step falls below ε; the GPU's own
+//!   step counts change under the same camera move on 1–4 % of the pixels.
 //!
-//! Sphere and sphere-enhanced are printed, not asserted: with a global bound they run into
-//! their step budget, where f32 and f64 marches diverge, and on lavapipe each of their steps
-//! loops over the ray's support window, so rays near the budget run into lavapipe's limit of
-//! 65 535 loop iterations per invocation, after which every loop stops (README, "GPU
-//! backend").
+//! No march can agree with another better than the two agree with themselves at f32
+//! precision, so where the GPU misses 99 %, the test measures the CPU's self-agreement under
+//! that camera move ([`self_agreement`]), and where the GPU misses that too, the GPU's own,
+//! and asks for the GPU to be within [`PERTURBATION_MARGIN`] of the lower of the two.
+//!
+//! Long marches drift: over hundreds of f32 steps the ray parameter's rounding adds up. On the
+//! creature (40×40), sphere tracing takes 128–2 048 steps on most hit pixels; every pixel
+//! where the GPU's sphere-tracing count differs from the CPU's has a march of at least 246
+//! steps, differing by at most 1.04 % of its length, and for sphere-enhanced of at least 113
+//! steps, differing by one step below 200. Step counts of two marches of at least
+//! [`LONG_MARCH`] steps that differ by at most [`DRIFT`] of the CPU's count therefore agree;
+//! the test prints the strictly equal fraction too.
+//!
+//! A march that runs out of its step budget has no verdict on its pixel, and whether a long
+//! march ends just before or just after the budget depends on its last bits (on the creature,
+//! sphere-enhanced on the CPU runs out on 29 pixels where the GPU's march ends at 1 948–2 015
+//! steps): such pixels are left out of the hit mask and the agreeing steps (and counted, and a
+//! GPU that runs out of steps on 1 % more of the pixels than the CPU fails). Hit masks and
+//! depths are otherwise held as they are.
 
 use std::path::Path;
 
@@ -33,19 +47,18 @@ use skeletrace_render::{GpuMethod, GpuRenderer, View};
 
 const SIZE: usize = 40;
 
-/// Methods printed, not asserted (module docs): lavapipe's loop limit near the step budget.
-const UNHELD: [&str; 2] = ["sphere", "sphere-enhanced"];
+/// Marches of at least this many steps may drift (module docs).
+const LONG_MARCH: u32 = 100;
 
-/// How far below the CPU's own agreement under an f32-sized camera perturbation the GPU's
-/// step agreement may fall, where it is below 99 % (module docs).
+/// How far, as a fraction of its length, a long march's step count may drift (module docs).
+const DRIFT: f64 = 0.015;
+
+/// How far below the self-agreement under an f32-sized camera perturbation the GPU's step
+/// agreement may fall, where it is below 99 % (module docs).
 const PERTURBATION_MARGIN: f64 = 0.01;
 
-/// The relative camera perturbation of [`cpu_self_agreement`]: two f32 ulps.
+/// The relative camera perturbation of [`self_agreement`]: two f32 ulps.
 const PERTURBATION: f64 = 2.0 / 8_388_608.0;
-
-/// Agreement below these is a failure even for the methods in [`UNHELD`]: a broken shader,
-/// not a precision difference.
-const FLOOR: (f64, f64) = (0.7, 0.5);
 
 fn load(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"));
@@ -69,22 +82,51 @@ fn orbit(camera: &Camera, degrees: f64) -> Camera {
 }
 
 struct Agreement {
-    /// Pixels hit only on the CPU, only on the GPU.
+    /// Pixels whose march ran out of its step budget on the CPU, on the GPU.
+    exhausted: (usize, usize),
+    /// Pixels hit only on the CPU, only on the GPU (where neither ran out of steps).
     one_sided: (usize, usize),
+    /// Equal hit masks, over the pixels where neither march ran out of steps.
     hit_mask: f64,
     worst_depth: f64,
+    /// Pixels with equal step counts.
     equal_steps: f64,
+    /// Pixels with equal step counts, or with long marches that differ by at most their
+    /// drift ([`LONG_MARCH`], [`DRIFT`]), over the pixels where neither ran out of steps.
+    agreeing_steps: f64,
     histogram: Vec<(i64, usize)>,
 }
 
-fn compare(cpu: &Frame, gpu: &Frame) -> Agreement {
+/// Compares two frames of a method whose step budget is `budget`. A march that runs out of
+/// steps has no verdict on its pixel: whether a long march ends just before or just after the
+/// budget depends on the last bits of its steps, so such pixels count in the strictly equal
+/// steps but not in the hit mask or the agreeing steps.
+fn compare(cpu: &Frame, gpu: &Frame, budget: u32) -> Agreement {
     let n = cpu.steps.len();
     let mut same_hit = 0;
     let mut worst_depth: f64 = 0.0;
     let mut equal = 0;
+    let mut agreeing = 0;
     let mut histogram = std::collections::BTreeMap::new();
     let mut one_sided = (0, 0);
+    let mut exhausted = (0, 0);
     for i in 0..n {
+        let (cpu_out, gpu_out) = (cpu.steps[i] >= budget, gpu.steps[i] >= budget);
+        exhausted.0 += usize::from(cpu_out);
+        exhausted.1 += usize::from(gpu_out);
+        let d = i64::from(gpu.steps[i]) - i64::from(cpu.steps[i]);
+        if d == 0 {
+            equal += 1;
+        } else {
+            *histogram.entry(d.clamp(-5, 5)).or_insert(0) += 1;
+        }
+        if cpu_out || gpu_out {
+            continue;
+        }
+        let long = cpu.steps[i].min(gpu.steps[i]) >= LONG_MARCH;
+        if d == 0 || (long && d.unsigned_abs() as f64 <= DRIFT * f64::from(cpu.steps[i])) {
+            agreeing += 1;
+        }
         match (cpu.is_hit(i), gpu.is_hit(i)) {
             (true, false) => one_sided.0 += 1,
             (false, true) => one_sided.1 += 1,
@@ -96,18 +138,18 @@ fn compare(cpu: &Frame, gpu: &Frame) -> Agreement {
                 worst_depth = worst_depth.max((cpu.depth[i] - gpu.depth[i]).abs());
             }
         }
-        let d = i64::from(gpu.steps[i]) - i64::from(cpu.steps[i]);
-        if d == 0 {
-            equal += 1;
-        } else {
-            *histogram.entry(d.clamp(-5, 5)).or_insert(0) += 1;
-        }
     }
+    let with_verdict = n
+        - (0..n)
+            .filter(|&i| cpu.steps[i] >= budget || gpu.steps[i] >= budget)
+            .count();
     Agreement {
+        exhausted,
         one_sided,
-        hit_mask: f64::from(same_hit) / n as f64,
+        hit_mask: f64::from(same_hit) / with_verdict.max(1) as f64,
         worst_depth,
         equal_steps: f64::from(equal) / n as f64,
+        agreeing_steps: f64::from(agreeing) / with_verdict.max(1) as f64,
         histogram: histogram.into_iter().collect(),
     }
 }
@@ -138,8 +180,8 @@ fn check_pass_times(gpu: &GpuRenderer, label: &str, methods: usize) {
 }
 
 /// Renders `scene` with every GPU method that applies on each camera and compares each frame
-/// with the CPU tracer's; the pairs that miss the issue's thresholds (module docs) or [`FLOOR`] go to
-/// `failures`. Returns the most pixels the CPU tracer hit in one frame.
+/// with the CPU tracer's; the pairs that miss the issue's thresholds (with the allowance of the
+/// module docs) go to `failures`. Returns the most pixels the CPU tracer hit in one frame.
 fn check_agreement(
     gpu: &mut GpuRenderer,
     label: &str,
@@ -187,29 +229,48 @@ fn check_agreement(
             };
             let cpu_frame = cpu_render(camera);
             most_hits = most_hits.max((0..SIZE * SIZE).filter(|&i| cpu_frame.is_hit(i)).count());
-            let a = compare(&cpu_frame, gpu_frame);
-            // Below 99 %: the allowance the CPU's own sensitivity earns (module docs).
-            let steps_needed = if a.equal_steps >= 0.99 {
-                0.99
-            } else {
-                let own = cpu_self_agreement(&cpu_frame, &cpu_render, camera);
-                (own - PERTURBATION_MARGIN).min(0.99)
-            };
+            let a = compare(&cpu_frame, gpu_frame, settings.max_steps);
+            // Below 99 %: the allowance the marches' own sensitivity earns (module docs).
+            let mut steps_needed = 0.99;
+            if a.agreeing_steps < steps_needed {
+                let own = self_agreement("CPU", &cpu_frame, &cpu_render, camera);
+                steps_needed = (own - PERTURBATION_MARGIN).min(steps_needed);
+            }
+            if a.agreeing_steps < steps_needed {
+                let gpu_render = |camera: &Camera| {
+                    gpu.render(
+                        &program,
+                        &[*method],
+                        camera,
+                        &settings,
+                        (SIZE as u32, SIZE as u32),
+                        View::Shaded(skeletrace_core::shading::FieldShading::default()),
+                    )
+                    .unwrap_or_else(|e| panic!("{label}: {e}"))
+                    .remove(0)
+                };
+                let own = self_agreement("GPU", gpu_frame, gpu_render, camera);
+                steps_needed = (own - PERTURBATION_MARGIN).min(steps_needed);
+            }
             eprintln!(
-                "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {})  depth {:.1e}  equal steps {:.4} (held to {steps_needed:.4})  differences {:?}",
+                "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {}; out of steps: CPU {}, GPU {})  depth {:.1e}  equal steps {:.4}, agreeing {:.4} (held to {steps_needed:.4})  differences {:?}",
                 method.name(),
                 a.hit_mask,
                 a.one_sided.0,
                 a.one_sided.1,
+                a.exhausted.0,
+                a.exhausted.1,
                 a.worst_depth / diagonal,
                 a.equal_steps,
+                a.agreeing_steps,
                 a.histogram
             );
-            let held = !UNHELD.contains(&method.name());
+            // A shader whose rays stall must not hide them from the hit mask.
             let meets = a.hit_mask >= 0.999
+                && a.exhausted.1 <= a.exhausted.0 + SIZE * SIZE / 100
                 && a.worst_depth <= 1e-3 * diagonal
-                && a.equal_steps >= steps_needed;
-            if (held && !meets) || a.hit_mask < FLOOR.0 || a.equal_steps < FLOOR.1 {
+                && a.agreeing_steps >= steps_needed;
+            if !meets {
                 failures.push(format!("{label} {}", method.name()));
             }
         }
@@ -217,23 +278,25 @@ fn check_agreement(
     most_hits
 }
 
-/// The fraction of pixels whose CPU step count is unchanged when the camera position moves by
-/// [`PERTURBATION`] of itself: how well the f64 march agrees with itself at f32 precision.
-fn cpu_self_agreement(
-    cpu_frame: &Frame,
-    render: &dyn Fn(&Camera) -> Frame,
+/// The fraction of pixels of `frame` (rendered by `backend` through `camera`) whose step count
+/// is unchanged when the camera position moves by [`PERTURBATION`] of itself: how well a march
+/// agrees with itself at f32 precision.
+fn self_agreement(
+    backend: &str,
+    frame: &Frame,
+    mut render: impl FnMut(&Camera) -> Frame,
     camera: &Camera,
 ) -> f64 {
     let moved = Camera {
         position: camera.position.map(|p| p * (1.0 + PERTURBATION)),
         ..*camera
     };
-    let own = compare(cpu_frame, &render(&moved));
+    let own = compare(frame, &render(&moved), u32::MAX);
     eprintln!(
-        "{:<39} CPU against itself, camera moved by {PERTURBATION:.1e}: equal steps {:.4}  differences {:?}",
-        "", own.equal_steps, own.histogram
+        "{:<39} {backend} against itself, camera moved by {PERTURBATION:.1e}: equal steps {:.4}, agreeing {:.4}  differences {:?}",
+        "", own.equal_steps, own.agreeing_steps, own.histogram
     );
-    own.equal_steps
+    own.agreeing_steps
 }
 
 #[test]
@@ -494,6 +557,73 @@ fn resumed_marches_give_the_same_frames() {
         assert!(
             longest_sphere > 2 * default_allowance,
             "{asset}: sphere tracing should outrun two dispatches ({longest_sphere} steps)"
+        );
+    }
+}
+
+/// Occluders (scalis 2021 §7; binning.wgsl): primitives wholly behind a ball inside the
+/// surface are left out of a tile's list. On the 3 000-atom molecule, many layers deep, seen
+/// through a narrow field of view so that atoms cover whole 4-pixel tiles, the tile lists get
+/// shorter, and the frames keep their hits and depths.
+#[test]
+fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
+    let mut gpu = GpuRenderer::new()
+        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let scene = load("molecule");
+    let program = FieldProgram::new(&scene);
+    let settings = TraceSettings::for_program(&program);
+    let diagonal = program.support_bounds().diagonal();
+    gpu.set_scene(&scene, &program)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let camera = Camera {
+        fov_degrees: scene.camera.fov_degrees / 5.0,
+        ..scene.camera
+    };
+    let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
+    let mut frames = |occluders| {
+        gpu.set_occluders(occluders);
+        let frames = gpu
+            .render(
+                &program,
+                &methods,
+                &camera,
+                &settings,
+                (SIZE as u32, SIZE as u32),
+                View::Shaded(skeletrace_core::shading::FieldShading::default()),
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+        (
+            frames,
+            gpu.last_tile_items(),
+            gpu.last_pass_times().cloned(),
+        )
+    };
+    let (open, open_items, open_times) = frames(false);
+    let (occluded, occluded_items, occluded_times) = frames(true);
+    eprintln!(
+        "molecule: {open_items} (primitive, tile) pairs without occluders, {occluded_items} with; \
+         pass times without {open_times:?}, with {occluded_times:?}"
+    );
+    assert!(
+        occluded_items * 2 < open_items,
+        "occluders should leave out at least half of the molecule's pairs: {occluded_items} of {open_items}"
+    );
+    for ((method, a), b) in methods.iter().zip(&open).zip(&occluded) {
+        let same = compare(a, b, settings.max_steps);
+        eprintln!(
+            "{}: hit mask {:.4}, depth {:.1e}, equal steps {:.4} {:?}",
+            method.name(),
+            same.hit_mask,
+            same.worst_depth / diagonal,
+            same.equal_steps,
+            same.histogram
+        );
+        assert_eq!(same.hit_mask, 1.0, "{}: hit masks differ", method.name());
+        assert!(
+            same.worst_depth <= 1e-5 * diagonal,
+            "{}: depths differ by {:.1e} of the diagonal",
+            method.name(),
+            same.worst_depth / diagonal
         );
     }
 }
