@@ -372,7 +372,7 @@ struct RaySupports {
     tile_start: u32,
     tile_end: u32,
     horizon: f32,
-    floor: f32,
+    floor: f32,    // of the last fill, kept for a suspended march to refill the same window
     ids: array<u32, RAY_SUPPORTS>,
     spans: array<vec2<f32>, RAY_SUPPORTS>,
 };
