@@ -163,8 +163,9 @@ const GROUP: u32 = 64u;
 var<workgroup> group_rects: array<vec4<i32>, GROUP>;
 // Inclusive prefix sum of the rectangles' areas in tiles.
 var<workgroup> area_ends: array<u32, GROUP>;
-// Per primitive of the group: its occluder ball (occlude pass) or its nearest reach (the others).
+// Per primitive of the group: its occluder ball (occlude pass), its nearest reach (the others).
 var<workgroup> group_balls: array<vec4<f32>, GROUP>;
+var<workgroup> group_reaches: array<f32, GROUP>;
 
 fn rect_area(rect: vec4<i32>) -> u32 {
     if rect.x > rect.z || rect.y > rect.w {
@@ -257,11 +258,11 @@ fn count_tiles(
             nearest[i] = reach;
         }
     }
-    group_balls[lid] = vec4<f32>(reach);
+    group_reaches[lid] = reach;
     let total = share_rects(lid, rect);
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
-        if group_balls[p.x].x <= occluding_depth(p.y) {
+        if group_reaches[p.x] <= occluding_depth(p.y) {
             atomicAdd(&tile_counts[p.y], 1u);
         }
     }
@@ -282,12 +283,12 @@ fn fill_tiles(
         rect = rects[i];
         reach = nearest[i];
     }
-    group_balls[lid] = vec4<f32>(reach);
+    group_reaches[lid] = reach;
     let total = share_rects(lid, rect);
     let first = id.x - lid;
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
-        if group_balls[p.x].x > occluding_depth(p.y) {
+        if group_reaches[p.x] > occluding_depth(p.y) {
             continue;
         }
         let slot = atomicAdd(&tile_counts[p.y], 1u);

@@ -5,9 +5,8 @@
 //! Mesa's lavapipe in CI — and fails, never skips, when there is none.
 //!
 //! The thresholds (hit masks equal on ≥ 99.9 % of pixels, depth within 10⁻³ of the
-//! support diagonal, steps equal on ≥ 99 %) are asserted for every method, with one measured
-//! allowance for step counts. Some step counts are sensitive to perturbations at f32
-//! precision:
+//! support diagonal, steps equal on ≥ 99 %) are asserted for every method, with three measured
+//! allowances, below. Some step counts are sensitive to perturbations at f32 precision:
 //! - bottom-up-quadratic and scalis-quadratic even in f64: on the CPU alone, moving the camera
 //!   by 2.4·10⁻⁷ of its distance (two f32 ulps) changes the step count of 1–3 % of the pixels
 //!   (a ray passing a blob's closest point just inside or just outside the interval gets a
@@ -110,6 +109,7 @@ fn compare(cpu: &Frame, gpu: &Frame, budget: u32) -> Agreement {
     let mut histogram = std::collections::BTreeMap::new();
     let mut one_sided = (0, 0);
     let mut exhausted = (0, 0);
+    let mut with_verdict = 0;
     for i in 0..n {
         let (cpu_out, gpu_out) = (cpu.steps[i] >= budget, gpu.steps[i] >= budget);
         exhausted.0 += usize::from(cpu_out);
@@ -123,6 +123,7 @@ fn compare(cpu: &Frame, gpu: &Frame, budget: u32) -> Agreement {
         if cpu_out || gpu_out {
             continue;
         }
+        with_verdict += 1;
         let long = cpu.steps[i].min(gpu.steps[i]) >= LONG_MARCH;
         if d == 0 || (long && d.unsigned_abs() as f64 <= DRIFT * f64::from(cpu.steps[i])) {
             agreeing += 1;
@@ -139,10 +140,6 @@ fn compare(cpu: &Frame, gpu: &Frame, budget: u32) -> Agreement {
             }
         }
     }
-    let with_verdict = n
-        - (0..n)
-            .filter(|&i| cpu.steps[i] >= budget || gpu.steps[i] >= budget)
-            .count();
     Agreement {
         exhausted,
         one_sided,
@@ -180,8 +177,8 @@ fn check_pass_times(gpu: &GpuRenderer, label: &str, methods: usize) {
 }
 
 /// Renders `scene` with every GPU method that applies on each camera and compares each frame
-/// with the CPU tracer's; the pairs that miss the thresholds (with the allowance of the
-/// module docs) go to `failures`. Returns the most pixels the CPU tracer hit in one frame.
+/// with the CPU tracer's; the pairs that miss the thresholds (with the allowances of
+/// the module docs) go to `failures`. Returns the most pixels the CPU tracer hit in one frame.
 fn check_agreement(
     gpu: &mut GpuRenderer,
     label: &str,
