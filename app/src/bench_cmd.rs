@@ -7,13 +7,13 @@
 
 use std::time::Instant;
 
-use skeletrace_core::methods::TraceSettings;
-use skeletrace_core::render::{RenderOptions, Renderer};
-use skeletrace_core::{FieldProgram, Scene};
-use skeletrace_render::{GpuMethod, GpuRenderer, View};
+use skeletrace_core::backend::{BackendChoice, BackendError, FrameRequest};
+use skeletrace_core::frame::{FieldShading, View};
+use skeletrace_core::{Scene, compile};
 
-use crate::cli::{Backend, BenchArgs};
+use crate::cli::BenchArgs;
 use crate::render_cmd::parse_size;
+use skeletrace::backends::Backends;
 
 /// Shortest warm-up per method. An idle H100 runs at 345 MHz and reaches its 1 980 MHz within
 /// a few dozen frames: after one warm-up frame, the median of 7 frames of the tree read 3.9 ms
@@ -47,96 +47,62 @@ struct Row {
 /// Runs `bench`.
 ///
 /// # Errors
-/// Bad arguments or a method that does not run on the chosen backend.
+/// Bad arguments, a method that does not run on the chosen backend, a failed device.
 pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     let (width, height) = parse_size(&args.size)?;
-    let program = FieldProgram::new(scene);
-    let settings = TraceSettings::for_program(&program);
+    let compiled = compile(scene);
     let frames = args.frames.max(1);
-    let chosen = crate::chosen_methods(&args.methods, &program)?;
+    let chosen = crate::chosen_methods(&args.methods, &compiled.program)?;
+    let mut backends = Backends::open(args.backend);
+    if args.backend == BackendChoice::Gpu
+        && let Err(why) = &backends.gpu
+    {
+        return Err(format!("--backend gpu: {why}"));
+    }
     let mut rows: Vec<Row> = Vec::new();
-    let device = match args.backend {
-        Backend::Cpu => {
-            let device = format!("CPU, {} threads", rayon::current_num_threads());
-            let options = RenderOptions {
-                width,
-                height,
-                shadows: false,
-                shading: skeletrace_core::shading::FieldShading::default(),
-            };
-            for method in &chosen {
-                let tracer = method.prepare(&program, settings);
-                let renderer = Renderer::new(scene, &program, tracer.as_ref(), settings);
-                warm_up(|| {
-                    let _ = renderer.render(&scene.camera, options);
-                    Ok::<(), String>(())
-                })?;
-                let times = (0..frames)
-                    .map(|_| {
-                        let start = Instant::now();
-                        let _ = renderer.render(&scene.camera, options);
-                        start.elapsed().as_secs_f64() * 1e3
-                    })
-                    .collect();
-                rows.push(Row {
-                    name: method.name(),
-                    frame_ms: median(times),
-                    passes: None,
-                });
+    let mut devices: Vec<String> = Vec::new();
+    for method in chosen {
+        let request = FrameRequest {
+            camera: scene.camera,
+            width,
+            height,
+            methods: vec![method],
+            view: View::Shaded(FieldShading::default()),
+            shadows: false,
+            settings: compiled.settings,
+        };
+        let backend = match backends.choose(args.backend, &compiled, method, &request) {
+            Ok(backend) => backend,
+            Err(BackendError::Unsupported(why)) if args.methods == "all" => {
+                eprintln!("skeletrace: skipping {method}: {why}");
+                continue;
             }
-            device
-        }
-        Backend::Gpu => {
-            let mut gpu = GpuRenderer::new()?;
-            gpu.set_scene(scene, &program)?;
-            for method in &chosen {
-                let Some(m) =
-                    GpuMethod::by_name(method.name()).filter(|m| m.supports(&program).is_ok())
-                else {
-                    if args.methods == "all" {
-                        eprintln!(
-                            "skeletrace: {} runs only on the CPU for this scene",
-                            method.name()
-                        );
-                        continue;
-                    }
-                    return Err(format!(
-                        "method '{}' runs only on the CPU for this scene",
-                        method.name()
-                    ));
-                };
-                let size = (width as u32, height as u32);
-                let frame = |gpu: &mut GpuRenderer| {
-                    gpu.render(
-                        &program,
-                        &[m],
-                        &scene.camera,
-                        &settings,
-                        size,
-                        View::Shaded(skeletrace_core::shading::FieldShading::default()),
-                    )
-                };
-                warm_up(|| frame(&mut gpu).map(drop))?;
-                let mut times = Vec::with_capacity(frames);
-                let (mut trace, mut binning) = (Vec::new(), Vec::new());
-                for _ in 0..frames {
-                    let start = Instant::now();
-                    frame(&mut gpu)?;
-                    times.push(start.elapsed().as_secs_f64() * 1e3);
-                    if let Some(passes) = gpu.last_pass_times() {
-                        trace.extend(passes.trace_ms.first().copied());
-                        binning.push(passes.binning_ms);
-                    }
-                }
-                rows.push(Row {
-                    name: m.name(),
-                    frame_ms: median(times),
-                    passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
-                });
+            Err(e) => return Err(e.to_string()),
+        };
+        let device = backend.describe();
+        let fail = |e: BackendError| format!("{method} on {device}: {e}");
+        warm_up(|| backend.render(&compiled, &request).map(drop)).map_err(fail)?;
+        let mut times = Vec::with_capacity(frames);
+        let (mut trace, mut binning) = (Vec::new(), Vec::new());
+        for _ in 0..frames {
+            let start = Instant::now();
+            backend.render(&compiled, &request).map_err(fail)?;
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+            if let Some(passes) = backend.last_pass_times() {
+                trace.extend(passes.trace_ms.first().copied());
+                binning.push(passes.binning_ms);
             }
-            gpu.adapter_name().to_owned()
         }
-    };
+        if !devices.contains(&device) {
+            devices.push(device);
+        }
+        rows.push(Row {
+            name: method.name(),
+            frame_ms: median(times),
+            passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
+        });
+    }
+    let device = devices.join(" and ");
     if args.json {
         let methods: Vec<String> = rows
             .iter()

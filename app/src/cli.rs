@@ -3,8 +3,10 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use skeletrace_core::generate::GeneratorKind;
-use skeletrace_core::scene::SkeletonField;
+use skeletrace::backends::parse_backend_choice;
+use skeletrace_core::backend::BackendChoice;
+use skeletrace_core::model::generate::GeneratorKind;
+use skeletrace_core::model::scene::SkeletonField;
 
 /// Skeleton-based implicit surfaces: model, ray trace, compare root finders.
 #[derive(Parser, Debug)]
@@ -55,9 +57,10 @@ pub struct ExportArgs {
 pub struct BenchArgs {
     /// Scene file (.ron).
     pub scene: PathBuf,
-    /// Tracing backend.
-    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
-    pub backend: Backend,
+    /// Tracing backend: cpu, gpu, or auto (the GPU on a hardware adapter where it supports
+    /// the method, the CPU otherwise).
+    #[arg(long, value_parser = parse_backend_choice, default_value = "cpu")]
+    pub backend: BackendChoice,
     /// Frame size, `WxH`.
     #[arg(long, default_value = "512x512")]
     pub size: String,
@@ -81,15 +84,6 @@ pub enum View {
     Steps,
 }
 
-/// Where rays are traced.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// The CPU tracer of skeletrace-core.
-    Cpu,
-    /// The wgpu backend.
-    Gpu,
-}
-
 /// Arguments of `render`.
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -110,9 +104,10 @@ pub struct RenderArgs {
     /// Size of each panel, `WxH`.
     #[arg(long, default_value = "512x512")]
     pub size: String,
-    /// Tracing backend.
-    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
-    pub backend: Backend,
+    /// Tracing backend: cpu, gpu, or auto (the GPU on a hardware adapter where it supports
+    /// the method, the CPU otherwise).
+    #[arg(long, value_parser = parse_backend_choice, default_value = "cpu")]
+    pub backend: BackendChoice,
     /// Top of the step-count colour scale (default: the largest count in the image).
     #[arg(long)]
     pub steps_max: Option<u32>,

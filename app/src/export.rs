@@ -19,7 +19,7 @@ use gltf::json;
 use json::validation::Checked::Valid;
 use json::validation::USize64;
 use rayon::prelude::*;
-use skeletrace_core::geometry::Ray;
+use skeletrace_core::field::geometry::Ray;
 use skeletrace_core::{FieldProgram, Scene};
 
 /// Newton steps that move a surface-nets vertex onto the surface.

@@ -1,6 +1,7 @@
 //! skeletrace's editor and picture composition, shared by the `skeletrace` binary (editor and
 //! command line) and the editor workflow tests in `tests/`.
 
+pub mod backends;
 pub mod editor;
 pub mod export;
 pub mod picture;

@@ -12,9 +12,10 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use clap::Parser;
-use skeletrace_core::generate::{GenerateOptions, GeneratorKind, generate};
-use skeletrace_core::methods::{self, Method};
-use skeletrace_core::{FieldProgram, Scene, stats};
+use skeletrace_core::cpu::stats;
+use skeletrace_core::methods::{Method, MethodId};
+use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::{FieldProgram, Scene};
 
 use cli::{Cli, Command};
 
@@ -133,32 +134,34 @@ fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {
 
 /// The methods named by `list` (`all`: every method that applies to the scene, the others
 /// reported on standard error).
-fn chosen_methods(list: &str, program: &FieldProgram) -> Result<Vec<Box<dyn Method>>, String> {
+fn chosen_methods(list: &str, program: &FieldProgram) -> Result<Vec<MethodId>, String> {
     if list == "all" {
         let mut out = Vec::new();
-        for m in methods::all() {
-            match m.supports(program) {
-                Ok(()) => out.push(m),
-                Err(why) => eprintln!("skeletrace: skipping {}: {why}", m.name()),
+        for id in MethodId::ALL {
+            match id.method().supports(program) {
+                Ok(()) => out.push(id),
+                Err(why) => eprintln!("skeletrace: skipping {id}: {why}"),
             }
         }
         return Ok(out);
     }
-    list.split(',')
-        .map(|name| {
-            let m = methods::by_name(name.trim())?;
-            m.supports(program).map_err(|why| {
-                format!("method '{}' does not apply to this scene: {why}", m.name())
-            })?;
-            Ok(m)
-        })
-        .collect()
+    let ids = MethodId::parse_list(list)?;
+    for &id in &ids {
+        id.method()
+            .supports(program)
+            .map_err(|why| format!("method '{id}' does not apply to this scene: {why}"))?;
+    }
+    Ok(ids)
 }
 
 fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let scene = load(Some(&args.scene))?;
-    let program = FieldProgram::new(&scene);
-    let chosen = chosen_methods(&args.methods, &program)?;
+    let compiled = skeletrace_core::compile(&scene);
+    let program = &compiled.program;
+    let chosen: Vec<Box<dyn Method>> = chosen_methods(&args.methods, program)?
+        .into_iter()
+        .map(MethodId::method)
+        .collect();
     let terminal = std::io::stderr().is_terminal();
     let progress = |name: &str, fraction: f64| {
         if terminal {
@@ -167,7 +170,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     };
     let name = args.scene.display().to_string();
     let stats = stats::run(
-        &program,
+        program,
         &name,
         &chosen,
         args.rays.max(6),

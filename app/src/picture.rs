@@ -5,7 +5,7 @@ use std::fs;
 use std::io::BufWriter;
 use std::path::Path;
 
-use skeletrace_core::render::{Frame, StepSummary, heat_colour, srgb8};
+use skeletrace_core::frame::{Frame, StepSummary, heat_colour, srgb8};
 
 /// Text scale: 8×8 glyphs drawn at 2×.
 const TEXT_SCALE: usize = 2;

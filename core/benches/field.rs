@@ -7,10 +7,10 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
-use skeletrace_core::generate::{GenerateOptions, GeneratorKind, generate};
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::{Blob, Camera, Group, Material, Scene};
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::{Blob, Camera, Group, Material, Scene};
 use skeletrace_core::{FieldProgram, Interval, Ray};
 
 const QUERIES: usize = 4096;
@@ -41,7 +41,7 @@ fn blob_scene(n: usize) -> Scene {
             blobs,
             shapes: Vec::new(),
             hrbfs: Vec::new(),
-            transform: skeletrace_core::scene::Transform::IDENTITY,
+            transform: skeletrace_core::model::scene::Transform::IDENTITY,
             repeat: None,
         }],
         blend: None,

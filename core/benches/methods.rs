@@ -7,8 +7,8 @@ use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use skeletrace_core::cpu::stats::protocol_rays;
 use skeletrace_core::methods::{self, TraceMode, TraceSettings};
-use skeletrace_core::stats::protocol_rays;
 use skeletrace_core::{FieldProgram, Scene};
 
 const RAYS: usize = 600;

@@ -1,31 +1,30 @@
-//! skeletrace-core: the scene model, kernels, primitives, the field engine with its bounds, and
-//! the scene generators. Pure Rust, no GPU and no UI (DESIGN.md).
+//! skeletrace-core: the scene model, the field engine with its bounds, the root-finding methods
+//! and the CPU tracer. Pure Rust, no GPU and no UI (DESIGN.md, `docs/architecture.md`).
 //!
-//! Objects by lifetime: a [`scene::Scene`] is what the user edits and saves; a
-//! [`program::FieldProgram`] is compiled from it after each edit and queried by the tracers;
-//! [`interval::Jet`]s are per-query enclosures along rays.
+//! Data flows one way: a [`model::scene::Scene`] (what the user edits and saves) is compiled by
+//! [`compile::compile`] into an `Arc<`[`compile::Compiled`]`>` once per edit; a
+//! [`backend::FrameBackend`] (the CPU tracer in [`cpu`], the GPU in `skeletrace-render`) traces
+//! it through a camera into [`frame::Frame`]s. Methods are named by [`methods::MethodId`].
+//!
+//! - [`model`]: scene data, validation, file format, generators.
+//! - [`field`]: kernels, primitives, blends, the BVH and the compiled [`field::program::FieldProgram`].
+//! - [`bounds`]: intervals, Taylor and bottom-up inclusions, affine forms (2023 paper §4–6).
+//! - [`methods`]: one file per root-finding method.
+//! - [`cpu`]: the CPU renderer, field shading, the statistics protocol, the CPU backend.
+//! - [`frame`], [`backend`]: what both backends share (frames, cameras, views, the trait).
 
-pub mod affine;
-pub mod blend;
-pub mod bottom_up;
-pub mod bvh;
-pub mod generate;
-pub mod geometry;
-pub mod hrbf;
-pub mod inclusion;
-pub mod interval;
-pub mod kernel;
+pub mod backend;
+pub mod bounds;
+pub mod compile;
+pub mod cpu;
+pub mod field;
+pub mod frame;
 pub mod methods;
-pub mod primitives;
-pub mod program;
-pub mod quadrature;
-pub mod render;
-pub mod rng;
-pub mod scene;
-pub mod shading;
-pub mod stats;
+pub mod model;
 
-pub use geometry::{Aabb, Ray};
-pub use interval::{Interval, Jet};
-pub use program::FieldProgram;
-pub use scene::{Scene, SceneError};
+pub use bounds::interval::{Interval, Jet};
+pub use compile::{Compiled, compile};
+pub use field::geometry::{Aabb, Ray};
+pub use field::program::FieldProgram;
+pub use methods::MethodId;
+pub use model::scene::{Scene, SceneError};

@@ -5,10 +5,10 @@ mod common;
 
 use common::{KERNELS, KINDS, add_primitive, group, scene};
 use glam::DVec3;
-use skeletrace_core::geometry::Ray;
-use skeletrace_core::kernel::{CLIP_EPSILON, Kernel};
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::{Blend, Skeleton, SkeletonField, Vertex};
+use skeletrace_core::field::geometry::Ray;
+use skeletrace_core::field::kernel::{CLIP_EPSILON, Kernel};
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::{Blend, Skeleton, SkeletonField, Vertex};
 use skeletrace_core::{FieldProgram, Interval};
 
 /// The kernel written from its definition (scalis eq. 2–3, MATH.md §1), independent of
@@ -257,7 +257,7 @@ fn bvh_queries_agree_with_brute_force() {
 fn isolated_primitives_put_the_surface_at_the_prescribed_radius() {
     for kernel in KERNELS {
         let mut g = group(kernel);
-        g.blobs.push(skeletrace_core::scene::Blob {
+        g.blobs.push(skeletrace_core::model::scene::Blob {
             center: [0.0; 3],
             radius: 0.7,
         });

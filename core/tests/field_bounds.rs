@@ -7,12 +7,12 @@ mod common;
 use common::{KERNELS, KINDS, Kind, add_primitive, group, scene};
 use glam::DVec3;
 use rayon::prelude::*;
-use skeletrace_core::affine::field_form;
-use skeletrace_core::bottom_up::{Degree, field_inclusion};
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::primitives::Primitive;
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::Blend;
+use skeletrace_core::bounds::affine::field_form;
+use skeletrace_core::bounds::bottom_up::{Degree, field_inclusion};
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::field::primitives::Primitive;
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::Blend;
 use skeletrace_core::{FieldProgram, Interval, Ray};
 
 const SAMPLES_PER_COMBINATION: usize = 100_000;

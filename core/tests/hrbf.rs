@@ -7,9 +7,9 @@ mod common;
 use common::random_hrbf;
 use glam::DVec3;
 use skeletrace_core::FieldProgram;
-use skeletrace_core::hrbf::solve;
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::Scene;
+use skeletrace_core::field::hrbf_solve::solve;
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::Scene;
 
 #[test]
 fn the_interpolant_passes_through_every_point_with_its_normal() {

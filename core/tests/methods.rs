@@ -8,10 +8,10 @@ mod common;
 use common::assets;
 use glam::DVec3;
 use rayon::prelude::*;
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::methods::{self, Method, TraceMode, TraceSettings};
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::{
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::methods::{self, Method, MethodId, TraceMode, TraceSettings};
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::{
     Blob, Camera, Group, Material, Scene, Skeleton, SkeletonField, Vertex,
 };
 use skeletrace_core::{FieldProgram, Interval, Ray};
@@ -35,7 +35,7 @@ fn blobs_scene(kernel: Kernel, centers: &[[f64; 3]], radius: f64) -> Scene {
                 .collect(),
             shapes: Vec::new(),
             hrbfs: Vec::new(),
-            transform: skeletrace_core::scene::Transform::IDENTITY,
+            transform: skeletrace_core::model::scene::Transform::IDENTITY,
             repeat: None,
         }],
         blend: None,
@@ -153,9 +153,7 @@ fn check_two_blobs_and_transparency(method: &dyn Method) {
     let program = fixture(method, &[[-0.6, 0.0, 0.0], [0.6, 0.0, 0.0]], 0.5);
     let settings = TraceSettings::for_program(&program);
     let tracer = method.prepare(&program, settings);
-    let reference = methods::by_name("reference")
-        .unwrap_or_else(|e| panic!("{e}"))
-        .prepare(&program, settings);
+    let reference = MethodId::Reference.method().prepare(&program, settings);
     let mut rng = SplitMix64::new(17);
     for _ in 0..300 {
         let dir = DVec3::from_array(rng.direction());
@@ -210,9 +208,7 @@ fn conservative_methods_never_skip_a_crossing_on_the_assets() {
                 .filter(|m| m.supports(&program).is_ok())
                 .map(|m| (m.name(), m.is_conservative(), m.prepare(&program, settings)))
                 .collect();
-            let reference = methods::by_name("reference")
-                .unwrap_or_else(|e| panic!("{e}"))
-                .prepare(&program, settings);
+            let reference = MethodId::Reference.method().prepare(&program, settings);
             let bounds = program.support_bounds();
             let diagonal = bounds.diagonal();
             let mut rng = SplitMix64::new(23);
@@ -266,7 +262,9 @@ macro_rules! method_suite {
         mod $module {
             use super::*;
             fn method() -> Box<dyn Method> {
-                methods::by_name($name).unwrap_or_else(|e| panic!("{e}"))
+                let id: MethodId = $name.parse().unwrap_or_else(|e| panic!("{e}"));
+                assert_eq!(id.name(), $name);
+                id.method()
             }
             #[test]
             fn analytic_cases() {
@@ -342,13 +340,25 @@ fn every_design_method_is_implemented_and_unknown_names_are_refused() {
     ];
     let names: Vec<&str> = methods::all().iter().map(|m| m.name()).collect();
     assert_eq!(names.len(), design.len());
-    for name in design {
-        assert!(methods::by_name(name).is_ok(), "{name}");
+    assert_eq!(names, design, "MethodId::ALL follows DESIGN.md's table");
+    for (id, name) in MethodId::ALL.into_iter().zip(design) {
+        assert_eq!(name.parse::<MethodId>(), Ok(id));
+        assert_eq!(
+            id.method().id(),
+            id,
+            "{name}: the implementation reports its own id"
+        );
+        assert_eq!(id.is_conservative(), id.method().is_conservative());
     }
     assert!(
-        methods::by_name("nonsense")
+        "nonsense"
+            .parse::<MethodId>()
             .err()
             .unwrap_or_default()
             .contains("unknown method")
+    );
+    assert_eq!(
+        MethodId::parse_list("sphere, segment"),
+        Ok(vec![MethodId::Sphere, MethodId::Segment])
     );
 }

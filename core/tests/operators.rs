@@ -8,16 +8,16 @@ mod common;
 use common::{KINDS, Kind, add_primitive, group, scene};
 use glam::{DMat3, DVec3, EulerRot};
 use skeletrace_core::FieldProgram;
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::{Blend, Repeat, Scene, Transform};
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::{Blend, Repeat, Scene, Transform};
 
 const KERNEL: Kernel = Kernel::CompactPolynomial {
     degree: 6,
     scale: 2.0,
 };
 
-fn random_group(rng: &mut SplitMix64) -> skeletrace_core::scene::Group {
+fn random_group(rng: &mut SplitMix64) -> skeletrace_core::model::scene::Group {
     let mut g = group(KERNEL);
     for kind in KINDS {
         if kind != Kind::Plane {

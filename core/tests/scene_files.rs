@@ -8,7 +8,7 @@ use std::path::Path;
 
 use common::assets;
 use glam::DVec3;
-use skeletrace_core::rng::SplitMix64;
+use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::{FieldProgram, Scene, SceneError};
 
 #[test]

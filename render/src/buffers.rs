@@ -1,5 +1,5 @@
 //! The scene packed for the GPU: `#[repr(C)]` + bytemuck twins of the WGSL structs in
-//! `shaders/prelude.wgsl`, built from a [`FieldProgram`] and its [`Scene`].
+//! `shaders/prelude.wgsl`, built from a [`Compiled`] scene.
 //!
 //! The GPU evaluates point blobs, distance and SCALIS segments and planes, up to
 //! [`MAX_GROUPS`] groups combined by one sum, max, min, smooth union or smooth intersection
@@ -9,10 +9,10 @@
 //! tracer.
 
 use bytemuck::{Pod, Zeroable};
-use skeletrace_core::FieldProgram;
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::primitives::{Primitive, Solid};
-use skeletrace_core::scene::{Blend, Light, Scene};
+use skeletrace_core::compile::Compiled;
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::field::primitives::{Primitive, Solid};
+use skeletrace_core::model::scene::{Blend, Light};
 
 /// Groups the shaders hold in registers (`MAX_GROUPS` in prelude.wgsl).
 pub const MAX_GROUPS: usize = 8;
@@ -143,7 +143,7 @@ const OCCLUDER_SHRINK: f64 = 0.999;
 /// sphere-cone: scalis 2021 appendix A).
 fn occluder_radius(
     primitive: &Primitive,
-    k: &skeletrace_core::kernel::KernelProfile,
+    k: &skeletrace_core::field::kernel::KernelProfile,
     isovalue: f64,
 ) -> f32 {
     let (centre, radius, outward) = match primitive {
@@ -164,16 +164,16 @@ fn occluder_radius(
 }
 
 fn kernel(k: Kernel) -> GpuKernel {
-    let profile = skeletrace_core::kernel::KernelProfile::new(k);
+    let profile = skeletrace_core::field::kernel::KernelProfile::new(k);
     let (family, exponent, sigma, clip) = match k {
         Kernel::CompactPolynomial { degree, scale } => (0, f64::from(degree / 2), scale, 0.0),
         Kernel::Cauchy { degree, scale } => (
             1,
             f64::from(degree) / 2.0,
             scale,
-            skeletrace_core::kernel::CLIP_EPSILON,
+            skeletrace_core::field::kernel::CLIP_EPSILON,
         ),
-        Kernel::Gaussian { scale } => (2, 0.0, scale, skeletrace_core::kernel::CLIP_EPSILON),
+        Kernel::Gaussian { scale } => (2, 0.0, scale, skeletrace_core::field::kernel::CLIP_EPSILON),
     };
     GpuKernel {
         family,
@@ -189,11 +189,12 @@ fn kernel(k: Kernel) -> GpuKernel {
 }
 
 impl PackedScene {
-    /// Packs `program` (compiled from `scene`).
+    /// Packs a compiled scene.
     ///
     /// # Errors
     /// What the GPU backend does not evaluate in this scene.
-    pub fn new(scene: &Scene, program: &FieldProgram) -> Result<Self, String> {
+    pub fn new(compiled: &Compiled) -> Result<Self, String> {
+        let program = &compiled.program;
         let groups = program.group_count();
         if groups > MAX_GROUPS {
             return Err(format!(
@@ -273,30 +274,21 @@ impl PackedScene {
                 bound,
             });
         }
-        let lights = if scene.lights.is_empty() {
-            Scene::default_lights()
-        } else {
-            scene.lights.clone()
-        };
         Ok(Self {
             primitives,
             kernels: (0..groups)
                 .map(|g| kernel(program.group_kernel_spec(g)))
                 .collect(),
-            materials: scene
-                .groups
+            materials: compiled
+                .materials
                 .iter()
-                .map(|g| {
-                    let c = g.material.color;
-                    [
-                        c[0] as f32,
-                        c[1] as f32,
-                        c[2] as f32,
-                        g.material.opacity as f32,
-                    ]
+                .map(|m| {
+                    let c = m.color;
+                    [c[0] as f32, c[1] as f32, c[2] as f32, m.opacity as f32]
                 })
                 .collect(),
-            lights: lights
+            lights: compiled
+                .lights
                 .iter()
                 .map(|l| match l {
                     Light::Directional {
@@ -350,9 +342,8 @@ mod tests {
     fn packed(asset: &str) -> PackedScene {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join(format!("../assets/scenes/{asset}.ron"));
-        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-        let program = FieldProgram::new(&scene);
-        PackedScene::new(&scene, &program).unwrap_or_else(|e| panic!("{e}"))
+        let scene = skeletrace_core::Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        PackedScene::new(&skeletrace_core::compile(&scene)).unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// Every point blob of the blob assets (compact and Gaussian kernels, under a sum) gets an

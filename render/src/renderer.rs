@@ -9,11 +9,14 @@ use std::sync::{Arc, Mutex};
 
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
+use skeletrace_core::FieldProgram;
+use skeletrace_core::backend::{BackendError, DeviceKind, PassTimes};
+use skeletrace_core::compile::Compiled;
+use skeletrace_core::cpu::shading::{AO_SAMPLES, SOFT_SHADOW_STEPS, shading_scale};
+use skeletrace_core::field::primitives::Primitive;
+use skeletrace_core::frame::{FieldShading, Frame, PinholeCamera, View, far_distance};
 use skeletrace_core::methods::TraceSettings;
-use skeletrace_core::render::{Frame, PinholeCamera, far_distance};
-use skeletrace_core::scene::{Camera, Scene};
-use skeletrace_core::shading::{AO_SAMPLES, FieldShading, SOFT_SHADOW_STEPS, shading_scale};
-use skeletrace_core::{FieldProgram, primitives::Primitive};
+use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuPrimitive, PackedScene};
@@ -41,18 +44,6 @@ pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
 /// ambient-occlusion sample visits every primitive): lavapipe stops a shader invocation's loops
 /// after 65 535 iterations in all, and the march needs its share.
 pub const MAX_SHADING_VISITS: usize = 40_000;
-
-/// What the colour output shows.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum View {
-    /// Blinn–Phong shading, with the field's soft shadows and ambient occlusion if asked.
-    Shaded(FieldShading),
-    /// Step-count heat map on `[0, steps_max]`.
-    Steps {
-        /// Top of the colour scale.
-        steps_max: u32,
-    },
-}
 
 /// Twin of `Globals` in prelude.wgsl.
 #[repr(C)]
@@ -84,8 +75,58 @@ struct GpuBinning {
     size: [u32; 4],
 }
 
+/// The camera's frame of one render, shared by the binning and trace uniforms.
+#[derive(Clone, Copy)]
+struct FrameGeometry {
+    camera: Camera,
+    origin: glam::DVec3,
+    forward: glam::DVec3,
+    right: glam::DVec3,
+    up: glam::DVec3,
+    tan_half: f64,
+    aspect: f64,
+    width: u32,
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+}
+
+impl FrameGeometry {
+    fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let (forward, right, up) = PinholeCamera::new(camera).axes();
+        Self {
+            camera: *camera,
+            origin: glam::DVec3::from_array(camera.position),
+            forward,
+            right,
+            up,
+            tan_half: (0.5 * camera.fov_degrees.to_radians()).tan(),
+            aspect: f64::from(width) / f64::from(height.max(1)),
+            width,
+            height,
+            tiles_x: width.div_ceil(TILE),
+            tiles_y: height.div_ceil(TILE),
+        }
+    }
+}
+
+/// One frame's tile lists (binning.wgsl): per-tile ranges into `items`, filled by
+/// `fill_group` in the trace submission.
+struct TileLists {
+    counts: wgpu::Buffer,
+    ranges: wgpu::Buffer,
+    items: wgpu::Buffer,
+    fill_group: wgpu::BindGroup,
+    /// Binning workgroups: columns of 64 primitives × slices of their (primitive, tile) pairs.
+    workgroups: (u32, u32),
+    /// (primitive, tile) pairs in all lists.
+    total: u32,
+}
+
 /// The uploaded scene.
 struct SceneBuffers {
+    /// The compiled scene the buffers were packed from.
+    compiled: Arc<Compiled>,
     packed: PackedScene,
     primitives: wgpu::Buffer,
     kernels: wgpu::Buffer,
@@ -101,11 +142,12 @@ pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     adapter: String,
+    device_kind: DeviceKind,
     errors: Arc<Mutex<Vec<String>>>,
     occlude_pipeline: wgpu::ComputePipeline,
     count_pipeline: wgpu::ComputePipeline,
     fill_pipeline: wgpu::ComputePipeline,
-    trace_pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    trace_pipelines: HashMap<GpuMethod, wgpu::ComputePipeline>,
     scene: Option<SceneBuffers>,
     /// Primitive uploads in bytes, for the tests of partial re-upload.
     uploaded_bytes: u64,
@@ -174,17 +216,6 @@ impl OutputBuffers {
     }
 }
 
-/// How long the last frame's passes ran on the GPU, from timestamp queries: the wall-clock
-/// frame time also holds the two submissions' round trips, the readback and the conversion to
-/// [`Frame`]s, which dominate on a fast GPU.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PassTimes {
-    /// Counting and filling the tile lists, in milliseconds.
-    pub binning_ms: f64,
-    /// One trace pass per method, in the order asked, in milliseconds.
-    pub trace_ms: Vec<f64>,
-}
-
 fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     // Storage buffers may not be empty.
     let padded;
@@ -223,7 +254,7 @@ fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
 /// σ, smallest radius and normalisation of a Gaussian-blob scene (field inversion).
 fn gaussian_parameters(program: &FieldProgram) -> [f32; 3] {
     let sigma = match program.common_kernel() {
-        Some(skeletrace_core::kernel::Kernel::Gaussian { scale }) => scale,
+        Some(skeletrace_core::field::kernel::Kernel::Gaussian { scale }) => scale,
         _ => 1.0,
     };
     let (mut radius, mut norm) = (f64::INFINITY, 1.0);
@@ -250,7 +281,7 @@ impl GpuRenderer {
     ///
     /// # Errors
     /// No adapter, or no device.
-    pub fn new() -> Result<Self, String> {
+    pub fn new() -> Result<Self, BackendError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
@@ -259,9 +290,8 @@ impl GpuRenderer {
             compatible_surface: None,
             apply_limit_buckets: false,
         }))
-        .map_err(|e| format!("no GPU adapter: {e}"))?;
+        .map_err(|e| BackendError::DeviceFailed(format!("no GPU adapter: {e}")))?;
         let info = adapter.get_info();
-        let cpu_adapter = info.device_type == wgpu::DeviceType::Cpu;
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("skeletrace"),
@@ -273,7 +303,24 @@ impl GpuRenderer {
             required_limits: adapter.limits(),
             ..Default::default()
         }))
-        .map_err(|e| format!("GPU adapter '{}' gave no device: {e}", info.name))?;
+        .map_err(|e| {
+            BackendError::DeviceFailed(format!("GPU adapter '{}' gave no device: {e}", info.name))
+        })?;
+        Self::with_device(device, queue, &info)
+    }
+
+    /// A renderer on a device opened elsewhere (the editor shares eframe's), with the adapter's
+    /// `info` (name, and whether it is a software rasteriser).
+    ///
+    /// # Errors
+    /// [`BackendError::DeviceFailed`] when the binning pipelines do not build.
+    pub fn with_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        info: &wgpu::AdapterInfo,
+    ) -> Result<Self, BackendError> {
+        let cpu_adapter = info.device_type == wgpu::DeviceType::Cpu;
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let errors = Arc::new(Mutex::new(Vec::new()));
         let sink = Arc::clone(&errors);
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -297,6 +344,11 @@ impl GpuRenderer {
             device,
             queue,
             adapter: format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type),
+            device_kind: if cpu_adapter {
+                DeviceKind::SoftwareGpu
+            } else {
+                DeviceKind::HardwareGpu
+            },
             errors,
             occlude_pipeline,
             count_pipeline,
@@ -316,7 +368,7 @@ impl GpuRenderer {
             occluders: true,
             last_tile_items: 0,
         };
-        renderer.check()?;
+        renderer.check().map_err(BackendError::DeviceFailed)?;
         Ok(renderer)
     }
 
@@ -324,6 +376,19 @@ impl GpuRenderer {
     #[must_use]
     pub fn adapter_name(&self) -> &str {
         &self.adapter
+    }
+
+    /// Whether the adapter is a hardware GPU or a software rasteriser (from the adapter's own
+    /// device type, not its name).
+    #[must_use]
+    pub fn device_kind(&self) -> DeviceKind {
+        self.device_kind
+    }
+
+    /// The compiled scene uploaded last, if any.
+    #[must_use]
+    pub fn scene(&self) -> Option<&Arc<Compiled>> {
+        self.scene.as_ref().map(|s| &s.compiled)
     }
 
     /// The GPU's own time for the passes of the last frame; `None` where the adapter has no
@@ -378,13 +443,15 @@ impl GpuRenderer {
         }
     }
 
-    /// Uploads `scene`; when only some primitives changed since the last upload (same count),
-    /// only the changed range is written.
+    /// Uploads a compiled scene; when only some primitives changed since the last upload (same
+    /// count), only the changed range is written.
     ///
     /// # Errors
-    /// What the GPU backend does not handle in this scene.
-    pub fn set_scene(&mut self, scene: &Scene, program: &FieldProgram) -> Result<(), String> {
-        let packed = PackedScene::new(scene, program)?;
+    /// [`BackendError::Unsupported`] for what the GPU backend does not handle in this scene,
+    /// [`BackendError::DeviceFailed`] on a GPU error.
+    pub fn set_scene(&mut self, compiled: &Arc<Compiled>) -> Result<(), BackendError> {
+        let program = &compiled.program;
+        let packed = PackedScene::new(compiled).map_err(BackendError::Unsupported)?;
         let gauss = gaussian_parameters(program);
         let method = [
             program.global_lipschitz() as f32,
@@ -417,7 +484,8 @@ impl GpuRenderer {
             old.packed = packed;
             old.method = method;
             old.isovalue = isovalue;
-            return self.check();
+            old.compiled = Arc::clone(compiled);
+            return self.check().map_err(BackendError::DeviceFailed);
         }
         let d = &self.device;
         let primitive_bytes: &[u8] = bytemuck::cast_slice(&packed.primitives);
@@ -427,105 +495,84 @@ impl GpuRenderer {
             kernels: storage(d, "kernels", bytemuck::cast_slice(&packed.kernels)),
             materials: storage(d, "materials", bytemuck::cast_slice(&packed.materials)),
             lights: storage(d, "lights", bytemuck::cast_slice(&packed.lights)),
+            compiled: Arc::clone(compiled),
             packed,
             method,
             isovalue,
         });
-        self.check()
-    }
-
-    /// `Err` when the field shading terms would visit too many primitives per pixel.
-    fn check_shading_budget(
-        &self,
-        program: &FieldProgram,
-        shading: FieldShading,
-    ) -> Result<(), String> {
-        let lights = self.scene.as_ref().map_or(0, |s| s.packed.lights.len());
-        let samples = if shading.soft_shadows {
-            SOFT_SHADOW_STEPS as usize * lights
-        } else {
-            0
-        } + if shading.ambient_occlusion {
-            AO_SAMPLES as usize
-        } else {
-            0
-        };
-        let visits = samples * program.primitives().len();
-        if visits > MAX_SHADING_VISITS {
-            return Err(format!(
-                "soft shadows and ambient occlusion on the GPU visit every primitive at each \
-                 sample: {} primitives × {samples} samples is over the {MAX_SHADING_VISITS} \
-                 visits a pixel may make; use the CPU backend for this scene",
-                program.primitives().len()
-            ));
-        }
-        Ok(())
+        self.check().map_err(BackendError::DeviceFailed)
     }
 
     fn trace_pipeline(&mut self, method: GpuMethod) -> &wgpu::ComputePipeline {
         let device = &self.device;
         self.trace_pipelines
-            .entry(method.name())
+            .entry(method)
             .or_insert_with(|| pipeline(device, &method.source(), "trace_pixels"))
     }
 
-    /// Renders `methods` side by side (`width × height` each) through `camera`; one frame per
-    /// method.
+    /// Renders `methods` side by side (`width × height` each) through `camera` on the uploaded
+    /// scene; one frame per method.
     ///
     /// # Errors
-    /// No scene, a method that does not apply, or a GPU error.
-    #[allow(clippy::too_many_lines)]
+    /// [`BackendError::Unsupported`] when no scene is uploaded, or a method or the field shading
+    /// does not apply to it; [`BackendError::DeviceFailed`] on a GPU error.
     pub fn render(
         &mut self,
-        program: &FieldProgram,
         methods: &[GpuMethod],
         camera: &Camera,
         settings: &TraceSettings,
         (width, height): (u32, u32),
         view: View,
-    ) -> Result<Vec<Frame>, String> {
+    ) -> Result<Vec<Frame>, BackendError> {
+        let compiled = self
+            .scene
+            .as_ref()
+            .map(|s| Arc::clone(&s.compiled))
+            .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
+        let program = &compiled.program;
         for m in methods {
-            m.supports(program)?;
+            m.supports(program).map_err(BackendError::Unsupported)?;
         }
         if let View::Shaded(shading) = view {
-            self.check_shading_budget(program, shading)?;
+            check_shading_budget(&compiled, shading).map_err(BackendError::Unsupported)?;
         }
         for &m in methods {
             self.trace_pipeline(m);
         }
+        let geometry = FrameGeometry::new(camera, width, height);
+        self.trace_frames(program, methods, &geometry, settings, view)
+            .map_err(BackendError::DeviceFailed)
+    }
+
+    /// Bins the uploaded primitives' supports into the tiles of `geometry` (binning.wgsl): the
+    /// occluding depths and counts per tile in a first submission, read back for the host's
+    /// prefix sum; the lists are filled by the returned `fill_group` in the trace submission.
+    fn bin_tiles(
+        &self,
+        geometry: &FrameGeometry,
+        queries: Option<&wgpu::QuerySet>,
+    ) -> Result<TileLists, String> {
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let d = &self.device;
-        let pinhole = PinholeCamera::new(camera);
-        let (forward, right, up) = pinhole.axes();
-        let origin = glam::DVec3::from_array(camera.position);
-        let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
-        let aspect = f64::from(width) / f64::from(height.max(1));
-        let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
+        let FrameGeometry {
+            origin,
+            forward,
+            right,
+            up,
+            tan_half,
+            aspect,
+            width,
+            height,
+            tiles_x,
+            tiles_y,
+            ..
+        } = *geometry;
         let tiles = (tiles_x * tiles_y) as usize;
         let n_prims = scene.packed.primitives.len() as u32;
         // Binning workgroups: one column per 64 primitives, as many slices of each column's
         // (primitive, tile) pairs as fill `binning_workgroups` (binning.wgsl).
         let columns = n_prims.div_ceil(64).max(1);
         let slices = (self.binning_workgroups / columns).clamp(1, tiles as u32);
-        // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each).
-        let passes = 2 + methods.len() as u32;
-        let queries = self.timestamps.then(|| {
-            d.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("pass timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2 * passes,
-            })
-        });
-        let timed = |pass: u32| {
-            queries
-                .as_ref()
-                .map(|query_set| wgpu::ComputePassTimestampWrites {
-                    query_set,
-                    beginning_of_pass_write_index: Some(2 * pass),
-                    end_of_pass_write_index: Some(2 * pass + 1),
-                })
-        };
-
         // Pass 1: count supports per tile.
         let binning = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("binning"),
@@ -598,7 +645,7 @@ impl GpuRenderer {
             // The occluding depths, then the counts (binning.wgsl).
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("count tiles"),
-                timestamp_writes: timed(0),
+                timestamp_writes: timestamp_writes(queries, 0),
             });
             pass.set_pipeline(&self.occlude_pipeline);
             pass.set_bind_group(0, &occlude_group, &[]);
@@ -617,7 +664,6 @@ impl GpuRenderer {
             ranges.push([total, total + c]);
             total += c;
         }
-        self.last_tile_items = u64::from(total);
 
         // Pass 2: fill the tile lists, then trace every method.
         let ranges_buffer = storage(d, "tile ranges", bytemuck::cast_slice(&ranges));
@@ -640,6 +686,62 @@ impl GpuRenderer {
                 entry(7, &nearest),
             ],
         });
+        Ok(TileLists {
+            counts,
+            ranges: ranges_buffer,
+            items,
+            fill_group,
+            workgroups: (columns, slices),
+            total,
+        })
+    }
+
+    /// Fills the tile lists, runs one trace pass per method (each marching method in
+    /// dispatches of `steps_per_dispatch` steps) and reads the panels back as frames.
+    fn trace_frames(
+        &mut self,
+        program: &FieldProgram,
+        methods: &[GpuMethod],
+        geometry: &FrameGeometry,
+        settings: &TraceSettings,
+        view: View,
+    ) -> Result<Vec<Frame>, String> {
+        // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each).
+        let passes = 2 + methods.len() as u32;
+        let queries = self.timestamps.then(|| {
+            self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2 * passes,
+            })
+        });
+        let tile_lists = self.bin_tiles(geometry, queries.as_ref())?;
+        self.last_tile_items = u64::from(tile_lists.total);
+        let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
+        let FrameGeometry {
+            origin,
+            forward,
+            right,
+            up,
+            tan_half,
+            aspect,
+            width,
+            height,
+            tiles_x,
+            tiles_y,
+            camera,
+        } = *geometry;
+        let n_prims = scene.packed.primitives.len() as u32;
+        let TileLists {
+            counts,
+            ranges: ranges_buffer,
+            items,
+            fill_group,
+            workgroups: (columns, slices),
+            ..
+        } = &tile_lists;
+        let (columns, slices) = (*columns, *slices);
+        let d = &self.device;
         let panels = methods.len() as u32;
         let out_width = width * panels;
         let pixels = u64::from(out_width) * u64::from(height);
@@ -649,7 +751,7 @@ impl GpuRenderer {
         }
         let outputs = self.outputs.as_ref().ok_or("no output buffers")?;
         let [colour, depth, steps] = &outputs.written;
-        let far = far_distance(program, camera);
+        let far = far_distance(program, &camera);
         let (heat_max, heat_view, shading) = match view {
             View::Shaded(shading) => (1.0, 0.0, shading),
             View::Steps { steps_max } => (steps_max as f32, 1.0, FieldShading::default()),
@@ -661,10 +763,10 @@ impl GpuRenderer {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("fill tiles"),
-                timestamp_writes: timed(1),
+                timestamp_writes: timestamp_writes(queries.as_ref(), 1),
             });
             pass.set_pipeline(&self.fill_pipeline);
-            pass.set_bind_group(0, &fill_group, &[]);
+            pass.set_bind_group(0, fill_group, &[]);
             pass.dispatch_workgroups(columns, slices, 1);
         }
         for (panel, method) in methods.iter().enumerate() {
@@ -707,7 +809,7 @@ impl GpuRenderer {
                 contents: bytemuck::bytes_of(&globals),
                 usage: wgpu::BufferUsages::UNIFORM,
             });
-            let pipeline = &self.trace_pipelines[method.name()];
+            let pipeline = &self.trace_pipelines[method];
             let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(method.name()),
                 layout: &pipeline.get_bind_group_layout(0),
@@ -734,7 +836,7 @@ impl GpuRenderer {
             encoder.clear_buffer(&outputs.suspensions, 0, None);
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(method.name()),
-                timestamp_writes: timed(2 + panel as u32),
+                timestamp_writes: timestamp_writes(queries.as_ref(), 2 + panel as u32),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
@@ -792,6 +894,44 @@ impl GpuRenderer {
         self.check()?;
         Ok(frames)
     }
+}
+
+/// `Err` when the field shading terms would visit more than [`MAX_SHADING_VISITS`] primitives
+/// per pixel: every soft-shadow and ambient-occlusion sample visits every primitive.
+///
+/// # Errors
+/// The counts, and the advice to use the CPU.
+pub fn check_shading_budget(compiled: &Compiled, shading: FieldShading) -> Result<(), String> {
+    let samples = if shading.soft_shadows {
+        SOFT_SHADOW_STEPS as usize * compiled.lights.len()
+    } else {
+        0
+    } + if shading.ambient_occlusion {
+        AO_SAMPLES as usize
+    } else {
+        0
+    };
+    let primitives = compiled.program.primitives().len();
+    if samples * primitives > MAX_SHADING_VISITS {
+        return Err(format!(
+            "soft shadows and ambient occlusion on the GPU visit every primitive at each \
+             sample: {primitives} primitives × {samples} samples is over the \
+             {MAX_SHADING_VISITS} visits a pixel may make; use the CPU backend for this scene"
+        ));
+    }
+    Ok(())
+}
+
+/// Timestamp writes of pass `pass` (its begin and end), where the device has timestamps.
+fn timestamp_writes(
+    queries: Option<&wgpu::QuerySet>,
+    pass: u32,
+) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+    queries.map(|query_set| wgpu::ComputePassTimestampWrites {
+        query_set,
+        beginning_of_pass_write_index: Some(2 * pass),
+        end_of_pass_write_index: Some(2 * pass + 1),
+    })
 }
 
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {

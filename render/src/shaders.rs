@@ -2,8 +2,9 @@
 //! together in Rust. The methods that run on the GPU, and what each needs of a scene.
 
 use skeletrace_core::FieldProgram;
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::primitives::{Primitive, Solid};
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::field::primitives::{Primitive, Solid};
+use skeletrace_core::methods::MethodId;
 
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
 const MARCH: &str = include_str!("../shaders/march.wgsl");
@@ -18,7 +19,7 @@ const MAIN: &str = include_str!("../shaders/main.wgsl");
 pub const BINNING: &str = include_str!("../shaders/binning.wgsl");
 
 /// A method with a GPU implementation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum GpuMethod {
     /// `sphere`.
     Sphere,
@@ -51,25 +52,31 @@ impl GpuMethod {
         Self::FieldInversion,
     ];
 
-    /// The CLI name (DESIGN.md).
+    /// The method's identity.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub const fn id(self) -> MethodId {
         match self {
-            Self::Sphere => "sphere",
-            Self::SphereEnhanced => "sphere-enhanced",
-            Self::Segment => "segment",
-            Self::LinearTaylor => "linear-taylor",
-            Self::QuadraticTaylor => "quadratic-taylor",
-            Self::BottomUpQuadratic => "bottom-up-quadratic",
-            Self::ScalisQuadratic => "scalis-quadratic",
-            Self::FieldInversion => "field-inversion",
+            Self::Sphere => MethodId::Sphere,
+            Self::SphereEnhanced => MethodId::SphereEnhanced,
+            Self::Segment => MethodId::Segment,
+            Self::LinearTaylor => MethodId::LinearTaylor,
+            Self::QuadraticTaylor => MethodId::QuadraticTaylor,
+            Self::BottomUpQuadratic => MethodId::BottomUpQuadratic,
+            Self::ScalisQuadratic => MethodId::ScalisQuadratic,
+            Self::FieldInversion => MethodId::FieldInversion,
         }
     }
 
-    /// The GPU method called `name`, if there is one.
+    /// The GPU implementation of `id`, if there is one.
     #[must_use]
-    pub fn by_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.name() == name)
+    pub fn from_id(id: MethodId) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.id() == id)
+    }
+
+    /// The command-line name.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        self.id().name()
     }
 
     /// `Err` with the reason when this GPU method cannot trace `program` (the CPU method may).
@@ -190,6 +197,17 @@ mod tests {
             })
             .unwrap_or_else(|| panic!("no Suspension struct in the prelude"));
         assert_eq!(u64::from(span), crate::renderer::SUSPENSION_BYTES);
+    }
+
+    /// Core's `MethodId::has_gpu_implementation` names exactly the methods with shaders here.
+    #[test]
+    fn gpu_methods_are_the_ones_core_says_have_a_gpu_implementation() {
+        let with_shaders: Vec<MethodId> = GpuMethod::ALL.iter().map(|m| m.id()).collect();
+        let said: Vec<MethodId> = MethodId::ALL
+            .into_iter()
+            .filter(|m| m.has_gpu_implementation())
+            .collect();
+        assert_eq!(with_shaders, said);
     }
 
     #[test]

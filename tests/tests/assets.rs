@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use glam::DVec3;
-use skeletrace_core::rng::SplitMix64;
+use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::{FieldProgram, Interval, Ray, Scene};
 
 #[test]

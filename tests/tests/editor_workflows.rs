@@ -12,9 +12,10 @@ use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use skeletrace::editor::{
-    Backend, DialogRequest, Document, Editor, FileDialogs, FilePurpose, Item, UiState, ViewMode,
+    BackendChoice, DialogRequest, Document, Editor, FileDialogs, FilePurpose, Item, UiState,
+    ViewMode,
 };
-use skeletrace_core::kernel::Kernel;
+use skeletrace_core::field::kernel::Kernel;
 
 fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"))
@@ -85,8 +86,11 @@ fn distinct_colours(image: &image::RgbaImage, x0: u32, y0: u32, x1: u32, y1: u32
 
 #[test]
 fn open_select_drag_undo_tune_compare_save_and_reload() {
+    if skeletrace_tests::skip_without_gpu("open_select_drag_undo_tune_compare_save_and_reload") {
+        return;
+    }
     let ui_state = UiState {
-        backend: Backend::Cpu,
+        backend: BackendChoice::Cpu,
         ..UiState::default()
     };
     let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
@@ -222,12 +226,7 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     h.step();
     assert_eq!(h.state().ui_state().view, ViewMode::Compare);
     settle(&mut h);
-    let names: Vec<String> = h
-        .state()
-        .shown_frames()
-        .iter()
-        .map(|(n, _)| (*n).to_owned())
-        .collect();
+    let names: Vec<_> = h.state().shown_frames().iter().map(|(m, _)| *m).collect();
     assert_eq!(
         names,
         h.state().ui_state().compare_methods,
@@ -266,12 +265,15 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
 /// normal a quarter turn around it (the drawn normal follows), and undo both.
 #[test]
 fn hrbf_point_and_normal_drags_in_a_transformed_group() {
+    if skeletrace_tests::skip_without_gpu("hrbf_point_and_normal_drags_in_a_transformed_group") {
+        return;
+    }
     let ui_state = UiState {
-        backend: Backend::Cpu,
+        backend: BackendChoice::Cpu,
         ..UiState::default()
     };
     let mut scene = skeletrace_core::Scene::load(&asset("hrbf")).unwrap_or_else(|e| panic!("{e}"));
-    scene.groups[0].transform = skeletrace_core::scene::Transform {
+    scene.groups[0].transform = skeletrace_core::model::scene::Transform {
         translate: [0.2, 0.1, 0.0],
         rotate: [0.0, 0.0, 30.0],
         scale: 1.3,
@@ -403,6 +405,10 @@ fn wait_for_writes(h: &mut Harness<'static, Editor>) {
 /// directly.
 #[test]
 fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
+    if skeletrace_tests::skip_without_gpu("file_dialogs_save_open_and_fall_back_to_the_path_field")
+    {
+        return;
+    }
     let dir = std::env::temp_dir().join(format!("skeletrace-dialogs-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let dialogs = Arc::new(ScriptedDialogs {
@@ -416,7 +422,7 @@ fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
         asked: Mutex::new(Vec::new()),
     });
     let ui_state = UiState {
-        backend: Backend::Cpu,
+        backend: BackendChoice::Cpu,
         screenshot_size: (64, 48),
         ..UiState::default()
     };

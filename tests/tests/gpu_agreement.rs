@@ -38,11 +38,12 @@
 use std::path::Path;
 
 use glam::DVec3;
-use skeletrace_core::methods::{self, TraceSettings};
-use skeletrace_core::render::{Frame, RenderOptions, Renderer};
-use skeletrace_core::scene::{Blend, Camera};
-use skeletrace_core::{FieldProgram, Scene};
-use skeletrace_render::{GpuMethod, GpuRenderer, View};
+use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
+use skeletrace_core::frame::{Frame, View};
+use skeletrace_core::model::scene::{Blend, Camera};
+use skeletrace_core::{Scene, compile};
+use skeletrace_render::{GpuMethod, GpuRenderer};
+use skeletrace_tests::gpu_or_skip;
 
 const SIZE: usize = 40;
 
@@ -187,40 +188,40 @@ fn check_agreement(
     failures: &mut Vec<String>,
 ) -> usize {
     let mut most_hits = 0;
-    let program = FieldProgram::new(scene);
-    let settings = TraceSettings::for_program(&program);
+    let compiled = compile(scene);
+    let program = &compiled.program;
+    let settings = compiled.settings;
     let diagonal = program.support_bounds().diagonal();
-    gpu.set_scene(scene, &program)
+    gpu.set_scene(&compiled)
         .unwrap_or_else(|e| panic!("{label}: {e}"));
     let gpu_methods: Vec<GpuMethod> = GpuMethod::ALL
         .into_iter()
-        .filter(|m| m.supports(&program).is_ok())
-        .filter(|m| methods::by_name(m.name()).is_ok_and(|c| c.supports(&program).is_ok()))
+        .filter(|m| m.supports(program).is_ok())
+        .filter(|m| m.id().method().supports(program).is_ok())
         .collect();
     assert!(!gpu_methods.is_empty(), "{label}: no GPU method applies");
     for camera in cameras {
         let frames = gpu
             .render(
-                &program,
                 &gpu_methods,
                 camera,
                 &settings,
                 (SIZE as u32, SIZE as u32),
-                View::Shaded(skeletrace_core::shading::FieldShading::default()),
+                View::Shaded(skeletrace_core::frame::FieldShading::default()),
             )
             .unwrap_or_else(|e| panic!("{label}: {e}"));
         check_pass_times(gpu, label, gpu_methods.len());
         for (method, gpu_frame) in gpu_methods.iter().zip(&frames) {
-            let cpu_method = methods::by_name(method.name()).unwrap_or_else(|e| panic!("{e}"));
-            let tracer = cpu_method.prepare(&program, settings);
+            let cpu_method = method.id().method();
+            let tracer = cpu_method.prepare(program, settings);
             let cpu_render = |camera: &Camera| {
-                Renderer::new(scene, &program, tracer.as_ref(), settings).render(
+                Renderer::new(&compiled, tracer.as_ref(), settings).render(
                     camera,
                     RenderOptions {
                         width: SIZE,
                         height: SIZE,
                         shadows: false,
-                        shading: skeletrace_core::shading::FieldShading::default(),
+                        shading: skeletrace_core::frame::FieldShading::default(),
                     },
                 )
             };
@@ -236,12 +237,11 @@ fn check_agreement(
             if a.agreeing_steps < steps_needed {
                 let gpu_render = |camera: &Camera| {
                     gpu.render(
-                        &program,
                         &[*method],
                         camera,
                         &settings,
                         (SIZE as u32, SIZE as u32),
-                        View::Shaded(skeletrace_core::shading::FieldShading::default()),
+                        View::Shaded(skeletrace_core::frame::FieldShading::default()),
                     )
                     .unwrap_or_else(|e| panic!("{label}: {e}"))
                     .remove(0)
@@ -298,8 +298,9 @@ fn self_agreement(
 
 #[test]
 fn gpu_frames_match_the_cpu_tracer() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("gpu_frames_match_the_cpu_tracer") else {
+        return;
+    };
     eprintln!("adapter: {}", gpu.adapter_name());
     let mut failures = Vec::new();
     // SKELETRACE_GPU_ASSETS=a,b narrows the run while investigating one scene.
@@ -330,15 +331,16 @@ fn gpu_frames_match_the_cpu_tracer() {
 /// back to quadratic Taylor for them on both backends).
 #[test]
 fn smooth_blends_match_the_cpu_tracer() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("smooth_blends_match_the_cpu_tracer") else {
+        return;
+    };
     let mut failures = Vec::new();
     // Two groups that overlap: every blob of the asset, and one large blob at its centre.
     let mut scene = load("blobs");
     let all: Vec<_> = scene.groups.iter().flat_map(|g| g.blobs.clone()).collect();
     scene.groups.truncate(2);
     scene.groups[0].blobs = all;
-    scene.groups[1].blobs = vec![skeletrace_core::scene::Blob {
+    scene.groups[1].blobs = vec![skeletrace_core::model::scene::Blob {
         center: [0.0; 3],
         radius: 0.9,
     }];
@@ -372,13 +374,14 @@ fn smooth_blends_match_the_cpu_tracer() {
 /// cone side.
 #[test]
 fn distance_segments_match_the_cpu_tracer() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("distance_segments_match_the_cpu_tracer") else {
+        return;
+    };
     let mut failures = Vec::new();
     let mut scene = load("hand");
     for group in &mut scene.groups {
         for skeleton in &mut group.skeletons {
-            skeleton.field = skeletrace_core::scene::SkeletonField::Distance;
+            skeleton.field = skeletrace_core::model::scene::SkeletonField::Distance;
         }
     }
     let hits = check_agreement(
@@ -394,16 +397,15 @@ fn distance_segments_match_the_cpu_tracer() {
 
 #[test]
 fn editing_one_primitive_re_uploads_only_that_primitive() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("editing_one_primitive_re_uploads_only_that_primitive") else {
+        return;
+    };
     let mut scene = load("blobs");
-    let program = FieldProgram::new(&scene);
-    gpu.set_scene(&scene, &program)
+    gpu.set_scene(&compile(&scene))
         .unwrap_or_else(|e| panic!("{e}"));
     let full = gpu.uploaded_primitive_bytes();
     scene.groups[0].blobs[3].radius *= 1.1;
-    let program = FieldProgram::new(&scene);
-    gpu.set_scene(&scene, &program)
+    gpu.set_scene(&compile(&scene))
         .unwrap_or_else(|e| panic!("{e}"));
     let edit = gpu.uploaded_primitive_bytes() - full;
     let one = std::mem::size_of::<skeletrace_render::buffers::GpuPrimitive>() as u64;
@@ -418,32 +420,31 @@ fn editing_one_primitive_re_uploads_only_that_primitive() {
 /// baked into the primitives, so the GPU sees them too).
 #[test]
 fn field_shading_and_group_operators_agree_with_the_cpu() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("field_shading_and_group_operators_agree_with_the_cpu") else {
+        return;
+    };
     let mut scene = load("blobs");
-    scene.groups[0].transform = skeletrace_core::scene::Transform {
+    scene.groups[0].transform = skeletrace_core::model::scene::Transform {
         translate: [0.3, -0.2, 0.1],
         rotate: [10.0, 35.0, -20.0],
         scale: 0.9,
     };
-    scene.groups[3].repeat = Some(skeletrace_core::scene::Repeat {
+    scene.groups[3].repeat = Some(skeletrace_core::model::scene::Repeat {
         count: [2, 1, 1],
         spacing: [0.6, 0.0, 0.0],
     });
-    let program = FieldProgram::new(&scene);
-    let settings = TraceSettings::for_program(&program);
-    gpu.set_scene(&scene, &program)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let method = "quadratic-taylor";
-    let tracer = methods::by_name(method)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .prepare(&program, settings);
-    let shading = skeletrace_core::shading::FieldShading {
+    let compiled = compile(&scene);
+    let program = &compiled.program;
+    let settings = compiled.settings;
+    gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+    let method = GpuMethod::QuadraticTaylor;
+    let tracer = method.id().method().prepare(program, settings);
+    let shading = skeletrace_core::frame::FieldShading {
         soft_shadows: true,
         ambient_occlusion: true,
     };
     let cpu = |shading| {
-        Renderer::new(&scene, &program, tracer.as_ref(), settings).render(
+        Renderer::new(&compiled, tracer.as_ref(), settings).render(
             &scene.camera,
             RenderOptions {
                 width: SIZE,
@@ -456,8 +457,7 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
     let (shaded, plain) = (cpu(shading), cpu(Default::default()));
     let gpu_frame = gpu
         .render(
-            &program,
-            &[GpuMethod::by_name(method).unwrap_or_else(|| panic!("{method} on the GPU"))],
+            &[method],
             &scene.camera,
             &settings,
             (SIZE as u32, SIZE as u32),
@@ -505,28 +505,29 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
 /// scenes whose sphere-traced rays run up to the step budget, far past the allowance.
 #[test]
 fn resumed_marches_give_the_same_frames() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("resumed_marches_give_the_same_frames") else {
+        return;
+    };
     let default_allowance = gpu.steps_per_dispatch();
     for asset in ["blobs", "tree"] {
         let scene = load(asset);
-        let program = FieldProgram::new(&scene);
-        let settings = TraceSettings::for_program(&program);
-        gpu.set_scene(&scene, &program)
+        let compiled = compile(&scene);
+        let program = &compiled.program;
+        let settings = compiled.settings;
+        gpu.set_scene(&compiled)
             .unwrap_or_else(|e| panic!("{asset}: {e}"));
         let marching: Vec<GpuMethod> = GpuMethod::ALL
             .into_iter()
-            .filter(|m| m.resumable() && m.supports(&program).is_ok())
+            .filter(|m| m.resumable() && m.supports(program).is_ok())
             .collect();
         let mut frames = |steps_per_dispatch| {
             gpu.set_steps_per_dispatch(steps_per_dispatch);
             gpu.render(
-                &program,
                 &marching,
                 &scene.camera,
                 &settings,
                 (SIZE as u32, SIZE as u32),
-                View::Shaded(skeletrace_core::shading::FieldShading::default()),
+                View::Shaded(skeletrace_core::frame::FieldShading::default()),
             )
             .unwrap_or_else(|e| panic!("{asset}: {e}"))
         };
@@ -564,14 +565,15 @@ fn resumed_marches_give_the_same_frames() {
 /// shorter, and the frames keep their hits and depths.
 #[test]
 fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
-    let mut gpu = GpuRenderer::new()
-        .unwrap_or_else(|e| panic!("the GPU tests need an adapter (lavapipe in CI): {e}"));
+    let Some(mut gpu) = gpu_or_skip("occluders_shorten_the_tile_lists_and_keep_the_surface") else {
+        return;
+    };
     let scene = load("molecule");
-    let program = FieldProgram::new(&scene);
-    let settings = TraceSettings::for_program(&program);
+    let compiled = compile(&scene);
+    let program = &compiled.program;
+    let settings = compiled.settings;
     let diagonal = program.support_bounds().diagonal();
-    gpu.set_scene(&scene, &program)
-        .unwrap_or_else(|e| panic!("{e}"));
+    gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
     let camera = Camera {
         fov_degrees: scene.camera.fov_degrees / 5.0,
         ..scene.camera
@@ -581,12 +583,11 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
         gpu.set_occluders(occluders);
         let frames = gpu
             .render(
-                &program,
                 &methods,
                 &camera,
                 &settings,
                 (SIZE as u32, SIZE as u32),
-                View::Shaded(skeletrace_core::shading::FieldShading::default()),
+                View::Shaded(skeletrace_core::frame::FieldShading::default()),
             )
             .unwrap_or_else(|e| panic!("{e}"));
         (

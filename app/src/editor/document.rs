@@ -3,13 +3,19 @@
 //!
 //! An [`Edit`] names what changed; applying one records the scene before it, so undo and redo
 //! restore whole scenes (scenes are small next to what the tracer does with them). Every edited
-//! scene goes through the file loader's own validation (a RON round trip) before it replaces
-//! the current one, so the editor can never hold a scene that would not load back.
+//! scene passes the loader's own rules (`Scene::validate`) before it replaces the current one,
+//! so the editor can never hold a scene that would not load back.
+//!
+//! The document owns the compiled scene: [`Document::compiled`] compiles the current revision
+//! once, on first use, and every view, the inspector and the render thread share that
+//! `Arc<Compiled>`. A camera move is not an edit and compiles nothing.
 
+use std::cell::OnceCell;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use skeletrace_core::Scene;
+use skeletrace_core::{Compiled, Scene, compile};
 
 /// Undo steps kept.
 const HISTORY: usize = 200;
@@ -65,6 +71,8 @@ pub struct Document {
     redo: Vec<Step>,
     open_gesture: Option<String>,
     revision: u64,
+    /// The current revision compiled, once asked for.
+    compiled: OnceCell<Arc<Compiled>>,
 }
 
 impl Document {
@@ -79,6 +87,7 @@ impl Document {
             redo: Vec::new(),
             open_gesture: None,
             revision: next_revision(),
+            compiled: OnceCell::new(),
         }
     }
 
@@ -95,6 +104,18 @@ impl Document {
     #[must_use]
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+
+    /// The current scene compiled: built on the first call after each change, shared after.
+    #[must_use]
+    pub fn compiled(&self) -> Arc<Compiled> {
+        Arc::clone(self.compiled.get_or_init(|| compile(&self.scene)))
+    }
+
+    /// A new revision: the scene changed.
+    fn changed(&mut self) {
+        self.revision = next_revision();
+        self.compiled = OnceCell::new();
     }
 
     /// The file the scene was read from or last saved to.
@@ -127,7 +148,7 @@ impl Document {
         if next == self.scene {
             return Ok(());
         }
-        Scene::from_ron(&next.to_ron(), &edit.label).map_err(|e| e.to_string())?;
+        next.validate()?;
         let merges = edit.coalesce.is_some() && edit.coalesce == self.open_gesture;
         if !merges {
             let before = std::mem::replace(&mut self.scene, next);
@@ -143,7 +164,7 @@ impl Document {
         }
         self.open_gesture = edit.coalesce;
         self.redo.clear();
-        self.revision = next_revision();
+        self.changed();
         Ok(())
     }
 
@@ -189,7 +210,7 @@ impl Document {
             before: current,
         });
         self.open_gesture = None;
-        self.revision = next_revision();
+        self.changed();
         true
     }
 
@@ -213,7 +234,7 @@ impl Document {
         });
         self.redo.clear();
         self.open_gesture = None;
-        self.revision = next_revision();
+        self.changed();
     }
 }
 
@@ -255,7 +276,36 @@ mod tests {
             panic!("a negative radius must be refused");
         };
         assert!(err.contains("radius"), "{err}");
+        assert!(err.contains("vertex 0"), "the error names the item: {err}");
         assert_eq!(doc.scene(), &start);
         assert!(doc.undo_label().is_none());
+    }
+
+    /// The compiled scene is built once per revision, however often it is asked for; an edit,
+    /// an undo and a redo each make one new compile. (The counter is per process; the tests
+    /// of this binary that compile run in their own threads, so only differences are read
+    /// between calls made here, which no other test can interleave with: each compile here
+    /// is checked through `Arc::ptr_eq` as well.)
+    #[test]
+    fn one_edit_compiles_once_and_reading_compiles_nothing() {
+        let mut doc = Document::new(scene(), None);
+        let first = doc.compiled();
+        for _ in 0..10 {
+            assert!(
+                Arc::ptr_eq(&first, &doc.compiled()),
+                "reading again compiles nothing"
+            );
+        }
+        doc.apply(Edit::new("move"), |s| {
+            s.groups[0].skeletons[0].vertices[0].position[0] += 0.1;
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        let edited = doc.compiled();
+        assert!(!Arc::ptr_eq(&first, &edited), "an edit compiles anew");
+        assert!(Arc::ptr_eq(&edited, &doc.compiled()));
+        assert!(doc.undo());
+        let undone = doc.compiled();
+        assert!(!Arc::ptr_eq(&edited, &undone));
+        assert_eq!(undone.program.primitives(), first.program.primitives());
     }
 }

@@ -3,7 +3,7 @@
 //! edited as two angles so that dragging rotates them instead of resizing them.
 
 use eframe::egui;
-use skeletrace_core::scene::{Hrbf, HrbfPoint, Repeat, Transform, Vec3};
+use skeletrace_core::model::scene::{Hrbf, HrbfPoint, Repeat, Transform, Vec3};
 
 use super::shapes::{scalar, vector};
 

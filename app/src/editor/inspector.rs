@@ -4,14 +4,14 @@
 //! live: the next frame is traced from the edited scene.
 
 use eframe::egui;
-use skeletrace_core::kernel::Kernel;
-use skeletrace_core::methods;
-use skeletrace_core::scene::{Blend, Hrbf, Shape, SkeletonField};
+use skeletrace_core::backend::BackendChoice as Backend;
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::methods::MethodId;
+use skeletrace_core::model::scene::{Blend, Hrbf, Shape, SkeletonField};
 use skeletrace_render::GpuMethod;
 
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
-use super::worker::Backend;
 use super::{Edit, Editor, ViewMode};
 use super::{group_tools, shapes};
 
@@ -219,16 +219,16 @@ impl Editor {
             .as_ref()
             .is_none_or(|(r, _)| *r != revision)
         {
-            // Which methods apply depends only on the scene: built once per revision, not
-            // once per UI frame (a FieldProgram builds a BVH).
-            let program = skeletrace_core::FieldProgram::new(self.doc.scene());
-            let tags = methods::all()
-                .iter()
-                .map(|m| {
-                    let applies = m.supports(&program).is_ok();
-                    let gpu =
-                        GpuMethod::by_name(m.name()).is_some_and(|g| g.supports(&program).is_ok());
-                    (m.name(), applies, gpu)
+            // Which methods apply depends only on the scene: found once per revision, on the
+            // document's compiled scene.
+            let compiled = self.doc.compiled();
+            let program = &compiled.program;
+            let tags = MethodId::ALL
+                .into_iter()
+                .map(|id| {
+                    let applies = id.method().supports(program).is_ok();
+                    let gpu = GpuMethod::from_id(id).is_some_and(|g| g.supports(program).is_ok());
+                    (id, applies, gpu)
                 })
                 .collect();
             self.method_tags = Some((revision, tags));
@@ -240,14 +240,14 @@ impl Editor {
             .unwrap_or_default();
         let tag = |gpu: bool| if gpu { "GPU+CPU" } else { "CPU only" };
         egui::ComboBox::from_label("shaded view")
-            .selected_text(self.ui_state.shaded_method.clone())
+            .selected_text(self.ui_state.shaded_method.name())
             .show_ui(ui, |ui| {
-                for &(name, applies, gpu) in &names {
+                for &(id, applies, gpu) in &names {
                     if applies {
                         ui.selectable_value(
                             &mut self.ui_state.shaded_method,
-                            name.to_owned(),
-                            format!("{name}  ({})", tag(gpu)),
+                            id,
+                            format!("{id}  ({})", tag(gpu)),
                         );
                     }
                 }
@@ -256,17 +256,17 @@ impl Editor {
         egui::Grid::new("compare-methods")
             .num_columns(2)
             .show(ui, |ui| {
-                for (k, &(name, applies, gpu)) in names.iter().enumerate() {
-                    let mut on = self.ui_state.compare_methods.iter().any(|m| m == name);
-                    let label = format!("{name} ({})", tag(gpu));
+                for (k, &(id, applies, gpu)) in names.iter().enumerate() {
+                    let mut on = self.ui_state.compare_methods.contains(&id);
+                    let label = format!("{id} ({})", tag(gpu));
                     if ui
                         .add_enabled(applies, egui::Checkbox::new(&mut on, label))
                         .changed()
                     {
                         if on {
-                            self.ui_state.compare_methods.push(name.to_owned());
+                            self.ui_state.compare_methods.push(id);
                         } else {
-                            self.ui_state.compare_methods.retain(|m| m != name);
+                            self.ui_state.compare_methods.retain(|&m| m != id);
                         }
                     }
                     if k % 2 == 1 {

@@ -6,8 +6,10 @@
 //! adapter, where each method ran). [`Editor::ui`] draws one frame; eframe calls it through
 //! [`EditorApp`] and the kittest tests call it directly.
 
+mod compare;
 mod document;
 mod files;
+mod gizmo;
 mod group_tools;
 mod inspector;
 mod selection;
@@ -23,14 +25,14 @@ use std::time::{Duration, Instant};
 use eframe::egui;
 use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
-use skeletrace_core::render::Frame;
-use skeletrace_core::shading::FieldShading;
+use skeletrace_core::frame::{FieldShading, Frame};
+use skeletrace_core::methods::MethodId;
 
 pub use document::{Document, Edit};
 pub use files::{DialogRequest, FileDialogs, FilePurpose, SystemFileDialogs};
 pub use selection::{Item, Selection};
+pub use skeletrace_core::backend::BackendChoice;
 pub use view::OrbitCamera;
-pub use worker::Backend;
 
 use crate::picture::{Canvas, Panels, compose, shared_scale};
 use worker::{RenderWorker, Reply, Request};
@@ -59,13 +61,13 @@ impl ViewMode {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UiState {
     /// Method of the shaded view.
-    pub shaded_method: String,
+    pub shaded_method: MethodId,
     /// Methods of the comparison grid.
-    pub compare_methods: Vec<String>,
+    pub compare_methods: Vec<MethodId>,
     /// Shaded view or comparison grid.
     pub view: ViewMode,
     /// Where frames are traced.
-    pub backend: Backend,
+    pub backend: BackendChoice,
     /// Shadow rays in the shaded view (CPU tracer).
     pub shadows: bool,
     /// Field soft shadows and ambient occlusion in the shaded view.
@@ -80,17 +82,15 @@ pub struct UiState {
 impl Default for UiState {
     fn default() -> Self {
         Self {
-            shaded_method: "quadratic-taylor".to_owned(),
-            compare_methods: [
-                "sphere",
-                "segment",
-                "quadratic-taylor",
-                "bottom-up-quadratic",
-            ]
-            .map(str::to_owned)
-            .to_vec(),
+            shaded_method: MethodId::QuadraticTaylor,
+            compare_methods: vec![
+                MethodId::Sphere,
+                MethodId::Segment,
+                MethodId::QuadraticTaylor,
+                MethodId::BottomUpQuadratic,
+            ],
             view: ViewMode::Shaded,
-            backend: Backend::Auto,
+            backend: BackendChoice::Auto,
             shadows: false,
             shading: FieldShading::default(),
             recent: Vec::new(),
@@ -114,7 +114,7 @@ const REFINE_AFTER: Duration = Duration::from_millis(250);
 
 /// A traced frame ready to draw.
 struct ShownFrame {
-    method: String,
+    method: MethodId,
     frame: Frame,
     texture: egui::TextureHandle,
     on_gpu: bool,
@@ -138,14 +138,14 @@ struct RenderKey {
     revision: u64,
     camera: [u64; 7],
     size: (usize, usize),
-    methods: Vec<String>,
-    backend: Backend,
+    methods: Vec<MethodId>,
+    backend: BackendChoice,
     shadows: bool,
     shading: FieldShading,
 }
 
 /// A method's name, whether it applies to the scene, and whether it runs on the GPU.
-type MethodTag = (&'static str, bool, bool);
+type MethodTag = (MethodId, bool, bool);
 
 /// A message in the status bar.
 struct Notice {
@@ -275,17 +275,12 @@ impl Editor {
         &self.orbit
     }
 
-    /// Frames currently shown, with their method names.
+    /// Frames currently shown, with their methods.
     #[must_use]
-    pub fn shown_frames(&self) -> Vec<(&str, &Frame)> {
+    pub fn shown_frames(&self) -> Vec<(MethodId, &Frame)> {
         self.shown
             .as_ref()
-            .map(|s| {
-                s.frames
-                    .iter()
-                    .map(|f| (f.method.as_str(), &f.frame))
-                    .collect()
-            })
+            .map(|s| s.frames.iter().map(|f| (f.method, &f.frame)).collect())
             .unwrap_or_default()
     }
 
@@ -404,6 +399,13 @@ impl Editor {
     }
 
     fn show_reply(&mut self, ctx: &egui::Context, reply: Reply) {
+        if let Some(failure) = &reply.device_failure {
+            // The document is untouched; the frames of this reply came from the CPU.
+            self.notice = Some(Notice {
+                text: failure.clone(),
+                error: true,
+            });
+        }
         // Full resolution for the viewport (or grid panel) as it is now: the layout may have
         // moved since the request, and a newer request does not make this frame a preview.
         let refined = reply
@@ -419,7 +421,7 @@ impl Editor {
         let named: Vec<(&str, Frame)> = reply
             .frames
             .iter()
-            .map(|t| (t.method.as_str(), t.frame.clone()))
+            .map(|t| (t.method.name(), t.frame.clone()))
             .collect();
         let steps_max = shared_scale(&named).max(1);
         let frames = reply
@@ -455,7 +457,7 @@ impl Editor {
     /// resolution while the user interacts, at full resolution once idle.
     fn request_frames(&mut self, ctx: &egui::Context, pixels: (usize, usize)) {
         let methods = match self.ui_state.view {
-            ViewMode::Shaded => vec![self.ui_state.shaded_method.clone()],
+            ViewMode::Shaded => vec![self.ui_state.shaded_method],
             ViewMode::Compare => self.ui_state.compare_methods.clone(),
         };
         self.viewport_pixels = pixels.0 * pixels.1;
@@ -494,11 +496,9 @@ impl Editor {
         }
         let id = self.next_request;
         self.next_request += 1;
-        let mut scene = self.doc.scene().clone();
-        scene.camera = camera;
         self.worker.request(Request {
             id,
-            scene: Arc::new(scene),
+            compiled: self.doc.compiled(),
             camera,
             size,
             methods,
@@ -693,7 +693,7 @@ impl Editor {
             let radius = radius / selection::placement(s, group).scale;
             if let Some(g) = s.groups.get_mut(group) {
                 g.blobs
-                    .push(skeletrace_core::scene::Blob { center, radius });
+                    .push(skeletrace_core::model::scene::Blob { center, radius });
                 added = Some(Item::Blob {
                     group,
                     blob: g.blobs.len() - 1,
@@ -746,131 +746,6 @@ impl Editor {
         }
     }
 
-    // ---- comparison grid ----
-
-    fn comparison(&mut self, ui: &mut egui::Ui) {
-        let rect = ui.available_rect_before_wrap();
-        let n = self.ui_state.compare_methods.len().max(1);
-        let columns = n.min(crate::picture::COLUMNS);
-        let rows = n.div_ceil(columns);
-        let bar = 44.0;
-        let label = 34.0;
-        let cell_w = rect.width() / columns as f32;
-        let cell_h = ((rect.height() - bar) / rows as f32 - label).max(16.0);
-        let ppp = ui.ctx().pixels_per_point();
-        // Heat maps trace every chosen method: half resolution keeps the grid responsive.
-        let pixels = (
-            ((cell_w * ppp) as usize / 2).max(8),
-            ((cell_h * ppp) as usize / 2).max(8),
-        );
-        self.request_frames(ui.ctx(), pixels);
-        let response = ui.allocate_rect(rect, egui::Sense::hover());
-        let painter = ui.painter_at(rect);
-        self.hovered_pixel = None;
-        let Some(shown) = &self.shown else {
-            painter.text(
-                rect.center(),
-                egui::Align2::CENTER_CENTER,
-                "tracing…",
-                egui::FontId::proportional(16.0),
-                egui::Color32::GRAY,
-            );
-            return;
-        };
-        let mut hover_lines = Vec::new();
-        for (i, f) in shown.frames.iter().enumerate() {
-            let x = rect.left() + (i % columns) as f32 * cell_w;
-            let y = rect.top() + (i / columns) as f32 * (cell_h + label);
-            let s = f.frame.step_summary();
-            let backend = if f.on_gpu { "GPU" } else { "CPU" };
-            painter.text(
-                egui::pos2(x + 4.0, y + 2.0),
-                egui::Align2::LEFT_TOP,
-                format!("{} ({backend})", f.method),
-                egui::FontId::proportional(14.0),
-                egui::Color32::WHITE,
-            );
-            painter.text(
-                egui::pos2(x + 4.0, y + 18.0),
-                egui::Align2::LEFT_TOP,
-                format!("avg {:.2}  median {}  max {}", s.average, s.median, s.max),
-                egui::FontId::monospace(11.0),
-                egui::Color32::LIGHT_GRAY,
-            );
-            let image_rect = fit_rect(
-                egui::Rect::from_min_size(
-                    egui::pos2(x, y + label),
-                    egui::vec2(cell_w - 4.0, cell_h),
-                ),
-                f.frame.width as f32 / f.frame.height.max(1) as f32,
-            );
-            painter.image(
-                f.texture.id(),
-                image_rect,
-                egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0)),
-                egui::Color32::WHITE,
-            );
-            if let Some(p) = response.hover_pos().filter(|p| image_rect.contains(*p)) {
-                let u = ((p.x - image_rect.left()) / image_rect.width() * f.frame.width as f32)
-                    as usize;
-                let v = ((p.y - image_rect.top()) / image_rect.height() * f.frame.height as f32)
-                    as usize;
-                self.hovered_pixel = Some((u, v));
-            }
-        }
-        if let Some((u, v)) = self.hovered_pixel {
-            for f in &shown.frames {
-                let i = v.min(f.frame.height - 1) * f.frame.width + u.min(f.frame.width - 1);
-                hover_lines.push(format!("{}: {} steps", f.method, f.frame.steps[i]));
-            }
-        }
-        // Colour bar with the shared scale.
-        let bar_rect = egui::Rect::from_min_size(
-            egui::pos2(rect.left() + 8.0, rect.bottom() - bar + 6.0),
-            egui::vec2(rect.width() - 16.0, 14.0),
-        );
-        let segments = 64;
-        for k in 0..segments {
-            let t = k as f64 / f64::from(segments - 1);
-            let [r, g, b] = skeletrace_core::render::heat_colour(t);
-            let byte = |c: f32| (c * 255.0 + 0.5) as u8;
-            let w = bar_rect.width() / segments as f32;
-            painter.rect_filled(
-                egui::Rect::from_min_size(
-                    egui::pos2(bar_rect.left() + k as f32 * w, bar_rect.top()),
-                    egui::vec2(w + 0.5, bar_rect.height()),
-                ),
-                0.0,
-                egui::Color32::from_rgb(byte(r), byte(g), byte(b)),
-            );
-        }
-        let clipped = shown
-            .frames
-            .iter()
-            .any(|f| f.frame.step_summary().max > shown.steps_max);
-        painter.text(
-            egui::pos2(bar_rect.left(), bar_rect.bottom() + 2.0),
-            egui::Align2::LEFT_TOP,
-            "0 steps",
-            egui::FontId::proportional(12.0),
-            egui::Color32::LIGHT_GRAY,
-        );
-        painter.text(
-            egui::pos2(bar_rect.right(), bar_rect.bottom() + 2.0),
-            egui::Align2::RIGHT_TOP,
-            format!(
-                "{}{} steps",
-                if clipped { ">=" } else { "" },
-                shown.steps_max
-            ),
-            egui::FontId::proportional(12.0),
-            egui::Color32::LIGHT_GRAY,
-        );
-        if !hover_lines.is_empty() {
-            response.on_hover_text(hover_lines.join("\n"));
-        }
-    }
-
     // ---- screenshots ----
 
     /// Renders the current view (the shaded method, or the comparison grid) offscreen at the
@@ -878,7 +753,7 @@ impl Editor {
     fn screenshot(&mut self, ctx: &egui::Context, path: PathBuf) {
         let (width, height) = self.ui_state.screenshot_size;
         let (methods, view) = match self.ui_state.view {
-            ViewMode::Shaded => (vec![self.ui_state.shaded_method.clone()], ViewMode::Shaded),
+            ViewMode::Shaded => (vec![self.ui_state.shaded_method], ViewMode::Shaded),
             ViewMode::Compare => (self.ui_state.compare_methods.clone(), ViewMode::Compare),
         };
         let per_panel = if view == ViewMode::Compare {
@@ -891,13 +766,11 @@ impl Editor {
             (width, height)
         };
         let camera = self.orbit.camera();
-        let mut scene = self.doc.scene().clone();
-        scene.camera = camera;
         let id = self.next_request;
         self.next_request += 1;
         let request = Request {
             id,
-            scene: Arc::new(scene),
+            compiled: self.doc.compiled(),
             camera,
             size: (per_panel.0.max(8), per_panel.1.max(8)),
             methods,
@@ -915,7 +788,7 @@ impl Editor {
             let named: Vec<(&str, Frame)> = reply
                 .frames
                 .iter()
-                .map(|t| (t.method.as_str(), t.frame.clone()))
+                .map(|t| (t.method.name(), t.frame.clone()))
                 .collect();
             let panels = match view {
                 ViewMode::Shaded => Panels::Shaded { labelled: false },
@@ -958,17 +831,6 @@ fn frame_image(frame: &Frame, view: ViewMode, steps_max: u32) -> egui::ColorImag
         ViewMode::Compare => canvas.draw_steps(frame, steps_max, 0, 0),
     }
     egui::ColorImage::from_rgba_unmultiplied([frame.width, frame.height], canvas.bytes())
-}
-
-/// The largest rectangle of aspect `aspect` centred in `outer`.
-fn fit_rect(outer: egui::Rect, aspect: f32) -> egui::Rect {
-    let (w, h) = (outer.width(), outer.height());
-    let size = if w / h.max(1.0) > aspect {
-        egui::vec2(h * aspect, h)
-    } else {
-        egui::vec2(w, w / aspect.max(1e-3))
-    };
-    egui::Rect::from_center_size(outer.center(), size)
 }
 
 /// The embedded default scene.

@@ -13,9 +13,9 @@ use std::collections::BTreeSet;
 
 use glam::DVec3;
 use skeletrace_core::Scene;
-use skeletrace_core::geometry::Similarity;
-use skeletrace_core::program::group_transform;
-use skeletrace_core::scene::{Blob, HrbfPoint, Skeleton, SkeletonField, Vertex};
+use skeletrace_core::field::geometry::Similarity;
+use skeletrace_core::field::program::group_transform;
+use skeletrace_core::model::scene::{Blob, HrbfPoint, Skeleton, SkeletonField, Vertex};
 
 /// A pickable item of the skeleton overlay.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -590,12 +590,12 @@ mod tests {
     #[test]
     fn viewport_edits_of_a_transformed_group_land_where_the_overlay_shows_them() {
         let mut s = scene();
-        s.groups[0].transform = skeletrace_core::scene::Transform {
+        s.groups[0].transform = skeletrace_core::model::scene::Transform {
             translate: [0.5, -0.25, 1.0],
             rotate: [20.0, -35.0, 60.0],
             scale: 1.7,
         };
-        s.groups[0].repeat = Some(skeletrace_core::scene::Repeat {
+        s.groups[0].repeat = Some(skeletrace_core::model::scene::Repeat {
             count: [2, 1, 1],
             spacing: [0.8, 0.0, 0.0],
         });

@@ -3,7 +3,7 @@
 //! fields for one. They have no handles in the viewport; every parameter is edited here.
 
 use eframe::egui;
-use skeletrace_core::scene::{Shape, Vec3};
+use skeletrace_core::model::scene::{Shape, Vec3};
 
 /// The kinds the "Add shape" menu offers, in its order.
 pub const KINDS: [&str; 5] = ["plane", "box", "rounded box", "torus", "cylinder"];

@@ -5,7 +5,7 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
-use skeletrace_core::scene::Camera;
+use skeletrace_core::model::scene::Camera;
 
 /// An orbit camera around a target point.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -119,7 +119,7 @@ impl Projection {
     /// The projection of `camera` onto a `width × height` viewport.
     #[must_use]
     pub fn new(camera: &Camera, width: f64, height: f64) -> Self {
-        let pinhole = skeletrace_core::render::PinholeCamera::new(camera);
+        let pinhole = skeletrace_core::frame::PinholeCamera::new(camera);
         let (forward, right, up) = pinhole.axes();
         let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
         Self {

@@ -1,12 +1,13 @@
 //! The shaded viewport: the traced frame, the skeleton overlay (vertex handles, segments,
-//! radius circles, blobs, hover and selection highlights), the translate gizmo (three axis
-//! handles, three plane handles and a view-plane handle), click and box selection, sketch
+//! radius circles, blobs, hover and selection highlights), the translate gizmo (`gizmo.rs`),
+//! click and box selection, sketch
 //! mode, radius editing (drag a selected item's radius circle, or the wheel over its handle),
 //! HRBF normals (drag the tip of a selected point's normal around it) and the mouse camera
 //! (left drag orbit, right or middle drag pan, wheel zoom).
 
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, StrokeKind, Vec2};
 
+use super::gizmo::{Gizmo, Handle};
 use super::selection::{self, Item, Selection};
 use super::view::Projection;
 use super::{Edit, Editor};
@@ -20,12 +21,8 @@ pub enum Gesture {
     Orbit,
     /// Moving the camera target.
     Pan,
-    /// Moving the selection along a world axis (0 x, 1 y, 2 z).
-    Axis(usize),
-    /// Moving the selection in the world plane normal to an axis (0 yz, 1 zx, 2 xy).
-    Plane(usize),
-    /// Moving the selection in the plane facing the camera.
-    ViewPlane,
+    /// Moving the selection with a gizmo handle.
+    Move(Handle),
     /// Scaling the selection's radii by dragging a radius circle about this centre.
     Radius(Pos2),
     /// Box selection from this corner.
@@ -42,19 +39,8 @@ impl Gesture {
     }
 }
 
-/// Length of the gizmo's axis handles, points.
-const GIZMO: f32 = 70.0;
 /// Pick distance, points.
 const PICK: f32 = 9.0;
-/// Where a plane handle sits, as a fraction of the two axis handles it spans.
-const PLANE_HANDLE: f32 = 0.35;
-/// Half size of a plane handle, points.
-const PLANE_HANDLE_SIZE: f32 = 6.0;
-const AXIS_COLOURS: [Color32; 3] = [
-    Color32::from_rgb(230, 80, 80),
-    Color32::from_rgb(110, 200, 90),
-    Color32::from_rgb(90, 140, 240),
-];
 const SELECTED: Color32 = Color32::from_rgb(255, 200, 60);
 
 /// An item as drawn: screen position (points), radius on screen, and for an HRBF point the
@@ -106,49 +92,14 @@ impl Editor {
         if let Some(d) = hovered.and_then(|h| drawn.iter().find(|d| d.item == h)) {
             painter.circle_stroke(d.at, 7.0, Stroke::new(2.0, Color32::WHITE));
         }
-        let gizmo = selection::centroid(self.doc.scene(), &self.selection).and_then(|c| {
-            let (x, y, z) = projection.project(c)?;
-            Some((c, to_screen(x, y), z))
-        });
-        let mut axis_tips = [Pos2::ZERO; 3];
-        let mut plane_handles = [Pos2::ZERO; 3];
-        if let Some((c, at, _)) = gizmo {
-            for (k, tip) in axis_tips.iter_mut().enumerate() {
-                let mut axis = [0.0; 3];
-                axis[k] = 1.0;
-                // Screen direction of the axis: project a point one unit along it.
-                let dir = projection
-                    .project([c[0] + axis[0], c[1] + axis[1], c[2] + axis[2]])
-                    .map(|(x, y, _)| to_screen(x, y) - at)
-                    .unwrap_or(Vec2::ZERO);
-                *tip = at + dir.normalized() * GIZMO;
-                let active = self.gesture == Gesture::Axis(k);
-                painter.line_segment(
-                    [at, *tip],
-                    Stroke::new(if active { 4.0 } else { 2.5 }, AXIS_COLOURS[k]),
-                );
-                painter.circle_filled(*tip, 6.0, AXIS_COLOURS[k]);
-            }
-            for (k, handle) in plane_handles.iter_mut().enumerate() {
-                let (a, b) = ((k + 1) % 3, (k + 2) % 3);
-                *handle = at + ((axis_tips[a] - at) + (axis_tips[b] - at)) * PLANE_HANDLE;
-                let colour = AXIS_COLOURS[k].gamma_multiply(if self.gesture == Gesture::Plane(k) {
-                    1.0
-                } else {
-                    0.6
-                });
-                painter.rect_filled(
-                    Rect::from_center_size(*handle, Vec2::splat(2.0 * PLANE_HANDLE_SIZE)),
-                    1.0,
-                    colour,
-                );
-            }
-            painter.rect_stroke(
-                Rect::from_center_size(at, Vec2::splat(14.0)),
-                2.0,
-                Stroke::new(2.0, SELECTED),
-                StrokeKind::Middle,
-            );
+        let gizmo = selection::centroid(self.doc.scene(), &self.selection)
+            .and_then(|c| Gizmo::place(c, &projection, &to_screen));
+        if let Some(gizmo) = &gizmo {
+            let active = match self.gesture {
+                Gesture::Move(handle) => Some(handle),
+                _ => None,
+            };
+            gizmo.draw(&painter, active, SELECTED);
         }
         if self.sketch {
             painter.text(
@@ -173,29 +124,14 @@ impl Editor {
             });
             self.gesture = if secondary {
                 Gesture::Pan
-            } else if let Some(k) = gizmo
-                .is_some()
-                .then(|| (0..3).find(|&k| near_segment(start, gizmo_at(gizmo), axis_tips[k])))
-                .flatten()
-            {
-                Gesture::Axis(k)
-            } else if let Some(k) = gizmo
-                .is_some()
-                .then(|| {
-                    (0..3).find(|&k| {
-                        let d = start - plane_handles[k];
-                        d.x.abs() <= PLANE_HANDLE_SIZE + 2.0 && d.y.abs() <= PLANE_HANDLE_SIZE + 2.0
-                    })
-                })
-                .flatten()
-            {
-                Gesture::Plane(k)
+            } else if let Some(handle) = gizmo.and_then(|g| g.axis_or_plane_at(start)) {
+                Gesture::Move(handle)
             } else if let Some(item) = tip_under(&drawn, &self.selection, start) {
                 Gesture::Normal(item)
             } else if let Some(centre) = ring_under(&drawn, &self.selection, start) {
                 Gesture::Radius(centre)
-            } else if gizmo.is_some_and(|(_, at, _)| (start - at).length() < PICK) {
-                Gesture::ViewPlane
+            } else if gizmo.is_some_and(|g| g.centre_at(start, PICK)) {
+                Gesture::Move(Handle::ViewPlane)
             } else if let Some(item) = nearest(&drawn, start) {
                 if !self.selection.contains(&item) {
                     if !shift {
@@ -203,7 +139,7 @@ impl Editor {
                     }
                     self.selection.insert(item);
                 }
-                Gesture::ViewPlane
+                Gesture::Move(Handle::ViewPlane)
             } else if shift {
                 Gesture::Box(start)
             } else {
@@ -216,22 +152,10 @@ impl Editor {
             match self.gesture {
                 Gesture::Orbit => self.orbit.orbit(dx, dy),
                 Gesture::Pan => self.orbit.pan(dx, dy, f64::from(rect.height())),
-                Gesture::Axis(k) => {
-                    if let Some((c, _, _)) = gizmo {
-                        let mut axis = [0.0; 3];
-                        axis[k] = 1.0;
-                        let moved = projection.drag_along_axis(dx, dy, c, axis);
-                        self.move_selection(moved);
-                    }
-                }
-                Gesture::Plane(k) => {
-                    if let (Some((c, _, _)), Some(now)) = (gizmo, response.interact_pointer_pos()) {
-                        let pixel =
-                            |p: Pos2| (f64::from(p.x - rect.left()), f64::from(p.y - rect.top()));
-                        let mut normal = [0.0; 3];
-                        normal[k] = 1.0;
+                Gesture::Move(handle) => {
+                    if let (Some(gizmo), Some(now)) = (&gizmo, response.interact_pointer_pos()) {
                         let moved =
-                            projection.drag_in_plane(pixel(now - delta), pixel(now), c, normal);
+                            gizmo.drag(handle, &projection, rect.left_top(), now - delta, now);
                         self.move_selection(moved);
                     }
                 }
@@ -246,12 +170,6 @@ impl Editor {
                                 selection::scale_radius(s, &chosen, factor);
                             });
                         }
-                    }
-                }
-                Gesture::ViewPlane => {
-                    if let Some((_, _, z)) = gizmo {
-                        let moved = projection.drag_in_view_plane(dx, dy, z);
-                        self.move_selection(moved);
                     }
                 }
                 Gesture::Normal(item) => {
@@ -481,10 +399,6 @@ pub(super) fn normal_tip(
     Some(at + (to_screen(x1, y1) - at) * (NORMAL_PIXELS / per_unit) as f32)
 }
 
-fn gizmo_at(gizmo: Option<([f64; 3], Pos2, f64)>) -> Pos2 {
-    gizmo.map_or(Pos2::ZERO, |(_, at, _)| at)
-}
-
 /// The drawn item nearest to `p` within the pick distance.
 fn nearest(drawn: &[Drawn], p: Pos2) -> Option<Item> {
     drawn
@@ -516,15 +430,4 @@ fn ring_under(drawn: &[Drawn], selection: &Selection, p: Pos2) -> Option<Pos2> {
         .filter(|(_, off)| *off <= PICK * 0.6)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(at, _)| at)
-}
-
-/// `p` lies near the segment `a`–`b` (an axis handle), away from its start.
-fn near_segment(p: Pos2, a: Pos2, b: Pos2) -> bool {
-    let ab = b - a;
-    let len2 = ab.length_sq();
-    if len2 < 1.0 {
-        return false;
-    }
-    let t = ((p - a).dot(ab) / len2).clamp(0.0, 1.0);
-    t > 0.25 && (a + ab * t - p).length() < 6.0
 }

@@ -1,51 +1,41 @@
-//! The viewport's renderer thread: takes the latest render request, traces it on the GPU
-//! backend or the CPU tracer, and hands the frames back with their timings, so the UI thread
-//! never waits for a frame. Stale requests are dropped: only the newest one is traced.
+//! The viewport's renderer thread: takes the latest render request, traces it through the
+//! backend `skeletrace::backends::Backends::choose` picks for each method, and hands the frames
+//! back with their timings, so the UI thread never waits for a frame. Stale requests are
+//! dropped: only the newest one is traced.
 //!
-//! Backend choice: `Auto` uses the GPU for the methods with a GPU implementation for the scene
-//! when the adapter is a real GPU; on a software adapter (lavapipe) the rayon CPU tracer is
-//! several times faster (README, "GPU backend"), so `Auto` traces on the CPU there. Every
-//! frame says where it was traced; a method the GPU cannot run is labelled CPU, never swapped
-//! silently.
+//! A request carries the document's `Arc<Compiled>`, never a scene to compile: moving the
+//! camera compiles nothing, and the GPU re-uploads only when the compiled scene changes. Every
+//! frame says where it was traced. A GPU that fails (device lost, a shader that does not build)
+//! is dropped with the reason in the reply, and the same request is traced on the CPU.
 
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-use skeletrace_core::methods::{self, TraceSettings};
-use skeletrace_core::render::{Frame, RenderOptions, Renderer};
-use skeletrace_core::scene::Camera;
-use skeletrace_core::shading::FieldShading;
-use skeletrace_core::{FieldProgram, Scene};
-use skeletrace_render::{GpuMethod, GpuRenderer, View};
+use skeletrace_core::Compiled;
+use skeletrace_core::backend::{BackendChoice, BackendError, DeviceKind, FrameRequest};
+use skeletrace_core::frame::{FieldShading, Frame, View};
+use skeletrace_core::methods::MethodId;
+use skeletrace_core::model::scene::Camera;
 
-/// Where frames are traced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Backend {
-    /// GPU on a hardware adapter, CPU otherwise.
-    Auto,
-    /// The GPU backend for every method it implements for the scene.
-    Gpu,
-    /// The CPU tracer.
-    Cpu,
-}
+use crate::backends::Backends;
 
-/// One render: the scene at a revision, a camera, methods and a size.
+/// One render: the compiled scene of a revision, a camera, methods and a size.
 #[derive(Clone)]
 pub struct Request {
     /// Identifies the request in its reply.
     pub id: u64,
-    /// The scene.
-    pub scene: Arc<Scene>,
+    /// The compiled scene (the document's, shared).
+    pub compiled: Arc<Compiled>,
     /// Camera.
     pub camera: Camera,
     /// Frame size in pixels.
     pub size: (usize, usize),
     /// Methods, one frame each.
-    pub methods: Vec<String>,
+    pub methods: Vec<MethodId>,
     /// Backend choice.
-    pub backend: Backend,
+    pub backend: BackendChoice,
     /// Shadow rays in the shaded view (CPU only).
     pub shadows: bool,
     /// Field soft shadows and ambient occlusion in the shaded view.
@@ -54,8 +44,8 @@ pub struct Request {
 
 /// One traced frame.
 pub struct Traced {
-    /// Method name.
-    pub method: String,
+    /// The method.
+    pub method: MethodId,
     /// The frame.
     pub frame: Frame,
     /// Traced on the GPU.
@@ -74,6 +64,9 @@ pub struct Reply {
     pub skipped: Vec<String>,
     /// The GPU adapter, or why there is none.
     pub adapter: String,
+    /// A device failure met while tracing this request (the GPU is then dropped and the
+    /// request traced on the CPU).
+    pub device_failure: Option<String>,
 }
 
 /// Handle on the renderer thread.
@@ -131,12 +124,22 @@ impl Drop for RenderWorker {
 }
 
 fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn()) {
-    let mut gpu: Option<Result<GpuRenderer, String>> = None;
+    let mut backends: Option<Backends> = None;
     while let Ok(mut request) = requests.recv() {
         while let Ok(newer) = requests.try_recv() {
             request = newer;
         }
-        let reply = trace(&request, &mut gpu);
+        // The GPU is opened once, on the first request that may use it.
+        let backends = backends.get_or_insert_with(|| Backends::open(request.backend));
+        if request.backend != BackendChoice::Cpu
+            && backends
+                .gpu
+                .as_ref()
+                .is_err_and(|why| why.starts_with("the CPU backend"))
+        {
+            *backends = Backends::open(request.backend);
+        }
+        let reply = trace(&request, backends);
         if replies.send(reply).is_err() {
             return;
         }
@@ -144,91 +147,79 @@ fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn())
     }
 }
 
-fn trace(request: &Request, gpu: &mut Option<Result<GpuRenderer, String>>) -> Reply {
-    let scene = request.scene.as_ref();
-    let program = FieldProgram::new(scene);
-    let settings = TraceSettings::for_program(&program);
+/// Traces every method of `request`, each on the backend chosen for it.
+pub fn trace(request: &Request, backends: &mut Backends) -> Reply {
     let mut frames = Vec::new();
     let mut skipped = Vec::new();
-    let wants_gpu = request.backend != Backend::Cpu;
-    if wants_gpu && gpu.is_none() {
-        *gpu = Some(GpuRenderer::new());
-    }
-    let adapter = match gpu.as_ref() {
-        Some(Ok(g)) => g.adapter_name().to_owned(),
-        Some(Err(why)) => format!("no GPU ({why})"),
-        None => "GPU not used".to_owned(),
-    };
-    let software = adapter.contains("llvmpipe") || adapter.contains("(Cpu)");
-    let use_gpu = match request.backend {
-        Backend::Gpu => true,
-        Backend::Auto => !software,
-        Backend::Cpu => false,
-    };
-    let mut uploaded = false;
-    for name in &request.methods {
-        let cpu_method = match methods::by_name(name) {
-            Ok(m) => m,
-            Err(why) => {
-                skipped.push(why);
-                continue;
-            }
+    let mut device_failure = None;
+    for &method in &request.methods {
+        let frame_request = FrameRequest {
+            camera: request.camera,
+            width: request.size.0,
+            height: request.size.1,
+            methods: vec![method],
+            view: View::Shaded(request.shading),
+            shadows: request.shadows,
+            settings: request.compiled.settings,
         };
-        if let Err(why) = cpu_method.supports(&program) {
-            skipped.push(format!("{name}: {why}"));
+        if let Err(why) = method.method().supports(&request.compiled.program) {
+            skipped.push(format!("{method}: {why}"));
             continue;
         }
         let start = Instant::now();
-        let on_gpu = GpuMethod::by_name(name)
-            .filter(|m| use_gpu && m.supports(&program).is_ok())
-            .and_then(|m| {
-                let Some(Ok(renderer)) = gpu.as_mut() else {
-                    return None;
-                };
-                if !uploaded {
-                    renderer.set_scene(scene, &program).ok()?;
-                    uploaded = true;
-                }
-                let size = (request.size.0 as u32, request.size.1 as u32);
-                renderer
-                    .render(
-                        &program,
-                        &[m],
-                        &request.camera,
-                        &settings,
-                        size,
-                        View::Shaded(request.shading),
-                    )
-                    .ok()?
-                    .pop()
-            });
-        let (frame, on_gpu) = match on_gpu {
-            Some(frame) => (frame, true),
-            None => {
-                let tracer = cpu_method.prepare(&program, settings);
-                let frame = Renderer::new(scene, &program, tracer.as_ref(), settings).render(
-                    &request.camera,
-                    RenderOptions {
-                        width: request.size.0,
-                        height: request.size.1,
-                        shadows: request.shadows,
-                        shading: request.shading,
-                    },
-                );
-                (frame, false)
-            }
+        let attempt = |backends: &mut Backends| -> Result<(Frame, bool), BackendError> {
+            let backend =
+                backends.choose(request.backend, &request.compiled, method, &frame_request)?;
+            let on_gpu = backend.device_kind() != DeviceKind::Cpu;
+            let frame = backend
+                .render(&request.compiled, &frame_request)?
+                .pop()
+                .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
+            Ok((frame, on_gpu))
         };
-        frames.push(Traced {
-            method: name.clone(),
-            frame,
-            on_gpu,
-            ms: start.elapsed().as_secs_f64() * 1e3,
-        });
+        let traced = match attempt(backends) {
+            Err(BackendError::DeviceFailed(why)) => {
+                // Say so, drop the GPU, and trace this and every later frame on the CPU.
+                let why = format!("GPU failed, continuing on the CPU: {why}");
+                backends.lose_gpu(&why);
+                device_failure = Some(why);
+                attempt_on_cpu(backends, &request.compiled, &frame_request)
+            }
+            other => other,
+        };
+        match traced {
+            Ok((frame, on_gpu)) => frames.push(Traced {
+                method,
+                frame,
+                on_gpu,
+                ms: start.elapsed().as_secs_f64() * 1e3,
+            }),
+            Err(e) => skipped.push(format!("{method}: {e}")),
+        }
     }
+    let adapter = match &backends.gpu {
+        Ok(gpu) => gpu.renderer().adapter_name().to_owned(),
+        Err(why) => format!("no GPU ({why})"),
+    };
     Reply {
         id: request.id,
         frames,
         skipped,
         adapter,
+        device_failure,
     }
+}
+
+fn attempt_on_cpu(
+    backends: &mut Backends,
+    compiled: &Arc<Compiled>,
+    request: &FrameRequest,
+) -> Result<(Frame, bool), BackendError> {
+    use skeletrace_core::backend::FrameBackend as _;
+    let frame = backends
+        .cpu
+        .render(compiled, request)?
+        .pop()
+        .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
+    Ok((frame, false))
 }

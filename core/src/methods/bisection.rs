@@ -4,9 +4,9 @@
 //! half first, until they are shorter than `epsilon`; there a sign change between the end points
 //! is a crossing. One step is one enclosure computed.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 

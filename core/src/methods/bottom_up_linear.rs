@@ -1,9 +1,10 @@
 //! Bottom-up linear tracing (forward-inclusion 2023 §5.2): Algorithm 1 marching on linear
-//! inclusions built bottom-up from the field's arithmetic ([`crate::bottom_up`]).
+//! inclusions built bottom-up from the field's arithmetic ([`crate::bounds::bottom_up`]).
 
-use crate::bottom_up::{Degree, field_inclusion};
-use crate::geometry::Ray;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::bottom_up::{Degree, field_inclusion};
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -12,8 +13,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct BottomUpLinear;
 
 impl Method for BottomUpLinear {
-    fn name(&self) -> &'static str {
-        "bottom-up-linear"
+    fn id(&self) -> MethodId {
+        MethodId::BottomUpLinear
     }
 
     fn is_conservative(&self) -> bool {

@@ -1,11 +1,12 @@
 //! Bottom-up linear inclusions with bisection (forward-inclusion 2023 §7.1, Table 1): the linear
-//! bottom-up inclusion of [`crate::bottom_up`] built at the start of each interval encloses `f`
+//! bottom-up inclusion of [`crate::bounds::bottom_up`] built at the start of each interval encloses `f`
 //! over it; intervals that cannot hold the isovalue are pruned, the others bisected.
 
-use crate::bottom_up::{Degree, field_inclusion};
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::bottom_up::{Degree, field_inclusion};
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::bisection::Bisector;
 use super::{Method, RayTracer, Trace, TraceSettings};
@@ -14,8 +15,8 @@ use super::{Method, RayTracer, Trace, TraceSettings};
 pub struct BottomUpLinearBisection;
 
 impl Method for BottomUpLinearBisection {
-    fn name(&self) -> &'static str {
-        "bottom-up-linear-bisection"
+    fn id(&self) -> MethodId {
+        MethodId::BottomUpLinearBisection
     }
 
     fn is_conservative(&self) -> bool {

@@ -1,9 +1,10 @@
 //! Bottom-up quadratic tracing (forward-inclusion 2023 §6.2, appendix B, C): Algorithm 1 marching
-//! on quadratic inclusions built bottom-up from the field's arithmetic ([`crate::bottom_up`]).
+//! on quadratic inclusions built bottom-up from the field's arithmetic ([`crate::bounds::bottom_up`]).
 
-use crate::bottom_up::{Degree, field_inclusion};
-use crate::geometry::Ray;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::bottom_up::{Degree, field_inclusion};
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -12,8 +13,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct BottomUpQuadratic;
 
 impl Method for BottomUpQuadratic {
-    fn name(&self) -> &'static str {
-        "bottom-up-quadratic"
+    fn id(&self) -> MethodId {
+        MethodId::BottomUpQuadratic
     }
 
     fn is_conservative(&self) -> bool {

@@ -4,12 +4,13 @@
 //! steps by `1.2·D` and reports a hit when `D < 0.0125·ρ`, with at most 32 steps per support
 //! span. Not a guaranteed bound for the blended surface: the statistics count its misses.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::kernel::{CLIP_EPSILON, Kernel};
-use crate::primitives::Primitive;
-use crate::program::FieldProgram;
-use crate::scene::Blend;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::kernel::{CLIP_EPSILON, Kernel};
+use crate::field::primitives::Primitive;
+use crate::field::program::FieldProgram;
+use crate::model::scene::Blend;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -67,8 +68,8 @@ fn gaussian_blobs(program: &FieldProgram) -> Result<(f64, f64, f64), String> {
 }
 
 impl Method for FieldInversion {
-    fn name(&self) -> &'static str {
-        "field-inversion"
+    fn id(&self) -> MethodId {
+        MethodId::FieldInversion
     }
 
     fn is_conservative(&self) -> bool {

@@ -3,9 +3,10 @@
 //! blend tree — the max keeps its kink instead of widening the derivative bounds of the whole
 //! field. Blends without a forward-inclusion rule (Ricci) use the whole-field Taylor bound.
 
-use crate::geometry::Ray;
-use crate::inclusion::ForwardInclusion;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::inclusion::ForwardInclusion;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::{Marcher, mixed_inclusion};
 use super::{Method, RayTracer, TraceSettings};
@@ -14,8 +15,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct LinearMixed;
 
 impl Method for LinearMixed {
-    fn name(&self) -> &'static str {
-        "linear-mixed"
+    fn id(&self) -> MethodId {
+        MethodId::LinearMixed
     }
 
     fn is_conservative(&self) -> bool {

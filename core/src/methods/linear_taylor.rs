@@ -2,10 +2,11 @@
 //! `f(t) + [min f′, max f′]·s` on `[t, t + h]`, from the field engine's exact per-primitive
 //! derivative analysis composed through the blend tree.
 
-use crate::geometry::Ray;
-use crate::inclusion::ForwardInclusion;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::inclusion::ForwardInclusion;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -14,8 +15,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct LinearTaylor;
 
 impl Method for LinearTaylor {
-    fn name(&self) -> &'static str {
-        "linear-taylor"
+    fn id(&self) -> MethodId {
+        MethodId::LinearTaylor
     }
 
     fn is_conservative(&self) -> bool {

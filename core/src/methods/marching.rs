@@ -6,10 +6,10 @@
 //! the step falls below `epsilon` and the field is on the other side of the isovalue `min_step`
 //! further on (otherwise the march goes on: the bound came close to `c`, the field did not).
 
-use crate::geometry::{Ray, quadratic_roots};
-use crate::inclusion::{self, ForwardInclusion, Offset};
-use crate::interval::{Interval, Jet};
-use crate::program::FieldProgram;
+use crate::bounds::inclusion::{self, ForwardInclusion, Offset};
+use crate::bounds::interval::{Interval, Jet};
+use crate::field::geometry::{Ray, quadratic_roots};
+use crate::field::program::FieldProgram;
 
 use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 

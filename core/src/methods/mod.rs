@@ -7,16 +7,17 @@
 //! Opaque mode stops at the first crossing; transparent mode reports all crossings (entries and
 //! exits), as the forward-inclusion paper's transparency tables need.
 
-mod affine;
+mod affine_bisection;
 mod bisection;
 mod bottom_up_linear;
 mod bottom_up_linear_bisection;
 mod bottom_up_quadratic;
 mod field_inversion;
+mod id;
 mod linear_mixed;
 mod linear_taylor;
 mod marching;
-mod normalised;
+mod normalised_field;
 mod quadratic_mixed;
 mod quadratic_taylor;
 mod reference;
@@ -28,15 +29,16 @@ mod sphere_accelerated;
 mod sphere_enhanced;
 mod sphere_normalized;
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
-pub use affine::AffineArithmetic;
+pub use affine_bisection::AffineArithmetic;
 pub use bottom_up_linear::BottomUpLinear;
 pub use bottom_up_linear_bisection::BottomUpLinearBisection;
 pub use bottom_up_quadratic::BottomUpQuadratic;
 pub use field_inversion::FieldInversion;
+pub use id::MethodId;
 pub use linear_mixed::LinearMixed;
 pub use linear_taylor::LinearTaylor;
 pub use quadratic_mixed::QuadraticMixed;
@@ -123,8 +125,13 @@ impl Trace {
 
 /// A root-finding method.
 pub trait Method: Sync {
+    /// The method's identity.
+    fn id(&self) -> MethodId;
+
     /// Command-line name (DESIGN.md).
-    fn name(&self) -> &'static str;
+    fn name(&self) -> &'static str {
+        self.id().name()
+    }
 
     /// Whether the method is guaranteed never to miss a crossing.
     fn is_conservative(&self) -> bool;
@@ -153,43 +160,10 @@ pub trait RayTracer: Sync {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace;
 }
 
-/// Every method, in the order of DESIGN.md's table.
+/// Every method's CPU implementation, in the order of DESIGN.md's table.
 #[must_use]
 pub fn all() -> Vec<Box<dyn Method>> {
-    vec![
-        Box::new(SphereTracing),
-        Box::new(EnhancedSphereTracing),
-        Box::new(AcceleratedSphereTracing),
-        Box::new(NormalizedSphereTracing),
-        Box::new(SegmentTracing),
-        Box::new(LinearTaylor),
-        Box::new(QuadraticTaylor),
-        Box::new(BottomUpLinear),
-        Box::new(BottomUpLinearBisection),
-        Box::new(BottomUpQuadratic),
-        Box::new(LinearMixed),
-        Box::new(QuadraticMixed),
-        Box::new(AffineArithmetic),
-        Box::new(FieldInversion),
-        Box::new(ScalisQuadratic),
-        Box::new(Sherstyuk),
-        Box::new(Reference),
-    ]
-}
-
-/// The method called `name`.
-///
-/// # Errors
-/// A message listing the known names.
-pub fn by_name(name: &str) -> Result<Box<dyn Method>, String> {
-    if let Some(m) = all().into_iter().find(|m| m.name() == name) {
-        return Ok(m);
-    }
-    let known: Vec<&str> = all().iter().map(|m| m.name()).collect();
-    Err(format!(
-        "unknown method '{name}'; available: {}",
-        known.join(", ")
-    ))
+    MethodId::ALL.into_iter().map(MethodId::method).collect()
 }
 
 /// Calls `trace_span` on each part of `span` inside some support, collecting crossings and

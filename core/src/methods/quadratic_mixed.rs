@@ -3,9 +3,10 @@
 //! quadratic inclusions takes the maxima of their Bézier control points). Blends without a
 //! forward-inclusion rule (Ricci) use the whole-field quadratic Taylor bound.
 
-use crate::geometry::Ray;
-use crate::inclusion::ForwardInclusion;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::inclusion::ForwardInclusion;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::{Marcher, mixed_inclusion};
 use super::{Method, RayTracer, TraceSettings};
@@ -14,8 +15,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct QuadraticMixed;
 
 impl Method for QuadraticMixed {
-    fn name(&self) -> &'static str {
-        "quadratic-mixed"
+    fn id(&self) -> MethodId {
+        MethodId::QuadraticMixed
     }
 
     fn is_conservative(&self) -> bool {

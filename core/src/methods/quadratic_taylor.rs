@@ -3,10 +3,11 @@
 //! (a max blend switching operands, a clipped kernel's support boundary) the second derivative
 //! is unbounded on one side and that side falls back to the linear Taylor bound.
 
-use crate::geometry::Ray;
-use crate::inclusion::ForwardInclusion;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::inclusion::ForwardInclusion;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -15,8 +16,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct QuadraticTaylor;
 
 impl Method for QuadraticTaylor {
-    fn name(&self) -> &'static str {
-        "quadratic-taylor"
+    fn id(&self) -> MethodId {
+        MethodId::QuadraticTaylor
     }
 
     fn is_conservative(&self) -> bool {

@@ -6,9 +6,10 @@
 //! bisection on the sign change). Every true crossing is found, except pairs closer together than
 //! that width. Slow; it is the ground truth of the statistics and the tests.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -22,8 +23,8 @@ struct Prepared<'a> {
 }
 
 impl Method for Reference {
-    fn name(&self) -> &'static str {
-        "reference"
+    fn id(&self) -> MethodId {
+        MethodId::Reference
     }
 
     fn is_conservative(&self) -> bool {

@@ -14,13 +14,14 @@
 //! and placed one Newton step from the last estimate. Not guaranteed: the statistics count
 //! its misses.
 
-use crate::geometry::{Ray, SphereCone};
-use crate::interval::Interval;
-use crate::kernel::KernelProfile;
-use crate::primitives::Primitive;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::{Ray, SphereCone};
+use crate::field::kernel::KernelProfile;
+use crate::field::primitives::Primitive;
+use crate::field::program::FieldProgram;
 
-use super::normalised::{normalised, normalising_kernel, scalis_kernel};
+use super::normalised_field::{normalised, normalising_kernel, scalis_kernel};
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
 /// Iterations of Algorithm 1 per piece (scalis 2021 §6.2).
@@ -38,8 +39,8 @@ struct Prepared<'a> {
 }
 
 impl Method for ScalisQuadratic {
-    fn name(&self) -> &'static str {
-        "scalis-quadratic"
+    fn id(&self) -> MethodId {
+        MethodId::ScalisQuadratic
     }
 
     fn is_conservative(&self) -> bool {
@@ -117,7 +118,7 @@ fn homothetic_argmin(cone: &SphereCone, ray: &Ray) -> f64 {
 fn bezier_root(p: [f64; 3], x: [f64; 3], w: f64) -> Option<f64> {
     // Numerator p0(1−u)² + 2w·p1·u(1−u) + p2·u².
     let (a, b, c) = (p[0] - 2.0 * w * p[1] + p[2], 2.0 * (w * p[1] - p[0]), p[0]);
-    let u = crate::geometry::quadratic_roots(a, b, c)
+    let u = crate::field::geometry::quadratic_roots(a, b, c)
         .map(|(r1, r2)| [r1, r2])
         .into_iter()
         .flatten()

@@ -3,9 +3,10 @@
 //! does — the sum of the primitives' own bounds ([`FieldProgram::summed_lipschitz`]); `h` grows
 //! as `k ×` the last step.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::{Marcher, symmetric};
 use super::{Method, RayTracer, TraceSettings};
@@ -14,8 +15,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct SegmentTracing;
 
 impl Method for SegmentTracing {
-    fn name(&self) -> &'static str {
-        "segment"
+    fn id(&self) -> MethodId {
+        MethodId::Segment
     }
 
     fn is_conservative(&self) -> bool {

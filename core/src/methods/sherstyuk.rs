@@ -10,10 +10,11 @@
 //! (value and gradient of one primitive each). Approximate by construction: the statistics
 //! count its misses and depth errors. Needs summation blending.
 
-use crate::geometry::{Ray, quadratic_roots};
-use crate::interval::Interval;
-use crate::program::FieldProgram;
-use crate::scene::Blend;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::{Ray, quadratic_roots};
+use crate::field::program::FieldProgram;
+use crate::model::scene::Blend;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -29,8 +30,8 @@ struct Prepared<'a> {
 }
 
 impl Method for Sherstyuk {
-    fn name(&self) -> &'static str {
-        "sherstyuk"
+    fn id(&self) -> MethodId {
+        MethodId::Sherstyuk
     }
 
     fn is_conservative(&self) -> bool {

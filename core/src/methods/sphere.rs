@@ -5,8 +5,9 @@
 //! [`FieldProgram::global_lipschitz`]: the largest sum of primitive Lipschitz constants over
 //! overlapping supports.
 
-use crate::geometry::Ray;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::{Marcher, symmetric};
 use super::{Method, RayTracer, TraceSettings};
@@ -15,8 +16,8 @@ use super::{Method, RayTracer, TraceSettings};
 pub struct SphereTracing;
 
 impl Method for SphereTracing {
-    fn name(&self) -> &'static str {
-        "sphere"
+    fn id(&self) -> MethodId {
+        MethodId::Sphere
     }
 
     fn is_conservative(&self) -> bool {

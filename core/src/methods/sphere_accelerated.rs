@@ -5,9 +5,10 @@
 //! The first step of every span is a plain one. A crossing is reported when `r₁ < epsilon` and
 //! the field is on the other side of the isovalue `min_step` further on.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -24,8 +25,8 @@ struct Prepared<'a> {
 }
 
 impl Method for AcceleratedSphereTracing {
-    fn name(&self) -> &'static str {
-        "sphere-accelerated"
+    fn id(&self) -> MethodId {
+        MethodId::SphereAccelerated
     }
 
     fn is_conservative(&self) -> bool {

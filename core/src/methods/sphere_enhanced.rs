@@ -6,9 +6,10 @@
 //! missed. A crossing is reported when `r < epsilon` and the field is on the other side of the
 //! isovalue `min_step` further on.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -25,8 +26,8 @@ struct Prepared<'a> {
 }
 
 impl Method for EnhancedSphereTracing {
-    fn name(&self) -> &'static str {
-        "sphere-enhanced"
+    fn id(&self) -> MethodId {
+        MethodId::SphereEnhanced
     }
 
     fn is_conservative(&self) -> bool {

@@ -8,20 +8,21 @@
 //! The constant is exact for an isolated segment of constant radius, not for blended or bent
 //! skeletons, so the method is not guaranteed; the statistics count its misses.
 
-use crate::geometry::Ray;
-use crate::interval::Interval;
-use crate::program::FieldProgram;
+use super::MethodId;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
 
 use super::marching::{Marcher, symmetric};
-use super::normalised::{normalising_kernel, scalis_kernel, thinnest_radius_on};
+use super::normalised_field::{normalising_kernel, scalis_kernel, thinnest_radius_on};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `sphere-normalized`.
 pub struct NormalizedSphereTracing;
 
 impl Method for NormalizedSphereTracing {
-    fn name(&self) -> &'static str {
-        "sphere-normalized"
+    fn id(&self) -> MethodId {
+        MethodId::SphereNormalized
     }
 
     fn is_conservative(&self) -> bool {

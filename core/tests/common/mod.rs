@@ -1,9 +1,9 @@
 //! Random scenes of one primitive type and kernel for the accuracy and bound tests.
 #![allow(dead_code, missing_docs)]
 
-use skeletrace_core::kernel::{Kernel, KernelProfile};
-use skeletrace_core::rng::SplitMix64;
-use skeletrace_core::scene::{
+use skeletrace_core::field::kernel::{Kernel, KernelProfile};
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::{
     Blend, Blob, Camera, Group, Hrbf, HrbfPoint, Material, Scene, Shape, Skeleton, SkeletonField,
     Vertex,
 };
@@ -99,7 +99,7 @@ pub fn group(kernel: Kernel) -> Group {
         blobs: Vec::new(),
         shapes: Vec::new(),
         hrbfs: Vec::new(),
-        transform: skeletrace_core::scene::Transform::IDENTITY,
+        transform: skeletrace_core::model::scene::Transform::IDENTITY,
         repeat: None,
     }
 }

@@ -1,0 +1,72 @@
+//! The backends one process traces with: the CPU tracer, and the GPU once opened (or why it
+//! could not be). `render`, `bench` and the editor's render thread all pick a backend per
+//! method through [`Backends::choose`], i.e. `skeletrace_core::backend::choose`.
+
+use skeletrace_core::backend::{self, BackendChoice, BackendError, FrameBackend, FrameRequest};
+use skeletrace_core::compile::Compiled;
+use skeletrace_core::cpu::backend::CpuBackend;
+use skeletrace_core::methods::MethodId;
+use skeletrace_render::GpuBackend;
+
+/// The CPU backend and the GPU backend, if one could be opened.
+pub struct Backends {
+    /// The CPU tracer.
+    pub cpu: CpuBackend,
+    /// The GPU, or why there is none (not asked for, no adapter, a failed device).
+    pub gpu: Result<GpuBackend, String>,
+}
+
+impl Backends {
+    /// Opens the GPU unless `choice` is the CPU.
+    #[must_use]
+    pub fn open(choice: BackendChoice) -> Self {
+        let gpu = if choice == BackendChoice::Cpu {
+            Err("the CPU backend was chosen".to_owned())
+        } else {
+            GpuBackend::new().map_err(|e| e.to_string())
+        };
+        Self {
+            cpu: CpuBackend,
+            gpu,
+        }
+    }
+
+    /// The backend that traces `method` (see `skeletrace_core::backend::choose`).
+    ///
+    /// # Errors
+    /// As `choose`.
+    pub fn choose(
+        &mut self,
+        choice: BackendChoice,
+        compiled: &Compiled,
+        method: MethodId,
+        request: &FrameRequest,
+    ) -> Result<&mut dyn FrameBackend, BackendError> {
+        let gpu = match &mut self.gpu {
+            Ok(g) => Ok(g as &mut dyn FrameBackend),
+            Err(why) => Err(why.as_str()),
+        };
+        backend::choose(choice, gpu, &mut self.cpu, compiled, method, request)
+    }
+
+    /// Drops the GPU after a device failure, keeping `why` as the reason there is none: what
+    /// follows is traced on the CPU.
+    pub fn lose_gpu(&mut self, why: &str) {
+        self.gpu = Err(why.to_owned());
+    }
+}
+
+/// Parses a `--backend` value.
+///
+/// # Errors
+/// The value and the accepted ones.
+pub fn parse_backend_choice(text: &str) -> Result<BackendChoice, String> {
+    match text {
+        "auto" => Ok(BackendChoice::Auto),
+        "cpu" => Ok(BackendChoice::Cpu),
+        "gpu" => Ok(BackendChoice::Gpu),
+        other => Err(format!(
+            "unknown backend '{other}'; expected cpu, gpu or auto"
+        )),
+    }
+}

@@ -1,0 +1,163 @@
+//! One interface for tracing frames: [`FrameBackend`], implemented by the CPU tracer
+//! (`crate::cpu::backend::CpuBackend`) and the GPU (`skeletrace_render::GpuBackend`), and
+//! [`choose`], the one place that decides which backend traces a method, used by `render`,
+//! `bench` and the editor.
+//!
+//! Errors keep two cases apart: a backend that does not support a scene or method
+//! ([`BackendError::Unsupported`], a fact about the scene) and a device that failed
+//! ([`BackendError::DeviceFailed`], a fault to show the user); neither is swallowed.
+
+use std::fmt;
+use std::sync::Arc;
+
+use crate::compile::Compiled;
+use crate::frame::{Frame, View};
+use crate::methods::{MethodId, TraceSettings};
+use crate::model::scene::Camera;
+
+/// What kind of device a backend traces on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeviceKind {
+    /// The CPU tracer (rayon threads).
+    Cpu,
+    /// A GPU API on a software rasteriser (Mesa's lavapipe, `wgpu::DeviceType::Cpu`).
+    SoftwareGpu,
+    /// A hardware GPU.
+    HardwareGpu,
+}
+
+/// Which backend the user asked for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum BackendChoice {
+    /// The GPU on a hardware adapter for the methods it supports on the scene, the CPU
+    /// otherwise (on a software adapter the CPU tracer is faster).
+    #[default]
+    Auto,
+    /// The GPU; a method it does not support is an error, never silently traced on the CPU.
+    Gpu,
+    /// The CPU tracer.
+    Cpu,
+}
+
+/// One frame request: a camera, a size, the methods (one frame each) and what to show.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameRequest {
+    /// The camera, always separate from the compiled scene.
+    pub camera: Camera,
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Methods, one frame each, in this order.
+    pub methods: Vec<MethodId>,
+    /// Shaded view or step heat map.
+    pub view: View,
+    /// Exact shadow rays towards every light (CPU only).
+    pub shadows: bool,
+    /// Trace settings (normally the compiled scene's).
+    pub settings: TraceSettings,
+}
+
+/// How long the last frame's passes ran on the device, from GPU timestamp queries: the
+/// wall-clock frame time also holds submissions, the readback and the conversion to
+/// [`Frame`]s, which dominate on a fast GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassTimes {
+    /// Counting and filling the tile lists, in milliseconds.
+    pub binning_ms: f64,
+    /// One trace pass per method, in the order asked, in milliseconds.
+    pub trace_ms: Vec<f64>,
+}
+
+/// Why a backend gave no frame.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BackendError {
+    /// The backend has no implementation for this scene, method or option.
+    Unsupported(String),
+    /// The device failed (lost, out of memory, a shader that did not build): a fault.
+    DeviceFailed(String),
+}
+
+impl fmt::Display for BackendError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Unsupported(why) => write!(f, "not supported: {why}"),
+            Self::DeviceFailed(why) => write!(f, "device failed: {why}"),
+        }
+    }
+}
+
+impl std::error::Error for BackendError {}
+
+/// A way of tracing frames of a compiled scene.
+pub trait FrameBackend {
+    /// The device in words (adapter name, or the CPU with its threads).
+    fn describe(&self) -> String;
+
+    /// What the backend traces on.
+    fn device_kind(&self) -> DeviceKind;
+
+    /// `Err` with the reason when this backend cannot trace `method` on `compiled` with the
+    /// options of `request`.
+    ///
+    /// # Errors
+    /// What the backend lacks.
+    fn supports(
+        &self,
+        compiled: &Compiled,
+        method: MethodId,
+        request: &FrameRequest,
+    ) -> Result<(), String>;
+
+    /// The device's own time for the passes of the last frame, where the backend measures it
+    /// (GPU timestamp queries); `None` otherwise.
+    fn last_pass_times(&self) -> Option<PassTimes> {
+        None
+    }
+
+    /// Traces one frame per method of `request`.
+    ///
+    /// # Errors
+    /// [`BackendError::Unsupported`] for a method or option the backend lacks,
+    /// [`BackendError::DeviceFailed`] when the device fails.
+    fn render(
+        &mut self,
+        compiled: &Arc<Compiled>,
+        request: &FrameRequest,
+    ) -> Result<Vec<Frame>, BackendError>;
+}
+
+/// The backend that traces `method` for `choice`: the CPU, the GPU (`gpu`: the opened GPU
+/// backend, or why none could be opened), or under [`BackendChoice::Auto`] the GPU on a
+/// hardware adapter when it supports the method on this scene and the CPU otherwise.
+///
+/// # Errors
+/// Under [`BackendChoice::Gpu`]: [`BackendError::DeviceFailed`] when no GPU could be opened,
+/// [`BackendError::Unsupported`] when the GPU does not support the method here.
+pub fn choose<'a>(
+    choice: BackendChoice,
+    gpu: Result<&'a mut dyn FrameBackend, &str>,
+    cpu: &'a mut dyn FrameBackend,
+    compiled: &Compiled,
+    method: MethodId,
+    request: &FrameRequest,
+) -> Result<&'a mut dyn FrameBackend, BackendError> {
+    match choice {
+        BackendChoice::Cpu => Ok(cpu),
+        BackendChoice::Gpu => {
+            let gpu = gpu.map_err(|why| BackendError::DeviceFailed(why.to_owned()))?;
+            gpu.supports(compiled, method, request)
+                .map_err(|why| BackendError::Unsupported(format!("{method} on the GPU: {why}")))?;
+            Ok(gpu)
+        }
+        BackendChoice::Auto => match gpu {
+            Ok(gpu)
+                if gpu.device_kind() == DeviceKind::HardwareGpu
+                    && gpu.supports(compiled, method, request).is_ok() =>
+            {
+                Ok(gpu)
+            }
+            _ => Ok(cpu),
+        },
+    }
+}

@@ -1,0 +1,380 @@
+//! Geometric helpers shared by primitives and the acceleration structure: rays, boxes,
+//! sphere-cone supports (scalis 2021 §3, fig. 3) and the closest points of two segments.
+
+use glam::{DMat3, DVec3};
+
+use crate::bounds::interval::Interval;
+
+/// A ray `r(t) = origin + t·direction` with a unit direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin `o`.
+    pub origin: DVec3,
+    /// Unit direction `u`.
+    pub direction: DVec3,
+}
+
+impl Ray {
+    /// A ray through `origin` along `direction` (normalised here).
+    #[must_use]
+    pub fn new(origin: DVec3, direction: DVec3) -> Self {
+        Self {
+            origin,
+            direction: direction.normalize(),
+        }
+    }
+
+    /// The point at parameter `t`.
+    #[must_use]
+    pub fn at(&self, t: f64) -> DVec3 {
+        self.origin + t * self.direction
+    }
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Minimum corner.
+    pub min: DVec3,
+    /// Maximum corner.
+    pub max: DVec3,
+}
+
+impl Aabb {
+    /// The empty box (union identity).
+    pub const EMPTY: Self = Self {
+        min: DVec3::splat(f64::INFINITY),
+        max: DVec3::splat(f64::NEG_INFINITY),
+    };
+
+    /// Box of a ball.
+    #[must_use]
+    pub fn ball(center: DVec3, radius: f64) -> Self {
+        Self {
+            min: center - DVec3::splat(radius),
+            max: center + DVec3::splat(radius),
+        }
+    }
+
+    /// Smallest box containing both.
+    #[must_use]
+    pub fn union(self, o: Self) -> Self {
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    /// `true` when the box contains nothing.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    /// Centre of the box.
+    #[must_use]
+    pub fn center(&self) -> DVec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    /// `true` when `p` lies in the closed box.
+    #[must_use]
+    pub fn contains(&self, p: DVec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    /// Length of the diagonal.
+    #[must_use]
+    pub fn diagonal(&self) -> f64 {
+        (self.max - self.min).length()
+    }
+
+    /// Parameter interval where the ray is inside the box (slab test), clipped to `span`.
+    #[must_use]
+    pub fn ray_interval(&self, ray: &Ray, span: Interval) -> Option<Interval> {
+        let inv = ray.direction.recip();
+        let t_a = (self.min - ray.origin) * inv;
+        let t_b = (self.max - ray.origin) * inv;
+        let mut lo = span.lo;
+        let mut hi = span.hi;
+        for axis in 0..3 {
+            let (a, b) = (t_a[axis], t_b[axis]);
+            if a.is_nan() || b.is_nan() {
+                // Direction component is 0 and the origin lies on a slab plane: inside.
+                continue;
+            }
+            lo = lo.max(a.min(b));
+            hi = hi.min(a.max(b));
+        }
+        (lo <= hi).then_some(Interval { lo, hi })
+    }
+}
+
+/// Real roots of `a t² + b t + c`, in increasing order, computed without cancellation.
+#[must_use]
+pub fn quadratic_roots(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    let scale = a.abs().max(b.abs()).max(c.abs());
+    if scale == 0.0 {
+        return None;
+    }
+    if a.abs() <= 1e-14 * scale {
+        if b == 0.0 {
+            return None;
+        }
+        let t = -c / b;
+        return Some((t, t));
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let q = -0.5 * (b + b.signum() * disc.sqrt());
+    let (r1, r2) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+    Some((r1.min(r2), r1.max(r2)))
+}
+
+/// Interval where a ray is inside a ball.
+#[must_use]
+pub fn ball_interval(ray: &Ray, center: DVec3, radius: f64) -> Option<Interval> {
+    let oc = ray.origin - center;
+    let b = oc.dot(ray.direction);
+    let c = oc.length_squared() - radius * radius;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    let root = disc.sqrt();
+    let (t0, t1) = (-b - root, -b + root);
+    Some(Interval::new(t0, t1))
+}
+
+/// The union of balls centred on a segment with linearly varying radius (a *sphere-cone*),
+/// oriented so that the radius grows from `start` (scalis fig. 2–3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereCone {
+    /// End with the smaller radius.
+    pub start: DVec3,
+    /// Unit axis from `start` to the other end.
+    pub axis: DVec3,
+    /// Segment length `L > 0`.
+    pub length: f64,
+    /// Radius at `start`.
+    pub radius: f64,
+    /// Radius growth per unit length, `0 ≤ slope < 1`.
+    pub slope: f64,
+}
+
+impl SphereCone {
+    /// Radius at the far end.
+    #[must_use]
+    pub fn end_radius(&self) -> f64 {
+        self.radius + self.slope * self.length
+    }
+
+    /// The far end.
+    #[must_use]
+    pub fn end(&self) -> DVec3 {
+        self.start + self.length * self.axis
+    }
+
+    /// Bounding box.
+    #[must_use]
+    pub fn aabb(&self) -> Aabb {
+        Aabb::ball(self.start, self.radius).union(Aabb::ball(self.end(), self.end_radius()))
+    }
+
+    /// The sphere-cone scaled by `k` about its axis (radii times `k`): the support of a
+    /// primitive whose kernel vanishes beyond `k` prescribed radii.
+    #[must_use]
+    pub fn scaled(&self, k: f64) -> Self {
+        Self {
+            radius: self.radius * k,
+            slope: self.slope * k,
+            ..*self
+        }
+    }
+
+    /// Exact parameter interval where the ray is inside the sphere-cone: the hull of the two
+    /// end balls and the points of the lateral cone tangent to both.
+    #[must_use]
+    pub fn ray_interval(&self, ray: &Ray) -> Option<Interval> {
+        let mut hull: Option<Interval> = None;
+        let mut add = |i: Interval| hull = Some(hull.map_or(i, |h| h.hull(i)));
+        if let Some(i) = ball_interval(ray, self.start, self.radius) {
+            add(i);
+        }
+        if let Some(i) = ball_interval(ray, self.end(), self.end_radius()) {
+            add(i);
+        }
+        // Lateral surface: (1 − δ²)·b²(t) = (r₀ + δ·a(t))², a = axial coordinate,
+        // b = distance to the axis; valid where the tangent skeleton point
+        // s* = (a + δ r₀)/(1 − δ²) lies on the segment.
+        let d = self.slope;
+        let w0 = ray.origin - self.start;
+        let (a0, a1) = (w0.dot(self.axis), ray.direction.dot(self.axis));
+        let b0 = w0.length_squared() - a0 * a0;
+        let b1 = 2.0 * (w0.dot(ray.direction) - a0 * a1);
+        let b2 = 1.0 - a1 * a1;
+        let e = 1.0 - d * d;
+        let y0 = self.radius + d * a0;
+        let qa = e * b2 - d * d * a1 * a1;
+        let qb = e * b1 - 2.0 * d * a1 * y0;
+        let qc = e * b0 - y0 * y0;
+        if let Some((r1, r2)) = quadratic_roots(qa, qb, qc) {
+            for t in [r1, r2] {
+                let a = a0 + a1 * t;
+                let s = (a + d * self.radius) / e;
+                if self.radius + d * a > 0.0 && (0.0..=self.length).contains(&s) {
+                    add(Interval::point(t));
+                }
+            }
+        }
+        hull
+    }
+}
+
+/// Closest distance squared between segments `[p0, p1]` and `[q0, q1]` (Ericson, Real-Time
+/// Collision Detection §5.1.9).
+#[must_use]
+pub fn segment_segment_distance_sq(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = d1.length_squared();
+    let e = d2.length_squared();
+    let f = d2.dot(r);
+    let (s, t);
+    if a <= f64::EPSILON && e <= f64::EPSILON {
+        return r.length_squared();
+    }
+    if a <= f64::EPSILON {
+        s = 0.0;
+        t = (f / e).clamp(0.0, 1.0);
+    } else {
+        let c = d1.dot(r);
+        if e <= f64::EPSILON {
+            t = 0.0;
+            s = (-c / a).clamp(0.0, 1.0);
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let s0 = if denom > 0.0 {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t0 > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            } else {
+                t = t0;
+                s = s0;
+            }
+        }
+    }
+    ((p0 + s * d1) - (q0 + t * d2)).length_squared()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_cone_interval_matches_sampled_membership() {
+        let cone = SphereCone {
+            start: DVec3::new(0.1, -0.2, 0.0),
+            axis: DVec3::new(1.0, 0.3, -0.2).normalize(),
+            length: 2.0,
+            radius: 0.3,
+            slope: 0.4,
+        };
+        let inside = |p: DVec3| {
+            (0..=4000).any(|i| {
+                let s = cone.length * f64::from(i) / 4000.0;
+                (p - (cone.start + s * cone.axis)).length() <= cone.radius + cone.slope * s
+            })
+        };
+        let mut state = 12345_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..200 {
+            let o = DVec3::new(next(), next(), next()) * 3.0;
+            let ray = Ray::new(o, DVec3::new(next(), next(), next()));
+            let interval = cone.ray_interval(&ray);
+            for k in 0..200 {
+                let t = -6.0 + 12.0 * f64::from(k) / 200.0;
+                let p = ray.at(t);
+                let claimed = interval.is_some_and(|i| i.contains(t));
+                if claimed != inside(p) {
+                    // Allow disagreement only within sampling resolution of the boundary.
+                    let near = interval
+                        .is_some_and(|i| (t - i.lo).abs() < 2e-3 || (t - i.hi).abs() < 2e-3);
+                    assert!(near, "t = {t}, claimed {claimed}, interval {interval:?}");
+                }
+            }
+        }
+    }
+}
+
+/// A similarity `p ↦ s·R·p + t` (uniform scale, rotation, translation): the group transforms of
+/// the 2014 notes (§11.5), applied to primitives when a scene is compiled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Similarity {
+    /// Uniform scale `s > 0`.
+    pub scale: f64,
+    /// Rotation `R` (orthonormal, determinant 1).
+    pub rotation: DMat3,
+    /// Translation `t`.
+    pub translation: DVec3,
+}
+
+impl Similarity {
+    /// The identity.
+    pub const IDENTITY: Self = Self {
+        scale: 1.0,
+        rotation: DMat3::IDENTITY,
+        translation: DVec3::ZERO,
+    };
+
+    /// Image of a point.
+    #[must_use]
+    pub fn point(&self, p: DVec3) -> DVec3 {
+        self.scale * (self.rotation * p) + self.translation
+    }
+
+    /// Image of a direction (unit vectors stay unit).
+    #[must_use]
+    pub fn direction(&self, v: DVec3) -> DVec3 {
+        self.rotation * v
+    }
+
+    /// The point that maps to `p`.
+    #[must_use]
+    pub fn inverse_point(&self, p: DVec3) -> DVec3 {
+        self.rotation.transpose() * (p - self.translation) / self.scale
+    }
+
+    /// The direction that maps to `v` (unit vectors stay unit).
+    #[must_use]
+    pub fn inverse_direction(&self, v: DVec3) -> DVec3 {
+        self.rotation.transpose() * v
+    }
+
+    /// `self` after `first`: `p ↦ self(first(p))`.
+    #[must_use]
+    pub fn after(&self, first: &Self) -> Self {
+        Self {
+            scale: self.scale * first.scale,
+            rotation: self.rotation * first.rotation,
+            translation: self.point(first.translation),
+        }
+    }
+}

@@ -1,0 +1,585 @@
+//! Kernels (fall-off functions) and their normalisation.
+//!
+//! Theory (scalis 2021 eq. 2–3, forward-inclusion 2023 eq. 6–7, MATH.md §1–4): a kernel maps a
+//! normalised distance `r` to a density in `[0, 1]`. Everything downstream works with the
+//! *squared* normalised distance `x = r²`, because along a ray `x` is a quadratic for a point and
+//! a polynomial-friendly quantity for every other primitive: `K(x) = k(√x)`.
+//!
+//! - compact polynomial, degree `i = 2m`, scale `σ > 1`: `K(x) = (1 − x/σ²)^m` for `x < σ²`;
+//! - Cauchy, degree `i`, scale `σ`: `K(x) = (1 + x/σ²)^(−i/2)`;
+//! - Gaussian, scale `σ`: `K(x) = exp(−x/σ²)` (the papers' sharpness is `s = 1/σ²`).
+//!
+//! Cauchy and Gaussian kernels have infinite support. They are *clipped* at
+//! [`CLIP_EPSILON`] (scalis §7): `K_c = (K − ε)/(1 − ε)` where `K ≥ ε`, else 0. The clipped kernel
+//! is continuous, differs from the exact one by at most `ε` everywhere (`|K_c − K| ≤ ε`), and has
+//! a compact support, so the acceleration structure can skip far primitives. Its first derivative
+//! jumps at the support boundary (a convex kink); so does the degree-2 compact kernel's. Second
+//! derivative bounds account for that (see [`KernelProfile::compose`]).
+//!
+//! Practice: a scene stores a [`Kernel`]; a field program turns it into a [`KernelProfile`],
+//! which evaluates `K`, `K′`, `K″` by value and over intervals and carries the normalisation
+//! constants of points, SCALIS segments and end-point correctors.
+
+use serde::{Deserialize, Serialize};
+
+use crate::bounds::interval::{Interval, Jet};
+use crate::field::quadrature::GaussLegendre;
+
+/// Clipping threshold of the infinite-support kernels (scalis §7 uses 0.005). The clipped
+/// kernel is within this absolute error of the exact kernel.
+pub const CLIP_EPSILON: f64 = 0.005;
+
+/// A kernel as stored in a scene, validated on load.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "KernelSpec")]
+pub enum Kernel {
+    /// `(1 − r²/σ²)^(i/2)` on `r < σ` (C² for degree 6).
+    CompactPolynomial {
+        /// Even degree `i ≥ 2`.
+        degree: u32,
+        /// Support scale `σ > 1`.
+        scale: f64,
+    },
+    /// `(1 + r²/σ²)^(−i/2)`, clipped at [`CLIP_EPSILON`].
+    Cauchy {
+        /// Degree `i ≥ 1`.
+        degree: u32,
+        /// Scale `σ > 0`.
+        scale: f64,
+    },
+    /// `exp(−r²/σ²)`, clipped at [`CLIP_EPSILON`].
+    Gaussian {
+        /// Scale `σ > 0`.
+        scale: f64,
+    },
+}
+
+impl Default for Kernel {
+    fn default() -> Self {
+        Self::CompactPolynomial {
+            degree: 6,
+            scale: 2.0,
+        }
+    }
+}
+
+/// The unvalidated shape of [`Kernel`] as read from a file.
+#[derive(Deserialize)]
+enum KernelSpec {
+    CompactPolynomial { degree: u32, scale: f64 },
+    Cauchy { degree: u32, scale: f64 },
+    Gaussian { scale: f64 },
+}
+
+impl TryFrom<KernelSpec> for Kernel {
+    type Error = String;
+
+    fn try_from(spec: KernelSpec) -> Result<Self, String> {
+        let kernel = match spec {
+            KernelSpec::CompactPolynomial { degree, scale } => {
+                Self::CompactPolynomial { degree, scale }
+            }
+            KernelSpec::Cauchy { degree, scale } => Self::Cauchy { degree, scale },
+            KernelSpec::Gaussian { scale } => Self::Gaussian { scale },
+        };
+        kernel.validate()?;
+        Ok(kernel)
+    }
+}
+
+impl Kernel {
+    /// Checks degree and scale, and that the clipped support reaches past the prescribed
+    /// radius. The file loader and `Scene::validate` both call it.
+    ///
+    /// # Errors
+    /// The kernel, the value and the rule it breaks.
+    pub fn validate(self) -> Result<(), String> {
+        match self {
+            Self::CompactPolynomial { degree, scale } => {
+                if degree < 2 || degree % 2 == 1 || degree > 20 {
+                    return Err(format!(
+                        "compact polynomial kernel: degree {degree} must be even, between 2 and 20"
+                    ));
+                }
+                if !(scale.is_finite() && scale > 1.0) {
+                    return Err(format!(
+                        "compact polynomial kernel: scale σ = {scale} must be finite and > 1"
+                    ));
+                }
+            }
+            Self::Cauchy { degree, scale } => {
+                if !(1..=20).contains(&degree) {
+                    return Err(format!(
+                        "Cauchy kernel: degree {degree} must be between 1 and 20"
+                    ));
+                }
+                if !(scale.is_finite() && scale > 0.0) {
+                    return Err(format!(
+                        "Cauchy kernel: scale σ = {scale} must be finite and > 0"
+                    ));
+                }
+            }
+            Self::Gaussian { scale } => {
+                if !(scale.is_finite() && scale > 0.0) {
+                    return Err(format!(
+                        "Gaussian kernel: scale σ = {scale} must be finite and > 0"
+                    ));
+                }
+            }
+        }
+        let support = KernelProfile::new(self).support_radius();
+        if support <= 1.0 {
+            return Err(format!(
+                "{self:?}: the clipped support radius {support:.4} does not reach the prescribed \
+                 radius (must be > 1); increase the scale"
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Family {
+    /// `(1 − x/σ²)^m`.
+    Compact { m: i32 },
+    /// `(1 + x/σ²)^(−n)`, `n = i/2`.
+    Cauchy { n: f64 },
+    /// `exp(−x/σ²)`.
+    Gaussian,
+}
+
+/// Runtime form of a kernel as a function of the squared normalised distance `x`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KernelProfile {
+    family: Family,
+    inv_sigma2: f64,
+    /// `x` beyond which the (clipped) kernel is zero.
+    support_sq: f64,
+    /// Subtracted before rescaling (0 for compact kernels).
+    clip: f64,
+    /// `1 / (1 − clip)`.
+    clip_scale: f64,
+    /// Whether `K′` jumps at the support boundary.
+    kinked: bool,
+}
+
+impl KernelProfile {
+    /// Builds the profile of a validated kernel.
+    #[must_use]
+    pub fn new(kernel: Kernel) -> Self {
+        match kernel {
+            Kernel::CompactPolynomial { degree, scale } => {
+                let m = i32::try_from(degree / 2).unwrap_or(1);
+                Self {
+                    family: Family::Compact { m },
+                    inv_sigma2: 1.0 / (scale * scale),
+                    support_sq: scale * scale,
+                    clip: 0.0,
+                    clip_scale: 1.0,
+                    kinked: m == 1,
+                }
+            }
+            Kernel::Cauchy { degree, scale } => {
+                let n = f64::from(degree) / 2.0;
+                let s2 = scale * scale;
+                Self {
+                    family: Family::Cauchy { n },
+                    inv_sigma2: 1.0 / s2,
+                    support_sq: s2 * (CLIP_EPSILON.powf(-1.0 / n) - 1.0),
+                    clip: CLIP_EPSILON,
+                    clip_scale: 1.0 / (1.0 - CLIP_EPSILON),
+                    kinked: true,
+                }
+            }
+            Kernel::Gaussian { scale } => {
+                let s2 = scale * scale;
+                Self {
+                    family: Family::Gaussian,
+                    inv_sigma2: 1.0 / s2,
+                    support_sq: s2 * (1.0 / CLIP_EPSILON).ln(),
+                    clip: CLIP_EPSILON,
+                    clip_scale: 1.0 / (1.0 - CLIP_EPSILON),
+                    kinked: true,
+                }
+            }
+        }
+    }
+
+    /// Normalised distance beyond which the kernel vanishes (`σ` for compact kernels).
+    #[must_use]
+    pub fn support_radius(&self) -> f64 {
+        self.support_sq.sqrt()
+    }
+
+    /// Squared normalised support radius.
+    #[must_use]
+    pub fn support_sq(&self) -> f64 {
+        self.support_sq
+    }
+
+    /// Whether the kernel is an infinite-support kernel clipped at [`CLIP_EPSILON`].
+    #[must_use]
+    pub fn is_clipped(&self) -> bool {
+        self.clip > 0.0
+    }
+
+    /// Whether the first derivative jumps at the support boundary (clipped kernels, degree 2).
+    #[must_use]
+    pub fn is_kinked(&self) -> bool {
+        self.kinked
+    }
+
+    /// Unclipped `K, K′, K″` at `x` inside the support.
+    fn raw(&self, x: f64) -> (f64, f64, f64) {
+        let a = self.inv_sigma2;
+        match self.family {
+            Family::Compact { m } => {
+                let base = (1.0 - x * a).max(0.0);
+                let mf = f64::from(m);
+                let p2 = if m >= 2 { base.powi(m - 2) } else { 0.0 };
+                let p1 = if m >= 2 { p2 * base } else { 1.0 };
+                (p1 * base, -mf * a * p1, mf * (mf - 1.0) * a * a * p2)
+            }
+            Family::Cauchy { n } => {
+                let base = 1.0 + x * a;
+                let k = base.powf(-n);
+                let k1 = k / base;
+                (k, -n * a * k1, n * (n + 1.0) * a * a * k1 / base)
+            }
+            Family::Gaussian => {
+                let k = (-x * a).exp();
+                (k, -a * k, a * a * k)
+            }
+        }
+    }
+
+    /// `K(x)`.
+    #[must_use]
+    pub fn value(&self, x: f64) -> f64 {
+        if x >= self.support_sq {
+            return 0.0;
+        }
+        let (k, _, _) = self.raw(x.max(0.0));
+        ((k - self.clip) * self.clip_scale).max(0.0)
+    }
+
+    /// `(K(x), K′(x))`; the one-sided derivative from inside at the support boundary is not
+    /// returned: outside the support both are 0.
+    #[must_use]
+    pub fn value_d1(&self, x: f64) -> (f64, f64) {
+        if x >= self.support_sq {
+            return (0.0, 0.0);
+        }
+        let (k, k1, _) = self.raw(x.max(0.0));
+        (
+            ((k - self.clip) * self.clip_scale).max(0.0),
+            k1 * self.clip_scale,
+        )
+    }
+
+    /// `(K, K′, K″)` at `x`, zero outside the support.
+    #[must_use]
+    pub fn value_d2(&self, x: f64) -> (f64, f64, f64) {
+        if x >= self.support_sq {
+            return (0.0, 0.0, 0.0);
+        }
+        let (k, k1, k2) = self.raw(x.max(0.0));
+        let s = self.clip_scale;
+        (((k - self.clip) * s).max(0.0), k1 * s, k2 * s)
+    }
+
+    /// `(K, K′, K″)` of the formula valid inside the support, evaluated at `min(x, support)`:
+    /// at the boundary it gives the one-sided derivatives seen from inside.
+    #[must_use]
+    pub fn value_d2_inside(&self, x: f64) -> (f64, f64, f64) {
+        let (k, k1, k2) = self.raw(x.clamp(0.0, self.support_sq));
+        let s = self.clip_scale;
+        (((k - self.clip) * s).max(0.0), k1 * s, k2 * s)
+    }
+
+    /// Exact ranges of `K`, `K′`, `K″` over `x ∈ xs`, using `K` decreasing, `K′` increasing
+    /// towards 0 and `K″ ≥ 0` decreasing on the support; the flag tells whether `xs` straddles
+    /// the support boundary of a kinked kernel.
+    #[must_use]
+    pub fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool) {
+        let lo = xs.lo.max(0.0);
+        let hi = xs.hi.max(lo);
+        let (k_lo, k1_lo, k2_lo) = self.value_d2(lo);
+        if lo >= self.support_sq {
+            return (Interval::ZERO, Interval::ZERO, Interval::ZERO, false);
+        }
+        if hi >= self.support_sq {
+            // The range reaches the boundary: K and K″ reach 0, K′ reaches its value at the
+            // boundary from inside (0 for m ≥ 2) and 0 outside.
+            let (_, k1_edge, _) = self.raw(self.support_sq);
+            let k1_edge = k1_edge * self.clip_scale;
+            return (
+                Interval::new(0.0, k_lo),
+                Interval::new(k1_lo, k1_edge.max(k1_lo)).include(0.0),
+                Interval::new(0.0, k2_lo),
+                self.kinked,
+            );
+        }
+        let (k_hi, k1_hi, k2_hi) = self.value_d2(hi);
+        (
+            Interval::new(k_hi, k_lo),
+            Interval::new(k1_lo, k1_hi),
+            Interval::new(k2_hi, k2_lo),
+            false,
+        )
+    }
+
+    /// Jet of `K ∘ x` from a jet of `x`: `(K∘x)′ = K′x′`, `(K∘x)″ = K″x′² + K′x″`. Where the
+    /// interval crosses the boundary of a kinked kernel, `(K∘x)′` jumps upwards there, so the
+    /// upper second-derivative bound is infinite (the lower one stays valid).
+    #[must_use]
+    pub fn compose(&self, x: Jet) -> Jet {
+        let (k, k1, k2, kink) = self.ranges(x.value);
+        let mut d2 = k2 * x.d1.square() + k1 * x.d2;
+        if kink {
+            d2.hi = f64::INFINITY;
+        }
+        Jet {
+            value: k,
+            d1: k1 * x.d1,
+            d2,
+        }
+    }
+
+    /// Points of the ray parameter (as `τ²`, in units of the primitive radius, measured from
+    /// the closest point to the centre) where the first and the second derivative of
+    /// `K((τ² + ĥ²))` reach their extrema, for a point primitive at normalised distance `ĥ`
+    /// from the ray (MATH.md §5, generalised to every degree).
+    #[must_use]
+    pub fn point_critical_tau2(&self, h2: f64) -> (f64, f64) {
+        let s2 = 1.0 / self.inv_sigma2;
+        match self.family {
+            Family::Compact { m } => {
+                let p = (s2 - h2).max(0.0);
+                let q = f64::from(2 * m - 1);
+                (p / q, 3.0 * p / q)
+            }
+            Family::Cauchy { n } => {
+                let b = s2 + h2;
+                let q = 2.0 * n + 1.0;
+                (b / q, 3.0 * b / q)
+            }
+            Family::Gaussian => (0.5 * s2, 1.5 * s2),
+        }
+    }
+
+    /// `max_r |d/dr K(r²)|`, the largest slope of the kernel as a function of the normalised
+    /// distance (MATH.md §1: `K′` of the compact kernel). The extremum of `2r·K′(r²)` sits at
+    /// `x = σ²/(i − 1)` (compact), `σ²/(i + 1)` (Cauchy) or `σ²/2` (Gaussian), or at the clip
+    /// boundary when that comes first.
+    #[must_use]
+    pub fn max_slope(&self) -> f64 {
+        let s2 = 1.0 / self.inv_sigma2;
+        let critical = match self.family {
+            Family::Compact { m } => s2 / f64::from(2 * m - 1),
+            Family::Cauchy { n } => s2 / (2.0 * n + 1.0),
+            Family::Gaussian => 0.5 * s2,
+        };
+        let x = critical.min(self.support_sq);
+        let (_, k1, _) = self.value_d2_inside(x);
+        2.0 * x.sqrt() * k1.abs()
+    }
+
+    /// `(K(x), g)` with `g` a subgradient of the kernel at `x`, on the whole real line: for
+    /// `x < 0` the tangent at 0 continues the kernel. Every profile is decreasing and convex in
+    /// `x` (clipping is a maximum with 0 of a convex function), and so is this extension: the
+    /// bottom-up inclusions (forward-inclusion 2023 §5.2, appendix B) rely on exactly that.
+    #[must_use]
+    pub fn convex_extension(&self, x: f64) -> (f64, f64) {
+        if x < 0.0 {
+            let (k0, d0) = self.value_d1(0.0);
+            return (k0 + d0 * x, d0);
+        }
+        self.value_d1(x)
+    }
+
+    /// `(m, 1/σ²)` when the kernel is the compact polynomial `(1 − x/σ²)^m`.
+    #[must_use]
+    pub fn compact_power(&self) -> Option<(i32, f64)> {
+        match self.family {
+            Family::Compact { m } => Some((m, self.inv_sigma2)),
+            _ => None,
+        }
+    }
+
+    /// Field normalisation of scalis 2021 §4 (MATH.md §4): `(g(f), g′(f))`, the squared
+    /// homothetic distance at which an infinite constant-radius SCALIS segment has the value
+    /// `f`, for isovalue `c`. `g(c) = 1`; capped at the squared support radius, where `f = 0`
+    /// (there `g′` is reported as 0). Compact kernels: the line field is the compact kernel of
+    /// degree `i + 1`; Cauchy: degree `i − 1` (a degree-1 Cauchy kernel has no finite line
+    /// integral and uses the Gaussian-like logarithm below); Gaussian: a Gaussian again.
+    #[must_use]
+    pub fn field_normalisation(&self, f: f64, isovalue: f64) -> (f64, f64) {
+        let cap = self.support_sq;
+        if f <= 0.0 {
+            return (cap, 0.0);
+        }
+        let s2 = 1.0 / self.inv_sigma2;
+        let ratio = f / isovalue;
+        let (g, d) = match self.family {
+            Family::Compact { m } => {
+                let e = 2.0 / f64::from(2 * m + 1);
+                let q = 1.0 - 1.0 / s2;
+                let p = ratio.powf(e);
+                (s2 * (1.0 - q * p), -s2 * q * e * p / f)
+            }
+            Family::Cauchy { n } if n > 0.5 => {
+                let e = 1.0 / (n - 0.5);
+                let p = ratio.powf(-e);
+                ((1.0 + s2) * p - s2, -(1.0 + s2) * e * p / f)
+            }
+            Family::Cauchy { .. } | Family::Gaussian => (1.0 - s2 * ratio.ln(), -s2 / f),
+        };
+        if g >= cap { (cap, 0.0) } else { (g, d) }
+    }
+
+    /// Normalisation of a point primitive: the field equals the isovalue at the prescribed
+    /// radius (MATH.md §2).
+    #[must_use]
+    pub fn point_normalisation(&self, isovalue: f64) -> f64 {
+        isovalue / self.value(1.0)
+    }
+
+    /// `∫ K(1 + u²) du` over the line: the SCALIS field of an infinite constant-radius segment at
+    /// its prescribed radius, before normalisation (MATH.md §3).
+    fn line_integral(&self) -> f64 {
+        let half = (self.support_sq - 1.0).max(0.0).sqrt();
+        GaussLegendre::scalis().integrate(-half, half, 64, |u| self.value(1.0 + u * u))
+    }
+
+    /// Normalisation `N` of a SCALIS segment: the surface of a long constant-radius segment sits
+    /// at its prescribed radius (MATH.md §3, closed form for compact kernels there; computed by
+    /// quadrature here for every kernel).
+    #[must_use]
+    pub fn scalis_normalisation(&self, isovalue: f64) -> f64 {
+        isovalue / self.line_integral()
+    }
+
+    /// Length of an end-point corrector per unit of end radius (scalis §1.1, MATH.md §3): a
+    /// constant-radius segment of this length × τ appended at a free end puts the surface at
+    /// distance τ past the end along the axis. Solved by bisection on
+    /// `∫_{1−λ}^{R} K(v²) dv = ∫ K(1 + u²) du`.
+    #[must_use]
+    pub fn end_corrector_ratio(&self) -> f64 {
+        let target = self.line_integral();
+        let r = self.support_radius();
+        let rule = GaussLegendre::scalis();
+        let tail = |a: f64| rule.integrate(a, r, 32, |v| self.value(v * v));
+        let (mut lo, mut hi) = (-r, r);
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            if tail(mid) > target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        1.0 - 0.5 * (lo + hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compact_scalis_normalisation_matches_the_closed_form() {
+        let n6 = KernelProfile::new(Kernel::CompactPolynomial {
+            degree: 6,
+            scale: 2.0,
+        })
+        .scalis_normalisation(1.0);
+        let n4 = KernelProfile::new(Kernel::CompactPolynomial {
+            degree: 4,
+            scale: 2.0,
+        })
+        .scalis_normalisation(1.0);
+        assert!((n6 - 1.496_834_0).abs() < 1e-7, "{n6}");
+        assert!((n4 - 0.962_250_4).abs() < 1e-7, "{n4}");
+    }
+
+    #[test]
+    fn max_slope_matches_the_closed_form_and_dense_sampling() {
+        let compact = KernelProfile::new(Kernel::default());
+        assert!((compact.max_slope() - 0.858_65).abs() < 1e-5);
+        for kernel in [
+            Kernel::default(),
+            Kernel::CompactPolynomial {
+                degree: 2,
+                scale: 1.5,
+            },
+            Kernel::Cauchy {
+                degree: 3,
+                scale: 1.0,
+            },
+            Kernel::Gaussian { scale: 0.7 },
+        ] {
+            let p = KernelProfile::new(kernel);
+            let sampled = (1..100_000)
+                .map(|i| {
+                    let r = p.support_radius() * f64::from(i) / 100_000.0;
+                    2.0 * r * p.value_d1(r * r).1.abs()
+                })
+                .fold(0.0, f64::max);
+            assert!(sampled <= p.max_slope() * (1.0 + 1e-12), "{kernel:?}");
+            assert!(sampled >= p.max_slope() * 0.999, "{kernel:?}");
+        }
+    }
+
+    #[test]
+    fn point_normalisation_puts_the_isovalue_at_the_radius() {
+        for kernel in [
+            Kernel::default(),
+            Kernel::Cauchy {
+                degree: 3,
+                scale: 1.0,
+            },
+            Kernel::Gaussian { scale: 1.0 },
+        ] {
+            let p = KernelProfile::new(kernel);
+            let n = p.point_normalisation(0.5);
+            assert!((n * p.value(1.0) - 0.5).abs() < 1e-12);
+        }
+        let compact = KernelProfile::new(Kernel::default());
+        assert!((compact.point_normalisation(1.0) - 2.370_370_37).abs() < 1e-7);
+    }
+
+    #[test]
+    fn clipped_kernels_stay_within_epsilon_of_the_exact_kernel() {
+        let cauchy = KernelProfile::new(Kernel::Cauchy {
+            degree: 3,
+            scale: 1.0,
+        });
+        for i in 0..1000 {
+            let x = f64::from(i) * 0.05;
+            let exact = (1.0 + x).powf(-1.5);
+            assert!((cauchy.value(x) - exact).abs() <= CLIP_EPSILON + 1e-15);
+        }
+    }
+
+    #[test]
+    fn invalid_kernels_are_rejected_with_their_values() {
+        let odd = Kernel::try_from(KernelSpec::CompactPolynomial {
+            degree: 5,
+            scale: 2.0,
+        });
+        assert!(odd.is_err_and(|e| e.contains("degree 5")));
+        let narrow = Kernel::try_from(KernelSpec::CompactPolynomial {
+            degree: 6,
+            scale: 1.0,
+        });
+        assert!(narrow.is_err_and(|e| e.contains("σ = 1")));
+    }
+
+    #[test]
+    fn end_corrector_ratio_is_positive_and_shorter_than_the_support() {
+        let p = KernelProfile::new(Kernel::default());
+        let lambda = p.end_corrector_ratio();
+        assert!(lambda > 0.0 && lambda < 3.0, "{lambda}");
+    }
+}

@@ -1,0 +1,89 @@
+//! Point blobs: `f(p) = N₀·K(|p − c|²/ρ²)` (scalis eq. 1–2, forward-inclusion eq. 6–7,
+//! MATH.md §2). Along a ray the squared distance is a quadratic, so the extrema of `f′` and `f″`
+//! on an interval are found exactly among its end points and the kernel's critical points
+//! (forward-inclusion appendix A; MATH.md §5).
+
+use glam::DVec3;
+
+use crate::bounds::interval::{Interval, Jet};
+use crate::field::geometry::{Aabb, Ray, ball_interval};
+use crate::field::kernel::KernelProfile;
+
+/// A point primitive with its normalisation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointBlob {
+    /// Centre `c`.
+    pub center: DVec3,
+    /// Prescribed radius `ρ`: the surface of an isolated blob.
+    pub radius: f64,
+    /// Normalisation `N₀ = c / K(1)`.
+    pub norm: f64,
+}
+
+impl PointBlob {
+    /// Value and gradient at `p`.
+    #[must_use]
+    pub fn value_gradient(&self, p: DVec3, k: &KernelProfile) -> (f64, DVec3) {
+        let inv_r2 = 1.0 / (self.radius * self.radius);
+        let d = p - self.center;
+        let (v, d1) = k.value_d1(d.length_squared() * inv_r2);
+        (self.norm * v, (2.0 * self.norm * d1 * inv_r2) * d)
+    }
+
+    /// Value at `p`.
+    #[must_use]
+    pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {
+        self.norm * k.value((p - self.center).length_squared() / (self.radius * self.radius))
+    }
+
+    /// Bounding box of the support.
+    #[must_use]
+    pub fn support_aabb(&self, k: &KernelProfile) -> Aabb {
+        Aabb::ball(self.center, self.radius * k.support_radius())
+    }
+
+    /// Interval of the ray inside the support ball.
+    #[must_use]
+    pub fn support_interval(&self, ray: &Ray, k: &KernelProfile) -> Option<Interval> {
+        ball_interval(ray, self.center, self.radius * k.support_radius())
+    }
+
+    /// Exact enclosures of `f`, `f′`, `f″` over `span`, which must lie in the support interval.
+    #[must_use]
+    pub fn ray_jet(&self, ray: &Ray, span: Interval, k: &KernelProfile) -> Jet {
+        let rho = self.radius;
+        let t_closest = (self.center - ray.origin).dot(ray.direction);
+        let h2 = (ray.at(t_closest) - self.center).length_squared() / (rho * rho);
+        // Normalised offset from the closest point: x = τ² + ĥ².
+        let (a, b) = ((span.lo - t_closest) / rho, (span.hi - t_closest) / rho);
+        let x_of = |tau: f64| (tau * tau + h2).min(k.support_sq());
+        let d1_at = |tau: f64| {
+            let (_, k1, _) = k.value_d2_inside(x_of(tau));
+            self.norm * k1 * 2.0 * tau / rho
+        };
+        let d2_at = |tau: f64| {
+            let (_, k1, k2) = k.value_d2_inside(x_of(tau));
+            self.norm * (k2 * 4.0 * tau * tau + 2.0 * k1) / (rho * rho)
+        };
+        let nearest = 0.0_f64.clamp(a, b);
+        let farthest = if a.abs() > b.abs() { a } else { b };
+        let value = Interval::new(
+            self.norm * k.value(x_of(farthest)),
+            self.norm * k.value(x_of(nearest)),
+        );
+        let (c1, c2) = k.point_critical_tau2(h2);
+        let mut d1 = Interval::new(d1_at(a), d1_at(b));
+        let mut d2 = Interval::new(d2_at(a), d2_at(b));
+        for tau in [c1.sqrt(), -c1.sqrt()] {
+            if (a..=b).contains(&tau) {
+                d1 = d1.include(d1_at(tau));
+            }
+        }
+        for tau in [0.0, c2.sqrt(), -c2.sqrt()] {
+            if (a..=b).contains(&tau) {
+                d2 = d2.include(d2_at(tau));
+            }
+        }
+        Jet { value, d1, d2 }
+    }
+}

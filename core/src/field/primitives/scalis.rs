@@ -1,0 +1,191 @@
+//! SCALIS segments: `f(p) = N ∫₀^L K(|p − q(s)|²/τ(s)²) / τ(s) ds` (scalis 2021 eq. 8,
+//! MATH.md §3), with the integral clipped to the kernel support and evaluated by Gauss–Legendre
+//! quadrature in `u = ln τ` (or in arc length when the radius barely varies).
+//!
+//! Derivative bounds along a ray differentiate under the integral:
+//! `f′ = N∫ K′(x)·2w/τ³ ds` and `f″ = N∫ (K″(x)·4w²/τ⁵ + K′(x)·2/τ³) ds` with
+//! `w = u·(p − q)`. The segment is split into pieces; on each piece × ray interval, `x`, `w` and
+//! `τ` are enclosed exactly (distance between two segments, corners of an affine function), and
+//! the integrand's range times the piece length encloses the piece's contribution.
+
+use glam::DVec3;
+
+use crate::bounds::interval::{Interval, Jet};
+use crate::field::geometry::{Aabb, Ray, SphereCone, segment_segment_distance_sq};
+use crate::field::kernel::KernelProfile;
+use crate::field::quadrature::GaussLegendre;
+
+/// Below this radius change over the integrated part (`δ·ℓ`), integrate in arc length.
+const ARC_LENGTH_THRESHOLD: f64 = 0.05;
+/// Pieces per segment in the derivative bounds, at most.
+const MAX_BOUND_PIECES: usize = 24;
+
+/// A SCALIS segment primitive (also used for end-point correctors, with constant radius).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScalisSegment {
+    /// Prescribed sphere-cone (radius growing from `start`).
+    pub cone: SphereCone,
+    /// Normalisation `N` (MATH.md §3).
+    pub norm: f64,
+}
+
+impl ScalisSegment {
+    /// Part `[l₁, l₂]` of the segment whose support ball contains `p` (MATH.md §3, stable roots).
+    fn clipped_range(&self, p: DVec3, k: &KernelProfile) -> Option<(f64, f64)> {
+        let c = &self.cone;
+        let inv_r2 = 1.0 / k.support_sq();
+        let w = p - c.start;
+        let qa = inv_r2 - c.slope * c.slope;
+        let qb = w.dot(c.axis) * inv_r2 + c.radius * c.slope;
+        let qc = w.length_squared() * inv_r2 - c.radius * c.radius;
+        let disc = qb * qb - qa * qc;
+        if disc < 0.0 {
+            return None;
+        }
+        let big = qb + disc.sqrt();
+        if big <= 0.0 || c.length * big < qc {
+            return None;
+        }
+        let l1 = (qc / big).max(0.0);
+        let l2 = (big / qa).min(c.length);
+        (l1 < l2).then_some((l1, l2))
+    }
+
+    /// Integrates `g(x, p − q, τ)·ds/τ`-shaped integrands over the clipped range; `g` receives
+    /// the squared homothetic distance, the offset `p − q(s)`, `τ(s)` and the measure
+    /// `ds/τ(s)` of the node.
+    fn integrate(&self, p: DVec3, k: &KernelProfile, mut g: impl FnMut(f64, DVec3, f64, f64)) {
+        let Some((l1, l2)) = self.clipped_range(p, k) else {
+            return;
+        };
+        let c = &self.cone;
+        let rule = GaussLegendre::scalis();
+        let tau1 = c.radius + c.slope * l1;
+        let panels = if k.is_clipped() {
+            // Wide, non-polynomial kernels: panels about two local radii long.
+            (((l2 - l1) / (2.0 * tau1)).ceil() as usize).clamp(1, 16)
+        } else {
+            1
+        };
+        if c.slope * (l2 - l1) < ARC_LENGTH_THRESHOLD {
+            let h = (l2 - l1) / panels as f64;
+            for panel in 0..panels {
+                let mid = l1 + (panel as f64 + 0.5) * h;
+                for (xi, wi) in rule.nodes.iter().zip(&rule.weights) {
+                    let s = mid + 0.5 * h * xi;
+                    let tau = c.radius + c.slope * s;
+                    let offset = p - (c.start + s * c.axis);
+                    g(
+                        offset.length_squared() / (tau * tau),
+                        offset,
+                        tau,
+                        0.5 * h * wi / tau,
+                    );
+                }
+            }
+        } else {
+            // u = ln τ: ds/τ = du/δ.
+            let (u1, u2) = (tau1.ln(), (c.radius + c.slope * l2).ln());
+            let h = (u2 - u1) / panels as f64;
+            for panel in 0..panels {
+                let mid = u1 + (panel as f64 + 0.5) * h;
+                for (xi, wi) in rule.nodes.iter().zip(&rule.weights) {
+                    let tau = (mid + 0.5 * h * xi).exp();
+                    let s = (tau - c.radius) / c.slope;
+                    let offset = p - (c.start + s * c.axis);
+                    g(
+                        offset.length_squared() / (tau * tau),
+                        offset,
+                        tau,
+                        0.5 * h * wi / c.slope,
+                    );
+                }
+            }
+        }
+    }
+
+    /// Value at `p`.
+    #[must_use]
+    pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {
+        let mut sum = 0.0;
+        self.integrate(p, k, |x, _, _, measure| sum += k.value(x) * measure);
+        self.norm * sum
+    }
+
+    /// Value and gradient at `p`: `∇f = N∫ K′(x)·2(p − q)/τ² · ds/τ`.
+    #[must_use]
+    pub fn value_gradient(&self, p: DVec3, k: &KernelProfile) -> (f64, DVec3) {
+        let mut sum = 0.0;
+        let mut grad = DVec3::ZERO;
+        self.integrate(p, k, |x, offset, tau, measure| {
+            let (v, d1) = k.value_d1(x);
+            sum += v * measure;
+            grad += (2.0 * d1 * measure / (tau * tau)) * offset;
+        });
+        (self.norm * sum, self.norm * grad)
+    }
+
+    /// The support sphere-cone.
+    #[must_use]
+    pub fn support(&self, k: &KernelProfile) -> SphereCone {
+        self.cone.scaled(k.support_radius())
+    }
+
+    /// Bounding box of the support.
+    #[must_use]
+    pub fn support_aabb(&self, k: &KernelProfile) -> Aabb {
+        self.support(k).aabb()
+    }
+
+    /// Interval of the ray inside the support.
+    #[must_use]
+    pub fn support_interval(&self, ray: &Ray, k: &KernelProfile) -> Option<Interval> {
+        self.support(k).ray_interval(ray)
+    }
+
+    /// Enclosures of `f`, `f′`, `f″` over `span`.
+    #[must_use]
+    pub fn ray_jet(&self, ray: &Ray, span: Interval, k: &KernelProfile) -> Jet {
+        let c = &self.cone;
+        let u = ray.direction;
+        let (ray_a, ray_b) = (ray.at(span.lo), ray.at(span.hi));
+        let pieces = ((2.0 * c.length / c.radius).ceil() as usize).clamp(2, MAX_BOUND_PIECES);
+        let ds = c.length / pieces as f64;
+        let w_origin = u.dot(ray.origin - c.start);
+        let uv = u.dot(c.axis);
+        let mut jet = Jet::ZERO;
+        for piece in 0..pieces {
+            let (sa, sb) = (piece as f64 * ds, (piece + 1) as f64 * ds);
+            let (qa, qb) = (c.start + sa * c.axis, c.start + sb * c.axis);
+            let (tau_a, tau_b) = (c.radius + c.slope * sa, c.radius + c.slope * sb);
+            let d_min = segment_segment_distance_sq(ray_a, ray_b, qa, qb);
+            let d_max = [(ray_a, qa), (ray_a, qb), (ray_b, qa), (ray_b, qb)]
+                .iter()
+                .map(|(p, q)| (*p - *q).length_squared())
+                .fold(0.0, f64::max);
+            let x = Interval::new(d_min / (tau_b * tau_b), d_max / (tau_a * tau_a));
+            if x.lo >= k.support_sq() {
+                continue;
+            }
+            let w = |t: f64, s: f64| w_origin + t - s * uv;
+            let w = Interval::new(w(span.lo, sa), w(span.lo, sb))
+                .hull(Interval::new(w(span.hi, sa), w(span.hi, sb)));
+            let inv_tau = Interval::new(1.0 / tau_b, 1.0 / tau_a);
+            let inv_tau3 = inv_tau.square() * inv_tau;
+            let (kv, k1, k2, kink) = k.ranges(x);
+            let mut d2 = (k2 * w.square() * inv_tau3 * inv_tau.square()).scale(4.0)
+                + (k1 * inv_tau3).scale(2.0);
+            if kink {
+                d2.hi = f64::INFINITY;
+            }
+            jet = jet
+                + Jet {
+                    value: kv * inv_tau,
+                    d1: (k1 * w * inv_tau3).scale(2.0),
+                    d2,
+                }
+                .scale(ds);
+        }
+        jet.scale(self.norm)
+    }
+}

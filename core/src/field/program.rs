@@ -1,0 +1,726 @@
+//! The field program: a scene flattened into primitives with their kernels, a blend tree and a
+//! BVH over the supports (DESIGN.md: `Scene` → `FieldProgram` → tracers).
+//!
+//! Lifetimes: a program is built once per scene edit and then only read, from any number of
+//! threads. Point queries (`value`, `value_gradient`) visit the primitives whose support box
+//! contains the point; ray queries (`ray_jet`, `ray_supports`) those whose box meets the ray
+//! interval. Group fields are sums of their primitives; the blend tree combines groups.
+
+use glam::{DMat3, DVec3, EulerRot};
+
+use crate::bounds::interval::{Interval, Jet};
+use crate::field::blend;
+use crate::field::bvh::Bvh;
+use crate::field::geometry::{Aabb, Ray, Similarity, SphereCone};
+use crate::field::hrbf_solve;
+use crate::field::kernel::{Kernel, KernelProfile};
+use crate::field::primitives::{
+    DistanceSegment, HrbfTerm, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
+};
+use crate::model::scene::{Blend, Group, Hrbf, Scene, Shape, Skeleton, SkeletonField, Vec3};
+
+/// Groups evaluated without heap allocation per query.
+const INLINE_GROUPS: usize = 8;
+
+/// The part of a ray inside one primitive's support.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupportSpan {
+    /// Ray parameter interval inside the support (clipped to the query interval).
+    pub span: Interval,
+    /// Index of the primitive.
+    pub primitive: u32,
+}
+
+/// A scene compiled for evaluation.
+#[derive(Clone, Debug)]
+pub struct FieldProgram {
+    isovalue: f64,
+    primitives: Vec<Primitive>,
+    groups_of: Vec<u32>,
+    kernels: Vec<KernelProfile>,
+    kernel_specs: Vec<Kernel>,
+    blend: Blend,
+    /// The blend is a plain sum of every group: point values skip the per-group slots.
+    blend_is_total_sum: bool,
+    bvh: Bvh,
+    unbounded: Vec<u32>,
+    /// Groups whose field is clamped at 0 (those holding an HRBF set, `crate::field::hrbf_solve`).
+    clamped: Vec<bool>,
+    /// One term of each HRBF set: the field may jump where a ray crosses a set's box, so
+    /// marching parts are cut there.
+    cut_boxes: Vec<HrbfTerm>,
+}
+
+fn v3(a: Vec3) -> DVec3 {
+    DVec3::from_array(a)
+}
+
+/// Orthonormal frame whose `y` column is `axis`.
+fn frame_from_axis(axis: Vec3) -> DMat3 {
+    let y = v3(axis).normalize();
+    let (x, z) = y.any_orthonormal_pair();
+    DMat3::from_cols(x, y, z)
+}
+
+impl FieldProgram {
+    /// Compiles a validated scene.
+    #[must_use]
+    pub fn new(scene: &Scene) -> Self {
+        let c = scene.isovalue;
+        let mut primitives = Vec::new();
+        let mut groups_of = Vec::new();
+        let mut kernels = Vec::with_capacity(scene.groups.len());
+        let clamped: Vec<bool> = scene.groups.iter().map(|g| !g.hrbfs.is_empty()).collect();
+        let kernel_specs = scene.groups.iter().map(|g| g.kernel).collect();
+        for (gi, group) in scene.groups.iter().enumerate() {
+            let k = KernelProfile::new(group.kernel);
+            let gi = gi as u32;
+            let mut local = Vec::new();
+            let mut push = |p: Primitive| local.push(p);
+            let point_norm = k.point_normalisation(c);
+            let scalis_norm = k.scalis_normalisation(c);
+            let corrector = k.end_corrector_ratio();
+            for skeleton in &group.skeletons {
+                skeleton_primitives(skeleton, point_norm, scalis_norm, corrector, &mut push);
+            }
+            for blob in &group.blobs {
+                push(Primitive::Point(PointBlob {
+                    center: v3(blob.center),
+                    radius: blob.radius,
+                    norm: point_norm,
+                }));
+            }
+            for shape in &group.shapes {
+                push(Primitive::Shape(shape_primitive(shape, point_norm)));
+            }
+            for set in &group.hrbfs {
+                hrbf_terms(set, c, &mut push);
+            }
+            for placement in group_placements(group) {
+                for p in &local {
+                    primitives.push(if placement == Similarity::IDENTITY {
+                        *p
+                    } else {
+                        p.transformed(&placement)
+                    });
+                    groups_of.push(gi);
+                }
+            }
+            kernels.push(k);
+        }
+        let blend = scene.blend.clone().unwrap_or_else(|| {
+            Blend::Sum((0..scene.groups.len() as u32).map(Blend::Group).collect())
+        });
+        let mut boxes = Vec::with_capacity(primitives.len());
+        let mut unbounded = Vec::new();
+        for (i, p) in primitives.iter().enumerate() {
+            match p.support_aabb(&kernels[groups_of[i] as usize]) {
+                Some(b) => boxes.push((i as u32, b)),
+                None => unbounded.push(i as u32),
+            }
+        }
+        let mut cut_boxes: Vec<HrbfTerm> = Vec::new();
+        for p in &primitives {
+            if let Primitive::Hrbf(term) = p
+                && cut_boxes
+                    .last()
+                    .is_none_or(|b| (b.bounds, b.frame) != (term.bounds, term.frame))
+            {
+                cut_boxes.push(*term);
+            }
+        }
+        let blend_is_total_sum =
+            is_total_sum(&blend, scene.groups.len()) && !clamped.iter().any(|&c| c);
+        Self {
+            isovalue: c,
+            blend_is_total_sum,
+            bvh: Bvh::build(&boxes),
+            primitives,
+            groups_of,
+            kernels,
+            kernel_specs,
+            blend,
+            unbounded,
+            clamped,
+            cut_boxes,
+        }
+    }
+
+    /// Isovalue `c`.
+    #[must_use]
+    pub fn isovalue(&self) -> f64 {
+        self.isovalue
+    }
+
+    /// The primitives (skeleton segments, end-point correctors, blobs, shapes).
+    #[must_use]
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.primitives
+    }
+
+    /// Kernel profile of primitive `i`.
+    #[must_use]
+    pub fn kernel_of(&self, i: u32) -> &KernelProfile {
+        &self.kernels[self.groups_of[i as usize] as usize]
+    }
+
+    /// Group of primitive `i`.
+    #[must_use]
+    pub fn group_of(&self, i: u32) -> usize {
+        self.groups_of[i as usize] as usize
+    }
+
+    /// Union of the bounded supports (planes excluded).
+    #[must_use]
+    pub fn support_bounds(&self) -> Aabb {
+        self.bvh.bounds()
+    }
+
+    /// Whether some primitive has an unbounded support (a plane).
+    #[must_use]
+    pub fn has_unbounded_support(&self) -> bool {
+        !self.unbounded.is_empty()
+    }
+
+    fn for_each_near(&self, p: DVec3, mut visit: impl FnMut(u32)) {
+        self.bvh.for_each_containing(p, &mut visit);
+        self.unbounded.iter().copied().for_each(visit);
+    }
+
+    fn with_group_slots<T: Copy, R>(&self, zero: T, f: impl FnOnce(&mut [T]) -> R) -> R {
+        let n = self.kernels.len();
+        if n <= INLINE_GROUPS {
+            let mut slots = [zero; INLINE_GROUPS];
+            f(&mut slots[..n])
+        } else {
+            f(&mut vec![zero; n])
+        }
+    }
+
+    /// Field value at `p`.
+    #[must_use]
+    pub fn value(&self, p: DVec3) -> f64 {
+        if self.blend_is_total_sum {
+            let mut sum = 0.0;
+            self.for_each_near(p, |i| {
+                sum += self.primitives[i as usize].value(p, self.kernel_of(i));
+            });
+            return sum;
+        }
+        self.value_gradient(p).0
+    }
+
+    /// Field value and gradient at `p`.
+    #[must_use]
+    pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        self.with_group_slots((0.0, DVec3::ZERO), |slots| {
+            self.for_each_near(p, |i| {
+                let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
+                let slot = &mut slots[self.groups_of[i as usize] as usize];
+                slot.0 += v;
+                slot.1 += g;
+            });
+            self.clamp_group_slots(slots, |slot| {
+                if slot.0 < 0.0 {
+                    *slot = (0.0, DVec3::ZERO);
+                }
+            });
+            blend::value_gradient(&self.blend, slots, self.isovalue)
+        })
+    }
+
+    /// Restriction to a ray: `(f(t), f′(t))`.
+    #[must_use]
+    pub fn along_ray(&self, ray: &Ray, t: f64) -> (f64, f64) {
+        let (v, g) = self.value_gradient(ray.at(t));
+        (v, g.dot(ray.direction))
+    }
+
+    /// Enclosures of `f`, `f′` and `f″` along the ray over `span` (MATH.md §5; the bounds the
+    /// marching methods need).
+    #[must_use]
+    pub fn ray_jet(&self, ray: &Ray, span: Interval) -> Jet {
+        self.with_group_slots(Jet::ZERO, |slots| {
+            self.accumulate_group_jets(ray, span, slots);
+            blend::jet(&self.blend, slots, self.isovalue)
+        })
+    }
+
+    /// Jets of every group's field (the sums of their primitives) over `span`.
+    #[must_use]
+    pub fn ray_group_jets(&self, ray: &Ray, span: Interval) -> Vec<Jet> {
+        let mut slots = vec![Jet::ZERO; self.kernels.len()];
+        self.accumulate_group_jets(ray, span, &mut slots);
+        slots
+    }
+
+    /// Calls `visit(i)` for every primitive whose exact support the ray meets on `span` (a
+    /// primitive whose box meets the ray but whose support does not is exactly 0 there; a
+    /// clipped kernel's one-sided derivative at the boundary must not widen the bounds).
+    fn for_each_support_on_ray(&self, ray: &Ray, span: Interval, mut visit: impl FnMut(u32)) {
+        let mut add = |i: u32| {
+            let p = &self.primitives[i as usize];
+            if p.support_interval(ray, self.kernel_of(i))
+                .is_some_and(|s| s.intersect(span).is_some())
+            {
+                visit(i);
+            }
+        };
+        self.bvh.for_each_on_ray(ray, span, &mut add);
+        self.unbounded.iter().copied().for_each(add);
+    }
+
+    fn accumulate_group_jets(&self, ray: &Ray, span: Interval, slots: &mut [Jet]) {
+        self.for_each_support_on_ray(ray, span, |i| {
+            let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+            let slot = &mut slots[self.groups_of[i as usize] as usize];
+            *slot = *slot + jet;
+        });
+        self.clamp_group_slots(slots, |slot| *slot = slot.max(Jet::ZERO));
+    }
+
+    /// Whether group `g`'s field is clamped at 0 (it holds an HRBF set).
+    #[must_use]
+    pub fn group_is_clamped(&self, g: usize) -> bool {
+        self.clamped[g]
+    }
+
+    /// Applies `clamp_at_zero` to the per-group slots (values, jets, inclusions, affine forms) of
+    /// the groups whose field is clamped at 0: the one place each evaluation mode takes the HRBF
+    /// group's positive part.
+    pub fn clamp_group_slots<T>(&self, slots: &mut [T], clamp_at_zero: impl Fn(&mut T)) {
+        for (slot, _) in slots.iter_mut().zip(&self.clamped).filter(|(_, c)| **c) {
+            clamp_at_zero(slot);
+        }
+    }
+
+    /// Every group's `(f(t), f′(t))` along the ray.
+    #[must_use]
+    pub fn group_values_along_ray(&self, ray: &Ray, t: f64) -> Vec<(f64, f64)> {
+        let p = ray.at(t);
+        let mut slots = vec![(0.0, 0.0); self.kernels.len()];
+        self.for_each_near(p, |i| {
+            let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
+            let slot = &mut slots[self.groups_of[i as usize] as usize];
+            slot.0 += v;
+            slot.1 += g.dot(ray.direction);
+        });
+        self.clamp_group_slots(&mut slots, |slot| {
+            if slot.0 < 0.0 {
+                *slot = (0.0, 0.0);
+            }
+        });
+        slots
+    }
+
+    /// The blend tree over groups (a sum of all groups when the scene gives none).
+    #[must_use]
+    pub fn blend(&self) -> &Blend {
+        &self.blend
+    }
+
+    /// Number of groups.
+    #[must_use]
+    pub fn group_count(&self) -> usize {
+        self.kernels.len()
+    }
+
+    /// Kernel profile of group `g`.
+    #[must_use]
+    pub fn group_kernel(&self, g: usize) -> &KernelProfile {
+        &self.kernels[g]
+    }
+
+    /// The kernel of group `g` as the scene states it.
+    #[must_use]
+    pub fn group_kernel_spec(&self, g: usize) -> Kernel {
+        self.kernel_specs[g]
+    }
+
+    /// The primitives of group `g`.
+    pub fn group_primitives(&self, g: usize) -> impl Iterator<Item = &Primitive> {
+        self.primitives
+            .iter()
+            .zip(&self.groups_of)
+            .filter(move |(_, gi)| **gi as usize == g)
+            .map(|(p, _)| p)
+    }
+
+    /// A global Lipschitz bound of the blended field (sphere tracing, Hart 1996): every blend
+    /// operator's gradient is bounded by the sum of its operands' gradients, and at any point
+    /// only primitives whose support boxes overlap each other contribute, so the largest sum
+    /// over a primitive and the primitives overlapping it bounds `|∇f|` everywhere.
+    #[must_use]
+    pub fn global_lipschitz(&self) -> f64 {
+        let lipschitz: Vec<f64> = self
+            .primitives
+            .iter()
+            .enumerate()
+            .map(|(i, p)| p.lipschitz(self.kernel_of(i as u32)))
+            .collect();
+        let unbounded: f64 = self.unbounded.iter().map(|&i| lipschitz[i as usize]).sum();
+        let mut worst = unbounded;
+        for (i, p) in self.primitives.iter().enumerate() {
+            if let Some(b) = p.support_aabb(self.kernel_of(i as u32)) {
+                let mut sum = unbounded;
+                self.bvh
+                    .for_each_overlapping(&b, |j| sum += lipschitz[j as usize]);
+                worst = worst.max(sum);
+            }
+        }
+        worst
+    }
+
+    /// The parts of `span` inside at least one support, as disjoint sorted intervals: outside
+    /// them the field is 0, below any positive isovalue. Parts are also cut where the ray
+    /// crosses the box of an HRBF set, where the field may jump, so that the field is
+    /// continuous on each part (the methods' bounds hold on spans inside one part).
+    #[must_use]
+    pub fn ray_support_unions(&self, ray: &Ray, span: Interval) -> Vec<Interval> {
+        let mut out: Vec<Interval> = Vec::new();
+        for s in self.ray_supports(ray, span) {
+            match out.last_mut() {
+                Some(last) if s.span.lo <= last.hi => last.hi = last.hi.max(s.span.hi),
+                _ => out.push(s.span),
+            }
+        }
+        for b in &self.cut_boxes {
+            let Some(inside) = b.box_interval(ray, span) else {
+                continue;
+            };
+            for cut in [inside.lo, inside.hi] {
+                if let Some(i) = out.iter().position(|p| p.lo < cut && cut < p.hi) {
+                    let hi = out[i].hi;
+                    out[i].hi = cut;
+                    out.insert(i + 1, Interval { lo: cut, hi });
+                }
+            }
+        }
+        out
+    }
+
+    /// Local directional Lipschitz bound on `span`: `max |f′|` (segment tracing; forward
+    /// inclusion eq. 11).
+    #[must_use]
+    pub fn directional_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
+        self.ray_jet(ray, span).d1.magnitude()
+    }
+
+    /// Segment tracing's local Lipschitz bound on `span` (Galin et al. 2020; MATH.md §5): the sum
+    /// of the primitives' own bounds `max |fᵢ′|` within a group (the bound of a sum is the sum of
+    /// the bounds), combined through the blend tree (sum and Ricci: sum; max, min, difference:
+    /// the largest). Looser than [`FieldProgram::directional_lipschitz`], which bounds the
+    /// derivative of the sum itself.
+    #[must_use]
+    pub fn summed_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
+        self.with_group_slots(0.0, |slots| {
+            self.for_each_support_on_ray(ray, span, |i| {
+                let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+                slots[self.groups_of[i as usize] as usize] += jet.d1.magnitude();
+            });
+            blend::lipschitz(&self.blend, slots)
+        })
+    }
+
+    /// Calls `visit(group, primitive, kernel, support ∩ span)` for every primitive whose support
+    /// the ray crosses on `span` (in no particular order).
+    pub fn for_each_primitive_on_ray(
+        &self,
+        ray: &Ray,
+        span: Interval,
+        mut visit: impl FnMut(usize, &Primitive, &KernelProfile, Interval),
+    ) {
+        let mut add = |i: u32| {
+            let p = &self.primitives[i as usize];
+            let k = self.kernel_of(i);
+            if let Some(s) = p.support_interval(ray, k).and_then(|s| s.intersect(span)) {
+                visit(self.groups_of[i as usize] as usize, p, k, s);
+            }
+        };
+        self.bvh.for_each_on_ray(ray, span, &mut add);
+        self.unbounded.iter().copied().for_each(add);
+    }
+
+    /// The kernel shared by every group, if they all use the same one.
+    #[must_use]
+    pub fn common_kernel(&self) -> Option<Kernel> {
+        let first = *self.kernel_specs.first()?;
+        self.kernel_specs
+            .iter()
+            .all(|k| *k == first)
+            .then_some(first)
+    }
+
+    /// The supports the ray crosses on `span`, sorted by entry.
+    #[must_use]
+    pub fn ray_supports(&self, ray: &Ray, span: Interval) -> Vec<SupportSpan> {
+        let mut out = Vec::new();
+        let mut add = |i: u32| {
+            let p = &self.primitives[i as usize];
+            if let Some(s) = p
+                .support_interval(ray, self.kernel_of(i))
+                .and_then(|s| s.intersect(span))
+            {
+                out.push(SupportSpan {
+                    span: s,
+                    primitive: i,
+                });
+            }
+        };
+        self.bvh.for_each_on_ray(ray, span, &mut add);
+        self.unbounded.iter().copied().for_each(add);
+        out.sort_by(|a, b| a.span.lo.total_cmp(&b.span.lo));
+        out
+    }
+}
+
+/// The group's [`Transform`] as a similarity (the placement of its first copy, whose
+/// [`Repeat`] offset is the origin).
+#[must_use]
+pub fn group_transform(group: &Group) -> Similarity {
+    let t = &group.transform;
+    Similarity {
+        scale: t.scale,
+        rotation: DMat3::from_euler(
+            EulerRot::XYZ,
+            t.rotate[0].to_radians(),
+            t.rotate[1].to_radians(),
+            t.rotate[2].to_radians(),
+        ),
+        translation: v3(t.translate),
+    }
+}
+
+/// Where the copies of a group go: one similarity per copy of its [`Repeat`] grid (the offset in
+/// the group's frame, then the group's [`Transform`]), or the transform alone.
+#[must_use]
+pub fn group_placements(group: &Group) -> Vec<Similarity> {
+    let transform = group_transform(group);
+    match &group.repeat {
+        None => vec![transform],
+        Some(r) => r
+            .offsets()
+            .into_iter()
+            .map(|o| {
+                transform.after(&Similarity {
+                    translation: v3(o),
+                    ..Similarity::IDENTITY
+                })
+            })
+            .collect(),
+    }
+}
+
+/// Whether `blend` adds every group exactly once and nothing else.
+fn is_total_sum(blend: &Blend, groups: usize) -> bool {
+    let mut seen = vec![false; groups];
+    let mut mark = |i: &u32| !std::mem::replace(&mut seen[*i as usize], true);
+    let all_distinct = match blend {
+        Blend::Group(i) => mark(i),
+        Blend::Sum(children) => children.iter().all(|c| match c {
+            Blend::Group(i) => mark(i),
+            _ => false,
+        }),
+        _ => false,
+    };
+    all_distinct && seen.iter().all(|&s| s)
+}
+
+/// Primitives of one skeleton: a segment per edge and, for SCALIS skeletons with end-point
+/// correctors, a constant-radius segment of length `λ·τ` beyond each free end (scalis §1.1).
+fn skeleton_primitives(
+    skeleton: &Skeleton,
+    point_norm: f64,
+    scalis_norm: f64,
+    corrector_ratio: f64,
+    push: &mut impl FnMut(Primitive),
+) {
+    let position = |i: u32| v3(skeleton.vertices[i as usize].position);
+    let radius = |i: u32| skeleton.vertices[i as usize].radius;
+    let cone = |a: DVec3, ra: f64, b: DVec3, rb: f64| {
+        let (start, r0, end, r1) = if ra <= rb {
+            (a, ra, b, rb)
+        } else {
+            (b, rb, a, ra)
+        };
+        let length = (end - start).length();
+        SphereCone {
+            start,
+            axis: (end - start) / length,
+            length,
+            radius: r0,
+            slope: (r1 - r0) / length,
+        }
+    };
+    for &[a, b] in &skeleton.edges {
+        let c = cone(position(a), radius(a), position(b), radius(b));
+        push(match skeleton.field {
+            SkeletonField::Distance => Primitive::Distance(DistanceSegment {
+                cone: c,
+                norm: point_norm,
+            }),
+            SkeletonField::Scalis => Primitive::Scalis(ScalisSegment {
+                cone: c,
+                norm: scalis_norm,
+            }),
+        });
+    }
+    if skeleton.field == SkeletonField::Scalis && skeleton.end_correctors {
+        let mut degree = vec![0_u32; skeleton.vertices.len()];
+        let mut neighbour = vec![0_u32; skeleton.vertices.len()];
+        for &[a, b] in &skeleton.edges {
+            degree[a as usize] += 1;
+            degree[b as usize] += 1;
+            neighbour[a as usize] = b;
+            neighbour[b as usize] = a;
+        }
+        for (end, &d) in degree.iter().enumerate() {
+            if d != 1 {
+                continue;
+            }
+            let end = end as u32;
+            let tip = position(end);
+            let outward = (tip - position(neighbour[end as usize])).normalize();
+            let tau = radius(end);
+            push(Primitive::Scalis(ScalisSegment {
+                cone: SphereCone {
+                    start: tip,
+                    axis: outward,
+                    length: corrector_ratio * tau,
+                    radius: tau,
+                    slope: 0.0,
+                },
+                norm: scalis_norm,
+            }));
+        }
+    }
+}
+
+/// The terms of an HRBF set, scaled into the density `c − (c/ℓ)h` (`crate::field::hrbf_solve`). The weights
+/// are those validation solved (`hrbf_solve::solve_shared`). A set that does not solve has been
+/// refused when the scene was read, or by the editor before the edit was kept; one in a scene
+/// built in code without validation gives no terms here.
+fn hrbf_terms(set: &Hrbf, c: f64, push: &mut impl FnMut(Primitive)) {
+    let Ok(weights) = hrbf_solve::solve_shared(&set.points) else {
+        return;
+    };
+    let bounds = weights.bounds();
+    let scale = -c / weights.length_scale();
+    for ((&center, &alpha), &beta) in weights
+        .centers
+        .iter()
+        .zip(&weights.alpha)
+        .zip(&weights.beta)
+    {
+        push(Primitive::Hrbf(HrbfTerm {
+            center,
+            alpha: scale * alpha,
+            beta: scale * beta,
+            linear: DVec3::ZERO,
+            constant: 0.0,
+            bounds,
+            frame: DMat3::IDENTITY,
+        }));
+    }
+    push(Primitive::Hrbf(HrbfTerm {
+        center: bounds.center(),
+        alpha: 0.0,
+        beta: DVec3::ZERO,
+        linear: scale * weights.linear,
+        constant: scale * weights.constant + c,
+        bounds,
+        frame: DMat3::IDENTITY,
+    }));
+}
+
+fn shape_primitive(shape: &Shape, norm: f64) -> ShapePrimitive {
+    let euler = |r: Vec3| {
+        DMat3::from_euler(
+            EulerRot::XYZ,
+            r[0].to_radians(),
+            r[1].to_radians(),
+            r[2].to_radians(),
+        )
+    };
+    let (solid, center, frame, radius) = match *shape {
+        Shape::Plane {
+            normal,
+            offset,
+            radius,
+        } => {
+            let n = v3(normal);
+            let len = n.length();
+            (
+                Solid::Plane {
+                    normal: n / len,
+                    offset: offset / len,
+                },
+                DVec3::ZERO,
+                DMat3::IDENTITY,
+                radius,
+            )
+        }
+        Shape::Box {
+            center,
+            half_extents,
+            rotation,
+            radius,
+        } => (
+            Solid::Box {
+                half_extents: v3(half_extents),
+            },
+            v3(center),
+            euler(rotation),
+            radius,
+        ),
+        Shape::RoundedBox {
+            center,
+            half_extents,
+            rounding,
+            rotation,
+            radius,
+        } => (
+            Solid::RoundedBox {
+                half_extents: v3(half_extents),
+                rounding,
+            },
+            v3(center),
+            euler(rotation),
+            radius,
+        ),
+        Shape::Torus {
+            center,
+            axis,
+            major,
+            minor,
+            radius,
+        } => (
+            Solid::Torus { major, minor },
+            v3(center),
+            frame_from_axis(axis),
+            radius,
+        ),
+        Shape::Cylinder {
+            center,
+            axis,
+            cylinder_radius,
+            half_height,
+            radius,
+        } => (
+            Solid::Cylinder {
+                radius: cylinder_radius,
+                half_height,
+            },
+            v3(center),
+            frame_from_axis(axis),
+            radius,
+        ),
+    };
+    ShapePrimitive {
+        solid,
+        center,
+        frame,
+        radius,
+        norm,
+    }
+}

@@ -1,0 +1,198 @@
+//! What both frame backends share: the [`Frame`] they return (colour, depth, steps per pixel),
+//! the [`PinholeCamera`] that makes primary rays, the far distance of those rays, what the colour
+//! output shows ([`View`], [`FieldShading`]) and the step-count colour map. The CPU tracer
+//! (`crate::cpu`) and the GPU backend (`skeletrace-render`) both build on these, so that their
+//! frames can be compared pixel by pixel.
+
+use glam::DVec3;
+
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
+use crate::model::scene::Camera;
+
+/// What the colour output of a frame shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum View {
+    /// Blinn–Phong shading, with the field's soft shadows and ambient occlusion if asked.
+    Shaded(FieldShading),
+    /// Step-count heat map ([`heat_colour`]) on `[0, steps_max]`.
+    Steps {
+        /// Top of the colour scale.
+        steps_max: u32,
+    },
+}
+
+/// Which field-based shading terms to add.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct FieldShading {
+    /// Soft shadows towards every light.
+    pub soft_shadows: bool,
+    /// Ambient occlusion.
+    pub ambient_occlusion: bool,
+}
+
+impl FieldShading {
+    /// Whether any term is on.
+    #[must_use]
+    pub fn any(self) -> bool {
+        self.soft_shadows || self.ambient_occlusion
+    }
+}
+
+/// Per-pixel output of a render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Linear RGB, row-major from the top-left pixel.
+    pub colour: Vec<[f32; 3]>,
+    /// Ray parameter of the first crossing (distance from the eye); infinite where none.
+    pub depth: Vec<f64>,
+    /// Steps per pixel.
+    pub steps: Vec<u32>,
+}
+
+/// Summary of a frame's step counts, over every pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepSummary {
+    /// Mean.
+    pub average: f64,
+    /// Median.
+    pub median: u32,
+    /// Maximum.
+    pub max: u32,
+}
+
+impl Frame {
+    /// Average, median and maximum steps.
+    #[must_use]
+    pub fn step_summary(&self) -> StepSummary {
+        let mut sorted = self.steps.clone();
+        sorted.sort_unstable();
+        let n = sorted.len().max(1);
+        StepSummary {
+            average: sorted.iter().map(|&s| f64::from(s)).sum::<f64>() / n as f64,
+            median: sorted.get(sorted.len() / 2).copied().unwrap_or(0),
+            max: sorted.last().copied().unwrap_or(0),
+        }
+    }
+
+    /// Whether pixel `i` hit the surface.
+    #[must_use]
+    pub fn is_hit(&self, i: usize) -> bool {
+        self.depth[i].is_finite()
+    }
+}
+
+/// Primary rays of a pinhole camera.
+#[derive(Clone, Copy, Debug)]
+pub struct PinholeCamera {
+    origin: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    tan_half: f64,
+}
+
+impl PinholeCamera {
+    /// The scene camera.
+    #[must_use]
+    pub fn new(camera: &Camera) -> Self {
+        let origin = DVec3::from_array(camera.position);
+        let forward = (DVec3::from_array(camera.target) - origin).normalize_or(DVec3::NEG_Z);
+        let right = forward
+            .cross(DVec3::from_array(camera.up))
+            .normalize_or(DVec3::X);
+        Self {
+            origin,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_half: (0.5 * camera.fov_degrees.to_radians()).tan(),
+        }
+    }
+
+    /// Unit forward, right and up axes.
+    #[must_use]
+    pub fn axes(&self) -> (DVec3, DVec3, DVec3) {
+        (self.forward, self.right, self.up)
+    }
+
+    /// Ray through the centre of pixel `(x, y)` of a `width × height` image.
+    #[must_use]
+    pub fn ray(&self, x: usize, y: usize, width: usize, height: usize) -> Ray {
+        let aspect = width as f64 / height.max(1) as f64;
+        let u = (2.0 * (x as f64 + 0.5) / width as f64 - 1.0) * self.tan_half * aspect;
+        let v = (1.0 - 2.0 * (y as f64 + 0.5) / height as f64) * self.tan_half;
+        Ray::new(self.origin, self.forward + u * self.right + v * self.up)
+    }
+}
+
+/// Length of the primary rays: past the farthest support seen from the camera (four times as
+/// far when a plane reaches to infinity). The GPU backend uses the same value.
+#[must_use]
+pub fn far_distance(program: &FieldProgram, camera: &Camera) -> f64 {
+    let bounds = program.support_bounds();
+    if bounds.is_empty() {
+        return 100.0;
+    }
+    let eye = DVec3::from_array(camera.position);
+    let reach = (bounds.center() - eye).length() + bounds.diagonal();
+    if program.has_unbounded_support() {
+        4.0 * reach
+    } else {
+        reach
+    }
+}
+
+/// Linear to sRGB-encoded 8-bit.
+#[must_use]
+pub fn srgb8(linear: f32) -> u8 {
+    let c = linear.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// The step-count colour map (Turbo, Mikhailov 2019, polynomial fit) at `x ∈ [0, 1]`, sRGB
+/// in `[0, 1]`. The GPU backend uses the same polynomial.
+#[must_use]
+pub fn heat_colour(x: f64) -> [f32; 3] {
+    let x = x.clamp(0.0, 1.0);
+    let poly = |c: [f64; 6]| {
+        let v = c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5]))));
+        v.clamp(0.0, 1.0) as f32
+    };
+    [
+        poly([
+            0.135_721_38,
+            4.615_392_6,
+            -42.660_322_6,
+            132.131_082_9,
+            -152.942_393_9,
+            59.286_379_0,
+        ]),
+        poly([
+            0.091_402_61,
+            2.194_188_39,
+            4.842_966_58,
+            -14.185_033_3,
+            4.277_298_55,
+            2.829_566_04,
+        ]),
+        poly([
+            0.106_673_30,
+            12.641_946_08,
+            -60.582_048_8,
+            110.362_767_7,
+            -89.903_109_8,
+            27.348_249_3,
+        ]),
+    ]
+}

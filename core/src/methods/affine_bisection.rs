@@ -1,0 +1,40 @@
+//! Revised affine arithmetic with bisection (forward-inclusion 2023 Table 1 baseline;
+//! MATH.md §8): the affine form of the field over each interval ([`crate::bounds::affine`]) prunes the
+//! intervals that cannot hold the isovalue; the others are bisected.
+
+use super::MethodId;
+use crate::bounds::affine::field_form;
+use crate::bounds::interval::Interval;
+use crate::field::geometry::Ray;
+use crate::field::program::FieldProgram;
+
+use super::bisection::Bisector;
+use super::{Method, RayTracer, Trace, TraceSettings};
+
+/// `affine`.
+pub struct AffineArithmetic;
+
+impl Method for AffineArithmetic {
+    fn id(&self) -> MethodId {
+        MethodId::Affine
+    }
+
+    fn is_conservative(&self) -> bool {
+        true
+    }
+
+    fn prepare<'a>(
+        &self,
+        program: &'a FieldProgram,
+        settings: TraceSettings,
+    ) -> Box<dyn RayTracer + 'a> {
+        Box::new(Bisector {
+            program,
+            settings,
+            enclosure: |p: &FieldProgram, ray: &Ray, i: Interval, trace: &mut Trace| {
+                trace.evaluations += 1;
+                Some(field_form(p, ray, i).map_or_else(|| p.ray_jet(ray, i).value, |f| f.range()))
+            },
+        })
+    }
+}

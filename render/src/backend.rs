@@ -1,0 +1,115 @@
+//! The GPU [`FrameBackend`]: a [`GpuRenderer`] that uploads a compiled scene when it changes
+//! (a new `Arc<Compiled>`; a camera never uploads anything) and traces the methods that have a
+//! GPU implementation for the scene. Whether its adapter is a software rasteriser comes from
+//! the adapter's device type ([`GpuRenderer::device_kind`]).
+
+use std::sync::Arc;
+
+use skeletrace_core::backend::{BackendError, DeviceKind, FrameBackend, FrameRequest, PassTimes};
+use skeletrace_core::compile::Compiled;
+use skeletrace_core::frame::{Frame, View};
+use skeletrace_core::methods::MethodId;
+
+use crate::buffers::PackedScene;
+use crate::renderer::{GpuRenderer, check_shading_budget};
+use crate::shaders::GpuMethod;
+
+/// The GPU as a frame backend.
+pub struct GpuBackend {
+    renderer: GpuRenderer,
+}
+
+impl GpuBackend {
+    /// Opens the first adapter.
+    ///
+    /// # Errors
+    /// [`BackendError::DeviceFailed`] when there is no adapter or device.
+    pub fn new() -> Result<Self, BackendError> {
+        GpuRenderer::new().map(Self::from_renderer)
+    }
+
+    /// Wraps a renderer (one built with [`GpuRenderer::with_device`], say).
+    #[must_use]
+    pub fn from_renderer(renderer: GpuRenderer) -> Self {
+        Self { renderer }
+    }
+
+    /// The renderer, for its pass times and settings.
+    #[must_use]
+    pub fn renderer(&self) -> &GpuRenderer {
+        &self.renderer
+    }
+
+    /// The renderer, mutably.
+    pub fn renderer_mut(&mut self) -> &mut GpuRenderer {
+        &mut self.renderer
+    }
+}
+
+impl FrameBackend for GpuBackend {
+    fn describe(&self) -> String {
+        self.renderer.adapter_name().to_owned()
+    }
+
+    fn device_kind(&self) -> DeviceKind {
+        self.renderer.device_kind()
+    }
+
+    fn supports(
+        &self,
+        compiled: &Compiled,
+        method: MethodId,
+        request: &FrameRequest,
+    ) -> Result<(), String> {
+        let gpu_method = GpuMethod::from_id(method)
+            .ok_or_else(|| format!("{method} has no GPU implementation"))?;
+        gpu_method.supports(&compiled.program)?;
+        if request.shadows {
+            return Err("exact shadow rays run on the CPU only".to_owned());
+        }
+        PackedScene::new(compiled)?;
+        if let View::Shaded(shading) = request.view {
+            check_shading_budget(compiled, shading)?;
+        }
+        Ok(())
+    }
+
+    fn last_pass_times(&self) -> Option<PassTimes> {
+        self.renderer.last_pass_times().cloned()
+    }
+
+    fn render(
+        &mut self,
+        compiled: &Arc<Compiled>,
+        request: &FrameRequest,
+    ) -> Result<Vec<Frame>, BackendError> {
+        let methods = request
+            .methods
+            .iter()
+            .map(|&id| {
+                GpuMethod::from_id(id).ok_or_else(|| {
+                    BackendError::Unsupported(format!("{id} has no GPU implementation"))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        if request.shadows {
+            return Err(BackendError::Unsupported(
+                "exact shadow rays run on the CPU only".to_owned(),
+            ));
+        }
+        if self
+            .renderer
+            .scene()
+            .is_none_or(|uploaded| !Arc::ptr_eq(uploaded, compiled))
+        {
+            self.renderer.set_scene(compiled)?;
+        }
+        self.renderer.render(
+            &methods,
+            &request.camera,
+            &request.settings,
+            (request.width as u32, request.height as u32),
+            request.view,
+        )
+    }
+}
