@@ -12,22 +12,33 @@ use skeletrace_render::GpuBackend;
 pub struct Backends {
     /// The CPU tracer.
     pub cpu: CpuBackend,
-    /// The GPU, or why there is none (not asked for, no adapter, a failed device).
-    pub gpu: Result<GpuBackend, String>,
+    /// The GPU, or why there is none (not asked for yet, no adapter, a failed device). Any
+    /// `FrameBackend` fits, so that tests can put a failing one here.
+    pub gpu: Result<Box<dyn FrameBackend + Send>, String>,
+    /// Whether opening the GPU was tried (a failed or lost GPU is not opened again).
+    gpu_tried: bool,
 }
 
 impl Backends {
     /// Opens the GPU unless `choice` is the CPU.
     #[must_use]
     pub fn open(choice: BackendChoice) -> Self {
-        let gpu = if choice == BackendChoice::Cpu {
-            Err("the CPU backend was chosen".to_owned())
-        } else {
-            GpuBackend::new().map_err(|e| e.to_string())
-        };
-        Self {
+        let mut backends = Self {
             cpu: CpuBackend,
-            gpu,
+            gpu: Err("the CPU backend was chosen".to_owned()),
+            gpu_tried: false,
+        };
+        backends.open_gpu_for(choice);
+        backends
+    }
+
+    /// Opens the GPU the first time a choice other than the CPU asks for it.
+    pub fn open_gpu_for(&mut self, choice: BackendChoice) {
+        if choice != BackendChoice::Cpu && !self.gpu_tried {
+            self.gpu_tried = true;
+            self.gpu = GpuBackend::new()
+                .map(|g| Box::new(g) as Box<dyn FrameBackend + Send>)
+                .map_err(|e| e.to_string());
         }
     }
 
@@ -43,7 +54,7 @@ impl Backends {
         request: &FrameRequest,
     ) -> Result<&mut dyn FrameBackend, BackendError> {
         let gpu = match &mut self.gpu {
-            Ok(g) => Ok(g as &mut dyn FrameBackend),
+            Ok(g) => Ok(g.as_mut() as &mut dyn FrameBackend),
             Err(why) => Err(why.as_str()),
         };
         backend::choose(choice, gpu, &mut self.cpu, compiled, method, request)
@@ -52,6 +63,7 @@ impl Backends {
     /// Drops the GPU after a device failure, keeping `why` as the reason there is none: what
     /// follows is traced on the CPU.
     pub fn lose_gpu(&mut self, why: &str) {
+        self.gpu_tried = true;
         self.gpu = Err(why.to_owned());
     }
 }

@@ -61,7 +61,7 @@ pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
         return Err(format!("--backend gpu: {why}"));
     }
     if let Ok(gpu) = &backends.gpu {
-        eprintln!("skeletrace: GPU adapter {}", gpu.renderer().adapter_name());
+        eprintln!("skeletrace: GPU adapter {}", gpu.describe());
     }
     let mut frames: Vec<(&'static str, Frame)> = Vec::new();
     for method in methods {

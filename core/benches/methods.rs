@@ -8,7 +8,7 @@ use std::path::Path;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use skeletrace_core::cpu::stats::protocol_rays;
-use skeletrace_core::methods::{self, TraceMode, TraceSettings};
+use skeletrace_core::methods::{self, MethodId, TraceMode, TraceSettings};
 use skeletrace_core::{FieldProgram, Scene};
 
 const RAYS: usize = 600;
@@ -26,7 +26,7 @@ fn bench_scene(c: &mut Criterion, name: &str) {
     group.throughput(Throughput::Elements(RAYS as u64));
     group.sample_size(10);
     for method in methods::all() {
-        if method.name() == "reference" || method.supports(&program).is_err() {
+        if method.id() == MethodId::Reference || method.supports(&program).is_err() {
             continue;
         }
         let tracer = method.prepare(&program, settings);

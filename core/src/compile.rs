@@ -9,7 +9,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::field::program::FieldProgram;
 use crate::methods::TraceSettings;
-use crate::model::scene::{Light, Material, Scene};
+use glam::DVec3;
+
+use crate::model::scene::{Camera, Light, Material, Scene};
 
 static COMPILES: AtomicU64 = AtomicU64::new(0);
 
@@ -50,4 +52,27 @@ pub fn compile(scene: &Scene) -> Arc<Compiled> {
 #[must_use]
 pub fn compile_count() -> u64 {
     COMPILES.load(Ordering::Relaxed)
+}
+
+/// A camera looking at the centre of the scene's supports from a three-quarter view, far
+/// enough to see all of it.
+#[must_use]
+pub fn framing_camera(compiled: &Compiled) -> Camera {
+    let bounds = compiled.program.support_bounds();
+    if bounds.is_empty() {
+        return Camera::default();
+    }
+    let center = bounds.center();
+    let fov = 40.0_f64;
+    // The support box is wider than the surface (by σ radii): frame 80 % of the distance at
+    // which its bounding sphere would just fit, which keeps the surface in view.
+    let radius = 0.5 * bounds.diagonal();
+    let distance = 0.8 * radius / (0.5 * fov.to_radians()).sin();
+    let eye = center + DVec3::new(0.45, 0.35, 0.82).normalize() * distance;
+    Camera {
+        position: eye.to_array(),
+        target: center.to_array(),
+        up: [0.0, 1.0, 0.0],
+        fov_degrees: fov,
+    }
 }

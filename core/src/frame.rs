@@ -160,39 +160,42 @@ pub fn srgb8(linear: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
-/// The step-count colour map (Turbo, Mikhailov 2019, polynomial fit) at `x ∈ [0, 1]`, sRGB
-/// in `[0, 1]`. The GPU backend uses the same polynomial.
+/// Coefficients of the Turbo polynomial fit (Mikhailov 2019), one row per channel (red, green,
+/// blue), lowest degree first. The GPU backend emits the same numbers into its shaders.
+pub const TURBO: [[f64; 6]; 3] = [
+    [
+        0.135_721_38,
+        4.615_392_6,
+        -42.660_322_6,
+        132.131_082_9,
+        -152.942_393_9,
+        59.286_379_0,
+    ],
+    [
+        0.091_402_61,
+        2.194_188_39,
+        4.842_966_58,
+        -14.185_033_3,
+        4.277_298_55,
+        2.829_566_04,
+    ],
+    [
+        0.106_673_30,
+        12.641_946_08,
+        -60.582_048_8,
+        110.362_767_7,
+        -89.903_109_8,
+        27.348_249_3,
+    ],
+];
+
+/// The step-count colour map (Turbo, Mikhailov 2019, polynomial fit [`TURBO`]) at
+/// `x ∈ [0, 1]`, sRGB in `[0, 1]`.
 #[must_use]
 pub fn heat_colour(x: f64) -> [f32; 3] {
     let x = x.clamp(0.0, 1.0);
-    let poly = |c: [f64; 6]| {
+    TURBO.map(|c| {
         let v = c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5]))));
         v.clamp(0.0, 1.0) as f32
-    };
-    [
-        poly([
-            0.135_721_38,
-            4.615_392_6,
-            -42.660_322_6,
-            132.131_082_9,
-            -152.942_393_9,
-            59.286_379_0,
-        ]),
-        poly([
-            0.091_402_61,
-            2.194_188_39,
-            4.842_966_58,
-            -14.185_033_3,
-            4.277_298_55,
-            2.829_566_04,
-        ]),
-        poly([
-            0.106_673_30,
-            12.641_946_08,
-            -60.582_048_8,
-            110.362_767_7,
-            -89.903_109_8,
-            27.348_249_3,
-        ]),
-    ]
+    })
 }

@@ -14,13 +14,24 @@
 // bounding sphere farther away) cannot change the first crossing and is left out of the tile.
 // The blends for which this holds are decided in buffers.rs (sum, max, smooth union).
 
+// Twin of `GpuBinning` (renderer.rs).
 struct Binning {
-    origin: vec4<f32>,
-    forward: vec4<f32>,  // w: tan(fov/2)
-    right: vec4<f32>,    // w: aspect
-    up: vec4<f32>,
-    tiles: vec4<u32>,    // tiles_x, tiles_y, tile size, primitive count
-    size: vec4<u32>,     // width, height, occluders on (1) or off (0)
+    origin: vec3<f32>,
+    pad0: f32,
+    forward: vec3<f32>,
+    tan_half_fov: f32,
+    right: vec3<f32>,
+    aspect: f32,
+    up: vec3<f32>,
+    pad1: f32,
+    tiles_x: u32,
+    tiles_y: u32,
+    tile_size: u32,            // pixels
+    primitive_count: u32,
+    width: u32,
+    height: u32,
+    occluders: u32,            // 1 on, 0 off
+    pad2: u32,
 };
 
 // Twin of `GpuPrimitive` (only the bounding sphere is read here).
@@ -55,16 +66,16 @@ const INF: f32 = 3.0e38;
 fn tile_rect(i: u32) -> vec4<i32> {
     let bound = primitives[i].bound;
     if bound.w < 0.0 {
-        return vec4<i32>(0, 0, i32(binning.tiles.x) - 1, i32(binning.tiles.y) - 1);
+        return vec4<i32>(0, 0, i32(binning.tiles_x) - 1, i32(binning.tiles_y) - 1);
     }
     return sphere_rect(bound);
 }
 
 // Inclusive tile rectangle covered by the projection of a sphere (centre, radius).
 fn sphere_rect(sphere: vec4<f32>) -> vec4<i32> {
-    let all_tiles = vec4<i32>(0, 0, i32(binning.tiles.x) - 1, i32(binning.tiles.y) - 1);
-    let rel = sphere.xyz - binning.origin.xyz;
-    let z = dot(rel, binning.forward.xyz);
+    let all_tiles = vec4<i32>(0, 0, i32(binning.tiles_x) - 1, i32(binning.tiles_y) - 1);
+    let rel = sphere.xyz - binning.origin;
+    let z = dot(rel, binning.forward);
     let r = sphere.w;
     if z <= r * 1.0001 {
         // The sphere reaches the eye plane: it may cover any pixel.
@@ -72,19 +83,19 @@ fn sphere_rect(sphere: vec4<f32>) -> vec4<i32> {
     }
     // Conservative extent in the image plane: the view-space box around the sphere, whose
     // corners project to the extreme tangents x/z and y/z.
-    let x = dot(rel, binning.right.xyz);
-    let y = dot(rel, binning.up.xyz);
+    let x = dot(rel, binning.right);
+    let y = dot(rel, binning.up);
     let near = z - r;
     let far = z + r;
-    let sx = binning.forward.w * binning.right.w;
-    let sy = binning.forward.w;
+    let sx = binning.tan_half_fov * binning.aspect;
+    let sy = binning.tan_half_fov;
     let u0 = min((x - r) / near, (x - r) / far) / sx;
     let u1 = max((x + r) / near, (x + r) / far) / sx;
     let v0 = min((y - r) / near, (y - r) / far) / sy;
     let v1 = max((y + r) / near, (y + r) / far) / sy;
-    let w = f32(binning.size.x);
-    let h = f32(binning.size.y);
-    let ts = f32(binning.tiles.z);
+    let w = f32(binning.width);
+    let h = f32(binning.height);
+    let ts = f32(binning.tile_size);
     let px0 = (u0 + 1.0) * 0.5 * w - 1.0;
     let px1 = (u1 + 1.0) * 0.5 * w + 1.0;
     let py0 = (1.0 - v1) * 0.5 * h - 1.0;
@@ -92,16 +103,16 @@ fn sphere_rect(sphere: vec4<f32>) -> vec4<i32> {
     return vec4<i32>(
         max(i32(floor(px0 / ts)), 0),
         max(i32(floor(py0 / ts)), 0),
-        min(i32(floor(px1 / ts)), i32(binning.tiles.x) - 1),
-        min(i32(floor(py1 / ts)), i32(binning.tiles.y) - 1));
+        min(i32(floor(px1 / ts)), i32(binning.tiles_x) - 1),
+        min(i32(floor(py1 / ts)), i32(binning.tiles_y) - 1));
 }
 
 // The occluder ball of primitive i (centre, radius); radius 0 when it has none.
 fn occluder_of(i: u32) -> vec4<f32> {
     let p = primitives[i];
-    if p.kind == 0u {
+    if p.kind == KIND_POINT {
         return vec4<f32>(p.a.xyz, p.occluder);
-    } else if p.kind == 1u {
+    } else if p.kind == KIND_DISTANCE_SEGMENT {
         return vec4<f32>(p.a.xyz + p.b.w * p.b.xyz, p.occluder);
     }
     return vec4<f32>(0.0);
@@ -109,13 +120,13 @@ fn occluder_of(i: u32) -> vec4<f32> {
 
 // Direction of the ray through the centre of pixel (px, py), as prelude.wgsl pixel_ray.
 fn pixel_direction(px: u32, py: u32) -> vec3<f32> {
-    let u = (2.0 * (f32(px) + 0.5) / f32(binning.size.x) - 1.0) * binning.forward.w * binning.right.w;
-    let v = (1.0 - 2.0 * (f32(py) + 0.5) / f32(binning.size.y)) * binning.forward.w;
-    return normalize(binning.forward.xyz + u * binning.right.xyz + v * binning.up.xyz);
+    let u = (2.0 * (f32(px) + 0.5) / f32(binning.width) - 1.0) * binning.tan_half_fov * binning.aspect;
+    let v = (1.0 - 2.0 * (f32(py) + 0.5) / f32(binning.height)) * binning.tan_half_fov;
+    return normalize(binning.forward + u * binning.right + v * binning.up);
 }
 
 fn ray_meets_ball(dir: vec3<f32>, ball: vec4<f32>) -> bool {
-    let m = ball.xyz - binning.origin.xyz;
+    let m = ball.xyz - binning.origin;
     let along = dot(m, dir);
     let off = m - along * dir;
     return along > 0.0 && dot(off, off) < ball.w * ball.w;
@@ -124,13 +135,13 @@ fn ray_meets_ball(dir: vec3<f32>, ball: vec4<f32>) -> bool {
 // Whether every pixel ray of `tile` passes through `ball`: the rays that meet a ball form a
 // convex cone, so the rays of the tile's corner pixels decide.
 fn ball_covers(ball: vec4<f32>, tile: u32) -> bool {
-    let ts = binning.tiles.z;
-    let tx = tile % binning.tiles.x;
-    let ty = tile / binning.tiles.x;
+    let ts = binning.tile_size;
+    let tx = tile % binning.tiles_x;
+    let ty = tile / binning.tiles_x;
     let x0 = tx * ts;
     let y0 = ty * ts;
-    let x1 = min(x0 + ts, binning.size.x) - 1u;
-    let y1 = min(y0 + ts, binning.size.y) - 1u;
+    let x1 = min(x0 + ts, binning.width) - 1u;
+    let y1 = min(y0 + ts, binning.height) - 1u;
     return ray_meets_ball(pixel_direction(x0, y0), ball) && ray_meets_ball(pixel_direction(x1, y0), ball)
         && ray_meets_ball(pixel_direction(x0, y1), ball) && ray_meets_ball(pixel_direction(x1, y1), ball);
 }
@@ -149,7 +160,7 @@ fn nearest_reach(i: u32) -> f32 {
     if bound.w < 0.0 {
         return -INF;
     }
-    let d = length(bound.xyz - binning.origin.xyz) - bound.w;
+    let d = length(bound.xyz - binning.origin) - bound.w;
     return select(-INF, d, d > 0.0);
 }
 
@@ -209,7 +220,7 @@ fn pair(k: u32) -> vec2<u32> {
     let width = u32(rect.z - rect.x + 1);
     let tx = u32(rect.x) + local % width;
     let ty = u32(rect.y) + local / width;
-    return vec2<u32>(lo, ty * binning.tiles.x + tx);
+    return vec2<u32>(lo, ty * binning.tiles_x + tx);
 }
 
 // First pass: marks each tile with the least occluding depth of the balls covering it.
@@ -222,10 +233,10 @@ fn occlude_tiles(
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
     var ball = vec4<f32>(0.0);
-    if i < binning.tiles.w && binning.size.z != 0u {
+    if i < binning.primitive_count && binning.occluders != 0u {
         ball = occluder_of(i);
         // A ball around the eye, or behind the eye plane, occludes nothing here.
-        if ball.w > 0.0 && dot(ball.xyz - binning.origin.xyz, binning.forward.xyz) > ball.w * 1.0001 {
+        if ball.w > 0.0 && dot(ball.xyz - binning.origin, binning.forward) > ball.w * 1.0001 {
             rect = sphere_rect(ball);
         }
     }
@@ -235,7 +246,7 @@ fn occlude_tiles(
         let p = pair(k);
         let b = group_balls[p.x];
         if ball_covers(b, p.y) {
-            atomicMax(&occluded[p.y], ~bitcast<u32>(length(b.xyz - binning.origin.xyz)));
+            atomicMax(&occluded[p.y], ~bitcast<u32>(length(b.xyz - binning.origin)));
         }
     }
 }
@@ -250,7 +261,7 @@ fn count_tiles(
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
     var reach = 0.0;
-    if i < binning.tiles.w {
+    if i < binning.primitive_count {
         rect = tile_rect(i);
         reach = nearest_reach(i);
         if id.y == 0u {
@@ -279,7 +290,7 @@ fn fill_tiles(
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
     var reach = 0.0;
-    if i < binning.tiles.w {
+    if i < binning.primitive_count {
         rect = rects[i];
         reach = nearest[i];
     }

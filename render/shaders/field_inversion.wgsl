@@ -5,19 +5,19 @@
 // Traced in one dispatch: never suspends (`resume` is unused; parts.wgsl).
 fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
-    let c = globals.up.w;
-    let sigma = globals.method.y;
-    let radius = globals.method.z;
-    let norm = globals.method.w;
+    let c = globals.isovalue;
+    let sigma = globals.gauss_sigma;
+    let radius = globals.gauss_radius;
+    let norm = globals.gauss_norm;
     var start_at = 0.0;
     loop {
         let part = next_part(sp, ray, start_at);
-        if part.x > part.y || trace.steps >= globals.counts.w {
+        if part.x > part.y || trace.steps >= globals.max_steps {
             break;
         }
         var t = part.x;
         var in_span = 0u;
-        while t < part.y && in_span < 32u && trace.steps < globals.counts.w {
+        while t < part.y && in_span < 32u && trace.steps < globals.max_steps {
             trace.steps += 1u;
             in_span += 1u;
             let f = along_ray(sp, ray, t).x;

@@ -1,26 +1,18 @@
 // Entry point: one invocation per pixel. Traces the pixel's ray with the composed method,
-// writes depth and steps, and the colour of the chosen view: Blinn–Phong (core: render.rs,
+// writes depth and steps, and the colour of the chosen view: Blinn–Phong (core: cpu/renderer.rs,
 // without shadows and refraction) or the step-count heat map (Turbo polynomial, the same as
-// core::render::heat_colour). globals.heat: (top of the step scale, view: 0 shaded, 1 steps,
-// field shading flags: 1 soft shadows, 2 ambient occlusion, shading scale).
+// core::frame::heat_colour, coefficients TURBO_* emitted by shared.rs).
 //
-// Soft shadows and ambient occlusion (core: shading.rs, 2014 notes §12.4) sample the field at
+// Soft shadows and ambient occlusion (core: cpu/shading.rs, 2014 notes §12.4) sample the field at
 // points off the pixel's ray, so they visit every primitive whose bounding sphere holds the point
 // rather than the tile list; the renderer refuses scenes where that would be too many visits.
 
-const SOFT_SHADOW_STEPS: u32 = 32u;
-const SOFTNESS: f32 = 8.0;
-const SHADE_MIN_STEP: f32 = 0.002;
-const SHADE_MAX_STEP: f32 = 0.08;
-const SHADOW_REACH: f32 = 1.5;
-const AO_SAMPLES: u32 = 5u;
-const AO_STEP: f32 = 0.012;
-const AO_DECAY: f32 = 0.6;
+// The shading constants (SOFT_SHADOW_STEPS, AO_*, ...) are core's, emitted by shared.rs.
 
 // Blended value and gradient at any point.
 fn field_anywhere(p: vec3<f32>) -> vec4<f32> {
     var values: array<vec4<f32>, MAX_GROUPS>;
-    for (var i = 0u; i < globals.counts.x; i++) {
+    for (var i = 0u; i < globals.primitive_count; i++) {
         let b = primitives[i].bound;
         let d = p - b.xyz;
         if b.w < 0.0 || dot(d, d) <= b.w * b.w {
@@ -41,7 +33,7 @@ fn distance_estimate(c: f32, field: vec4<f32>, scale: f32) -> f32 {
 }
 
 fn soft_shadow(start: vec3<f32>, dir: vec3<f32>, distance: f32, scale: f32) -> f32 {
-    let c = globals.up.w;
+    let c = globals.isovalue;
     let reach = min(distance, SHADOW_REACH * scale);
     var t = SHADE_MIN_STEP * scale;
     var lit = 1.0;
@@ -64,7 +56,7 @@ fn soft_shadow(start: vec3<f32>, dir: vec3<f32>, distance: f32, scale: f32) -> f
 }
 
 fn ambient_occlusion(p: vec3<f32>, normal: vec3<f32>, scale: f32) -> f32 {
-    let c = globals.up.w;
+    let c = globals.isovalue;
     var occluded = 0.0;
     var total = 0.0;
     var weight = 1.0;
@@ -94,9 +86,9 @@ fn turbo_channel(x: f32, c: array<f32, 6>) -> f32 {
 fn heat_colour(x_in: f32) -> vec3<f32> {
     let x = clamp(x_in, 0.0, 1.0);
     return vec3<f32>(
-        turbo_channel(x, array<f32, 6>(0.13572138, 4.6153926, -42.6603226, 132.1310829, -152.9423939, 59.2863790)),
-        turbo_channel(x, array<f32, 6>(0.09140261, 2.19418839, 4.84296658, -14.1850333, 4.27729855, 2.82956604)),
-        turbo_channel(x, array<f32, 6>(0.10667330, 12.64194608, -60.5820488, 110.3627677, -89.9031098, 27.3482493)));
+        turbo_channel(x, TURBO_RED),
+        turbo_channel(x, TURBO_GREEN),
+        turbo_channel(x, TURBO_BLUE));
 }
 
 fn srgb(c: f32) -> f32 {
@@ -114,26 +106,26 @@ fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
     let field = blend_groups(groups);
     let normal = normalize(-field.yzw);
     var best = 0u;
-    for (var g = 1u; g < globals.counts.y; g++) {
+    for (var g = 1u; g < globals.group_count; g++) {
         if groups[g].x > groups[best].x {
             best = g;
         }
     }
     let albedo = materials[best].xyz;
     let p = ray.origin + t * ray.dir;
-    let flags = u32(globals.heat.z);
-    let scale = globals.heat.w;
-    let lifted = p + 2.0 * globals.march.y * normal;
+    let flags = globals.shading_flags;
+    let scale = globals.shading_scale;
+    let lifted = p + 2.0 * globals.min_step * normal;
     var occlusion = 1.0;
     if (flags & 2u) != 0u {
         occlusion = ambient_occlusion(p, normal, scale);
     }
     var colour = 0.12 * occlusion * albedo;
-    for (var l = 0u; l < globals.tile.y; l++) {
+    for (var l = 0u; l < globals.light_count; l++) {
         let light = lights[l];
         var to_light = normalize(light.vector.xyz);
-        var distance = globals.origin.w;
-        if light.vector.w > 0.5 {
+        var distance = globals.far;
+        if u32(light.vector.w) == LIGHT_POINT {
             to_light = normalize(light.vector.xyz - p);
             distance = length(light.vector.xyz - p);
         }
@@ -154,11 +146,11 @@ fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
 
 @compute @workgroup_size(8, 8, 1)
 fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= globals.size.x || id.y >= globals.size.y {
+    if id.x >= globals.width || id.y >= globals.height {
         return;
     }
     // A marching method is dispatched until every ray's budget is spent (parts.wgsl).
-    let pixel = id.y * globals.size.x + id.x;
+    let pixel = id.y * globals.width + id.x;
     var resume = suspensions[pixel];
     if (resume.flags & FINISHED) != 0u {
         return;
@@ -173,12 +165,12 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     suspensions[pixel].flags = FINISHED;
-    let out = id.y * globals.tile.w + globals.tile.z + id.x;
+    let out = id.y * globals.output_width + globals.panel_x + id.x;
     out_steps[out] = trace.steps;
     out_depth[out] = select(INF, trace.t, trace.hit);
     var colour: vec3<f32>;
-    if globals.heat.y > 0.5 {
-        colour = heat_colour(f32(trace.steps) / max(globals.heat.x, 1.0));
+    if globals.heat_view == 1u {
+        colour = heat_colour(f32(trace.steps) / max(globals.heat_max, 1.0));
     } else if trace.hit {
         let c = shade(sp, ray, trace.t);
         colour = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));

@@ -32,13 +32,13 @@ fn symmetric(start: f32, lambda: f32, length: f32) -> Inclusion {
 // State carried between dispatches (parts.wgsl): carry0 the next interval h, carry1 the
 // previous sample's t; flags 1: there is a previous sample, 2: it was inside.
 fn march_start(part: vec2<f32>) -> MarchState {
-    return MarchState(part.x, globals.march.w, 0.0, 0u);
+    return MarchState(part.x, globals.initial_interval, 0.0, 0u);
 }
 
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
-    let c = globals.up.w;
-    let eps = globals.march.x;
-    let min_step = globals.march.y;
+    let c = globals.isovalue;
+    let eps = globals.epsilon;
+    let min_step = globals.min_step;
     var t = (*state).t;
     var h = (*state).carry0;
     var has_previous = ((*state).flags & 1u) != 0u;
@@ -85,10 +85,10 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             return;
         } else if s >= 0.0 {
             t += s;
-            h = globals.march.z * s;
+            h = globals.growth * s;
         } else {
             t += limit;
-            h = globals.march.z * limit;
+            h = globals.growth * limit;
         }
     }
     *state = MarchState(t, h, previous_t, select(0u, 1u, has_previous) | select(0u, 2u, previous_inside));

@@ -1,25 +1,50 @@
 // Shared prelude of every skeletrace compute shader: the scene as uploaded by
-// `scene_buffers.rs` (each struct names its Rust twin), kernels, primitives, support intervals,
+// `buffers.rs` (each struct names its Rust twin), kernels, primitives, support intervals,
 // the field restricted to a pixel's ray and the support parts of that ray. f32 throughout.
 // Mirrors skeletrace-core: kernel.rs, primitives/*.rs, geometry.rs, program.rs.
 
-// Twin of `GpuGlobals`.
+// Twin of `GpuGlobals` (renderer.rs): the frame's camera, scene counts, trace settings and
+// view, one named field each.
 struct Globals {
-    origin: vec4<f32>,   // eye, w: far
-    forward: vec4<f32>,  // w: tan(fov/2)
-    right: vec4<f32>,    // w: aspect
-    up: vec4<f32>,       // w: isovalue
-    size: vec4<u32>,     // width, height, tiles_x, tiles_y
-    counts: vec4<u32>,   // primitives, groups, blend operator (0 sum, 1 max, 2 min, 3 smooth union, 4 smooth intersection), max steps
-    march: vec4<f32>,    // epsilon, min_step, growth, initial_interval
-    method: vec4<f32>,   // method parameters (global Lipschitz bound; field inversion σ, radius, N0)
-    tile: vec4<u32>,     // tile size in pixels, lights, panel x offset, output width
-    heat: vec4<f32>,     // top of the step scale, heat view, shading flags, shading scale
-    blend: vec4<f32>,    // width of the smooth operators, 0, 0, 0
-    resume: vec4<u32>,   // steps a marching method takes per ray in one dispatch (parts.wgsl), 0, 0, 0
+    origin: vec3<f32>,          // eye
+    far: f32,                   // length of the primary rays
+    forward: vec3<f32>,
+    tan_half_fov: f32,
+    right: vec3<f32>,
+    aspect: f32,
+    up: vec3<f32>,
+    isovalue: f32,
+    width: u32,                 // of one panel
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    primitive_count: u32,
+    group_count: u32,
+    blend_operator: u32,        // BLEND_*
+    max_steps: u32,
+    epsilon: f32,
+    min_step: f32,
+    growth: f32,
+    initial_interval: f32,
+    lipschitz: f32,             // global Lipschitz bound (sphere tracing)
+    gauss_sigma: f32,           // field inversion: σ, smallest radius ρ, normalisation N0
+    gauss_radius: f32,
+    gauss_norm: f32,
+    tile_size: u32,             // pixels
+    light_count: u32,
+    panel_x: u32,               // x offset of this method's panel in the output
+    output_width: u32,
+    heat_max: f32,              // top of the step scale
+    heat_view: u32,             // 0 shaded, 1 step heat map
+    shading_flags: u32,         // 1 soft shadows, 2 ambient occlusion
+    shading_scale: f32,
+    blend_width: f32,           // width of the smooth operators
+    steps_per_dispatch: u32,    // of a marching method (parts.wgsl)
+    pad0: u32,
+    pad1: u32,
 };
 
-// Twin of `GpuPrimitive`. kind: 0 point blob, 1 distance segment, 2 SCALIS segment, 3 plane.
+// Twin of `GpuPrimitive`. kind: KIND_*.
 struct Primitive {
     kind: u32,
     group: u32,
@@ -81,7 +106,6 @@ struct Light {
 @group(0) @binding(10) var<storage, read_write> suspensions: array<Suspension>;
 
 const INF: f32 = 3.0e38;
-const MAX_GROUPS: u32 = 8u;
 // Size of a ray's support window (see RaySupports).
 const RAY_SUPPORTS: u32 = 64u;
 
@@ -119,7 +143,7 @@ struct Trace {
 fn kernel_raw(k: Kernel, x_in: f32) -> vec3<f32> {
     let x = clamp(x_in, 0.0, k.support_sq);
     let a = k.inv_sigma2;
-    if k.family == 0u {
+    if k.family == KERNEL_COMPACT_POLYNOMIAL {
         let base = max(1.0 - x * a, 0.0);
         let m = k.exponent;
         var p2 = 0.0;
@@ -129,7 +153,7 @@ fn kernel_raw(k: Kernel, x_in: f32) -> vec3<f32> {
             p1 = p2 * base;
         }
         return vec3<f32>(p1 * base, -m * a * p1, m * (m - 1.0) * a * a * p2);
-    } else if k.family == 1u {
+    } else if k.family == KERNEL_CAUCHY {
         let base = 1.0 + x * a;
         let n = k.exponent;
         let v = pow(base, -n);
@@ -161,14 +185,14 @@ fn kernel_d2_inside(k: Kernel, x: f32) -> vec3<f32> {
 fn primitive_value_gradient(i: u32, p: vec3<f32>) -> vec4<f32> {
     let prim = primitives[i];
     let k = kernels[prim.group];
-    if prim.kind == 0u {
+    if prim.kind == KIND_POINT {
         let inv_r2 = 1.0 / (prim.a.w * prim.a.w);
         let d = p - prim.a.xyz;
         let v = kernel_d1(k, dot(d, d) * inv_r2);
         return vec4<f32>(prim.c.x * v.x, (2.0 * prim.c.x * v.y * inv_r2) * d);
-    } else if prim.kind == 1u {
+    } else if prim.kind == KIND_DISTANCE_SEGMENT {
         return distance_segment(prim, k, p);
-    } else if prim.kind == 2u {
+    } else if prim.kind == KIND_SCALIS_SEGMENT {
         return scalis_segment(prim, k, p);
     }
     // Plane: kernel of the squared distance to the plane, over ρ².
@@ -199,8 +223,6 @@ fn distance_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
 }
 
 // 12-point Gauss–Legendre nodes and weights on [−1, 1] (quadrature.rs, SCALIS_ORDER).
-const GL_NODES: array<f32, 6> = array<f32, 6>(0.1252334085114689, 0.3678314989981802, 0.5873179542866175, 0.7699026741943047, 0.9041172563704749, 0.9815606342467192);
-const GL_WEIGHTS: array<f32, 6> = array<f32, 6>(0.2491470458134028, 0.2334925365383548, 0.2031674267230659, 0.1600783285433462, 0.1069393259953184, 0.0471753363865118);
 
 // SCALIS segment (scalis.rs): N ∫ K(h²) ds/τ over the part of the segment whose support ball
 // contains p, in u = ln τ (or arc length when the radius barely varies), in panels for clipped
@@ -242,12 +264,12 @@ fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
     let h = (hi - lo) / f32(panels);
     for (var panel = 0u; panel < panels; panel++) {
         let mid = lo + (f32(panel) + 0.5) * h;
-        for (var j = 0u; j < 12u; j++) {
-            var xi = GL_NODES[j % 6u];
-            if j >= 6u {
+        for (var j = 0u; j < SCALIS_ORDER; j++) {
+            var xi = GL_NODES[j % GL_HALF];
+            if j >= GL_HALF {
                 xi = -xi;
             }
-            let wi = GL_WEIGHTS[j % 6u];
+            let wi = GL_WEIGHTS[j % GL_HALF];
             var s: f32;
             var tau: f32;
             var measure: f32;
@@ -341,9 +363,9 @@ fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
     let prim = primitives[i];
     let k = kernels[prim.group];
     let reach = sqrt(k.support_sq);
-    if prim.kind == 0u {
+    if prim.kind == KIND_POINT {
         return ball_interval(ray, prim.a.xyz, prim.a.w * reach);
-    } else if prim.kind == 3u {
+    } else if prim.kind == KIND_PLANE {
         let n = prim.a.xyz;
         let s0 = dot(n, ray.origin) - prim.a.w;
         let su = dot(n, ray.dir);
@@ -379,12 +401,12 @@ struct RaySupports {
 
 
 fn pixel_ray(px: u32, py: u32) -> Ray {
-    let w = f32(globals.size.x);
-    let h = f32(globals.size.y);
-    let u = (2.0 * (f32(px) + 0.5) / w - 1.0) * globals.forward.w * globals.right.w;
-    let v = (1.0 - 2.0 * (f32(py) + 0.5) / h) * globals.forward.w;
-    let dir = normalize(globals.forward.xyz + u * globals.right.xyz + v * globals.up.xyz);
-    return Ray(globals.origin.xyz, dir);
+    let w = f32(globals.width);
+    let h = f32(globals.height);
+    let u = (2.0 * (f32(px) + 0.5) / w - 1.0) * globals.tan_half_fov * globals.aspect;
+    let v = (1.0 - 2.0 * (f32(py) + 0.5) / h) * globals.tan_half_fov;
+    let dir = normalize(globals.forward + u * globals.right + v * globals.up);
+    return Ray(globals.origin, dir);
 }
 
 // Fills the window with the supports of the tile that the ray leaves after `floor`.
@@ -395,7 +417,7 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
         let i = tile_items[j];
         var span = support_interval(ray, i);
-        span = vec2<f32>(max(span.x, 0.0), min(span.y, globals.origin.w));
+        span = vec2<f32>(max(span.x, 0.0), min(span.y, globals.far));
         if span.x > span.y || span.y <= floor {
             continue;
         }
@@ -424,8 +446,8 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
 }
 
 fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
-    let ts = globals.tile.x;
-    let range = tile_ranges[(py / ts) * globals.size.z + px / ts];
+    let ts = globals.tile_size;
+    let range = tile_ranges[(py / ts) * globals.tiles_x + px / ts];
     (*sp).tile_start = range.x;
     (*sp).tile_end = range.y;
     fill_window(sp, ray, 0.0);
@@ -453,28 +475,28 @@ fn smooth_max(a: vec4<f32>, b: vec4<f32>, width: f32) -> vec4<f32> {
 // Blend of the group values and gradients (blend.rs value_gradient, flat trees only): sum, max,
 // min, or the smooth union / intersection folded over the groups in index order.
 fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
-    let n = globals.counts.y;
-    let op = globals.counts.z;
-    if op == 0u {
+    let n = globals.group_count;
+    let op = globals.blend_operator;
+    if op == BLEND_SUM {
         var s = vec4<f32>(0.0);
         for (var g = 0u; g < n; g++) {
             s += values[g];
         }
         return s;
     }
-    if op >= 3u {
+    if op >= BLEND_SMOOTH_UNION {
         // The intersection is −smooth_max(−a, −b).
-        let sign = select(1.0, -1.0, op == 4u);
+        let sign = select(1.0, -1.0, op == BLEND_SMOOTH_INTERSECTION);
         var folded = sign * values[0];
         for (var g = 1u; g < n; g++) {
-            folded = smooth_max(folded, sign * values[g], globals.blend.x);
+            folded = smooth_max(folded, sign * values[g], globals.blend_width);
         }
         return sign * folded;
     }
     var best = values[0];
     for (var g = 1u; g < n; g++) {
         let v = values[g];
-        if (op == 1u && v.x > best.x) || (op == 2u && v.x < best.x) {
+        if (op == BLEND_MAX && v.x > best.x) || (op == BLEND_MIN && v.x < best.x) {
             best = v;
         }
     }
@@ -541,5 +563,5 @@ fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f3
     }
     // More than RAY_SUPPORTS supports overlap at lo: the window is incomplete there; march a
     // minimum step with what it holds rather than stall.
-    return vec2<f32>(lo, min(hi, max((*sp).horizon, lo + globals.march.y)));
+    return vec2<f32>(lo, min(hi, max((*sp).horizon, lo + globals.min_step)));
 }

@@ -18,16 +18,16 @@ fn normalisation(f: f32) -> vec2<f32> {
         return vec2<f32>(cap, 0.0);
     }
     let s2 = 1.0 / k.inv_sigma2;
-    let ratio = f / globals.up.w;
+    let ratio = f / globals.isovalue;
     var g: f32;
     var d: f32;
-    if k.family == 0u {
+    if k.family == KERNEL_COMPACT_POLYNOMIAL {
         let e = 2.0 / (2.0 * k.exponent + 1.0);
         let q = 1.0 - 1.0 / s2;
         let p = pow(ratio, e);
         g = s2 * (1.0 - q * p);
         d = -s2 * q * e * p / f;
-    } else if k.family == 1u && k.exponent > 0.5 {
+    } else if k.family == KERNEL_CAUCHY && k.exponent > 0.5 {
         let e = 1.0 / (k.exponent - 0.5);
         let p = pow(ratio, -e);
         g = (1.0 + s2) * p - s2;
@@ -130,10 +130,10 @@ fn find_root(sp: ptr<function, RaySupports>, ray: Ray, b_in: Hermite, e_in: Herm
     var saved_e = e;
     let none = Hermite(-INF, 0.0, 0.0, false);
     for (var n = 0u; n < 32u; n++) {
-        if scalis_steps >= globals.counts.w {
+        if scalis_steps >= globals.max_steps {
             return none;
         }
-        if e.t - b.t < globals.march.x {
+        if e.t - b.t < globals.epsilon {
             if e.v < 0.0 {
                 return e;
             }
@@ -151,7 +151,7 @@ fn find_root(sp: ptr<function, RaySupports>, ray: Ray, b_in: Hermite, e_in: Herm
             continue;
         }
         let r = flip(hermite(sp, ray, t), sign);
-        if abs(r.v) <= abs(r.d) * globals.march.x || r.v == 0.0 {
+        if abs(r.v) <= abs(r.d) * globals.epsilon || r.v == 0.0 {
             return r;
         }
         let rising = r.d > 0.0 && b.d < 0.0;
@@ -177,10 +177,10 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
     var trace = Trace(0.0, false, false, 0u);
     scalis_steps = 0u;
     var start_at = 0.0;
-    let gap = globals.march.y;
+    let gap = globals.min_step;
     loop {
         let part = next_part(sp, ray, start_at);
-        if part.x > part.y || scalis_steps >= globals.counts.w {
+        if part.x > part.y || scalis_steps >= globals.max_steps {
             break;
         }
         var points: array<f32, MAX_BREAKPOINTS>;
@@ -218,7 +218,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
         points[kept] = part.y;
         var b = hermite(sp, ray, points[0]);
         for (var j = 1u; j <= kept; j++) {
-            if scalis_steps >= globals.counts.w {
+            if scalis_steps >= globals.max_steps {
                 break;
             }
             let e = hermite(sp, ray, points[j]);

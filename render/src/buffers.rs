@@ -14,8 +14,9 @@ use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::{Primitive, Solid};
 use skeletrace_core::model::scene::{Blend, Light};
 
-/// Groups the shaders hold in registers (`MAX_GROUPS` in prelude.wgsl).
-pub const MAX_GROUPS: usize = 8;
+pub use crate::shared::BlendOperator;
+pub use crate::shared::MAX_GROUPS;
+use crate::shared::{KernelFamily, LightKind, PrimitiveKind};
 
 /// Twin of `Primitive` in prelude.wgsl.
 #[repr(C)]
@@ -85,8 +86,8 @@ pub struct PackedScene {
     pub materials: Vec<[f32; 4]>,
     /// Lights.
     pub lights: Vec<GpuLight>,
-    /// Blend operator over groups: 0 sum, 1 max, 2 min, 3 smooth union, 4 smooth intersection.
-    pub blend: u32,
+    /// Blend operator over all groups.
+    pub blend: BlendOperator,
     /// Width of the smooth operators (0 for the others).
     pub blend_width: f32,
 }
@@ -99,17 +100,22 @@ fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
 /// width of the smooth operators. Sums, maxima and minima take their leaves in any order; the
 /// smooth operators fold their operands left to right (blend.rs), and the shaders fold groups
 /// in index order, so their leaves must be the groups in that order.
-fn flat_blend(blend: &Blend, groups: usize) -> Option<(u32, f32)> {
+fn flat_blend(blend: &Blend, groups: usize) -> Option<(BlendOperator, f32)> {
     let (op, width, children) = match blend {
-        Blend::Group(0) if groups == 1 => return Some((0, 0.0)),
-        Blend::Sum(v) => (0, 0.0, v),
-        Blend::Max(v) => (1, 0.0, v),
-        Blend::Min(v) => (2, 0.0, v),
-        Blend::SmoothUnion { width, of } => (3, *width as f32, of),
-        Blend::SmoothIntersection { width, of } => (4, *width as f32, of),
+        Blend::Group(0) if groups == 1 => return Some((BlendOperator::Sum, 0.0)),
+        Blend::Sum(v) => (BlendOperator::Sum, 0.0, v),
+        Blend::Max(v) => (BlendOperator::Max, 0.0, v),
+        Blend::Min(v) => (BlendOperator::Min, 0.0, v),
+        Blend::SmoothUnion { width, of } => (BlendOperator::SmoothUnion, *width as f32, of),
+        Blend::SmoothIntersection { width, of } => {
+            (BlendOperator::SmoothIntersection, *width as f32, of)
+        }
         _ => return None,
     };
-    if op >= 3 {
+    if matches!(
+        op,
+        BlendOperator::SmoothUnion | BlendOperator::SmoothIntersection
+    ) {
         let in_order = children.len() == groups
             && children
                 .iter()
@@ -166,17 +172,27 @@ fn occluder_radius(
 fn kernel(k: Kernel) -> GpuKernel {
     let profile = skeletrace_core::field::kernel::KernelProfile::new(k);
     let (family, exponent, sigma, clip) = match k {
-        Kernel::CompactPolynomial { degree, scale } => (0, f64::from(degree / 2), scale, 0.0),
+        Kernel::CompactPolynomial { degree, scale } => (
+            KernelFamily::CompactPolynomial,
+            f64::from(degree / 2),
+            scale,
+            0.0,
+        ),
         Kernel::Cauchy { degree, scale } => (
-            1,
+            KernelFamily::Cauchy,
             f64::from(degree) / 2.0,
             scale,
             skeletrace_core::field::kernel::CLIP_EPSILON,
         ),
-        Kernel::Gaussian { scale } => (2, 0.0, scale, skeletrace_core::field::kernel::CLIP_EPSILON),
+        Kernel::Gaussian { scale } => (
+            KernelFamily::Gaussian,
+            0.0,
+            scale,
+            skeletrace_core::field::kernel::CLIP_EPSILON,
+        ),
     };
     GpuKernel {
-        family,
+        family: family as u32,
         kinked: u32::from(profile.is_kinked()),
         pad: [0; 2],
         exponent: exponent as f32,
@@ -209,7 +225,10 @@ impl PackedScene {
         })?;
         // Occluders hold where a primitive's own field bounds the blended field from below:
         // sums of non-negative kernels, maxima and the smooth union (≥ the maximum).
-        let occluding = matches!(blend, 0 | 1 | 3);
+        let occluding = matches!(
+            blend,
+            BlendOperator::Sum | BlendOperator::Max | BlendOperator::SmoothUnion
+        );
         let mut primitives = Vec::with_capacity(program.primitives().len());
         for (i, p) in program.primitives().iter().enumerate() {
             let k = program.kernel_of(i as u32);
@@ -219,26 +238,26 @@ impl PackedScene {
             });
             let (kind, a, b, c) = match p {
                 Primitive::Point(x) => (
-                    0,
+                    PrimitiveKind::Point,
                     f4(x.center, x.radius),
                     [0.0; 4],
                     [x.norm as f32, 0.0, 0.0, 0.0],
                 ),
                 Primitive::Distance(x) => (
-                    1,
+                    PrimitiveKind::DistanceSegment,
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
                     [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
                 ),
                 Primitive::Scalis(x) => (
-                    2,
+                    PrimitiveKind::ScalisSegment,
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
                     [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
                 ),
                 Primitive::Shape(s) => match s.solid {
                     Solid::Plane { normal, offset } => (
-                        3,
+                        PrimitiveKind::Plane,
                         f4(normal, offset),
                         [s.radius as f32, 0.0, 0.0, 0.0],
                         [s.norm as f32, 0.0, 0.0, 0.0],
@@ -260,7 +279,7 @@ impl PackedScene {
                 }
             };
             primitives.push(GpuPrimitive {
-                kind,
+                kind: kind as u32,
                 group,
                 occluder: if occluding {
                     occluder_radius(p, k, program.isovalue())
@@ -300,7 +319,7 @@ impl PackedScene {
                             direction[0] as f32,
                             direction[1] as f32,
                             direction[2] as f32,
-                            0.0,
+                            LightKind::Directional as u32 as f32,
                         ],
                         colour: [
                             color[0] as f32,
@@ -318,7 +337,7 @@ impl PackedScene {
                             position[0] as f32,
                             position[1] as f32,
                             position[2] as f32,
-                            1.0,
+                            LightKind::Point as u32 as f32,
                         ],
                         colour: [
                             color[0] as f32,
@@ -353,7 +372,7 @@ mod tests {
         for asset in ["blobs", "molecule"] {
             let scene = packed(asset);
             for p in &scene.primitives {
-                assert_eq!(p.kind, 0, "{asset}");
+                assert_eq!(p.kind, PrimitiveKind::Point as u32, "{asset}");
                 let expected = (OCCLUDER_SHRINK * f64::from(p.a[3])) as f32;
                 assert!(
                     (p.occluder - expected).abs() <= 1e-6 * expected,

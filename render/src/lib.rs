@@ -10,6 +10,7 @@ pub mod backend;
 pub mod buffers;
 pub mod renderer;
 pub mod shaders;
+pub mod shared;
 
 pub use backend::GpuBackend;
 pub use renderer::GpuRenderer;

@@ -20,7 +20,7 @@ use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuPrimitive, PackedScene};
-use crate::shaders::{BINNING, GpuMethod};
+use crate::shaders::{GpuMethod, binning_source};
 
 /// Tile edge in pixels.
 const TILE: u32 = 4;
@@ -45,34 +45,118 @@ pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
 /// after 65 535 iterations in all, and the march needs its share.
 pub const MAX_SHADING_VISITS: usize = 40_000;
 
-/// Twin of `Globals` in prelude.wgsl.
+/// Twin of `Globals` in prelude.wgsl (a layout test checks every field's offset).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct GpuGlobals {
-    origin: [f32; 4],
-    forward: [f32; 4],
-    right: [f32; 4],
-    up: [f32; 4],
-    size: [u32; 4],
-    counts: [u32; 4],
-    march: [f32; 4],
-    method: [f32; 4],
-    tile: [u32; 4],
-    heat: [f32; 4],
-    blend: [f32; 4],
-    resume: [u32; 4],
+pub struct GpuGlobals {
+    /// Eye.
+    pub origin: [f32; 3],
+    /// Length of the primary rays.
+    pub far: f32,
+    /// Camera axes and frustum.
+    pub forward: [f32; 3],
+    /// `tan(fov/2)`.
+    pub tan_half_fov: f32,
+    /// Right axis.
+    pub right: [f32; 3],
+    /// Width / height.
+    pub aspect: f32,
+    /// Up axis.
+    pub up: [f32; 3],
+    /// Isovalue `c`.
+    pub isovalue: f32,
+    /// Panel width in pixels.
+    pub width: u32,
+    /// Panel height in pixels.
+    pub height: u32,
+    /// Tiles across.
+    pub tiles_x: u32,
+    /// Tiles down.
+    pub tiles_y: u32,
+    /// Primitives uploaded.
+    pub primitive_count: u32,
+    /// Groups.
+    pub group_count: u32,
+    /// `BlendOperator` code.
+    pub blend_operator: u32,
+    /// Step budget per ray.
+    pub max_steps: u32,
+    /// Trace settings (`TraceSettings`).
+    pub epsilon: f32,
+    /// Minimum step.
+    pub min_step: f32,
+    /// Interval growth factor.
+    pub growth: f32,
+    /// First interval of each support part.
+    pub initial_interval: f32,
+    /// Global Lipschitz bound (sphere tracing).
+    pub lipschitz: f32,
+    /// Field inversion: Gaussian σ.
+    pub gauss_sigma: f32,
+    /// Field inversion: smallest blob radius.
+    pub gauss_radius: f32,
+    /// Field inversion: point normalisation.
+    pub gauss_norm: f32,
+    /// Tile edge in pixels.
+    pub tile_size: u32,
+    /// Lights uploaded.
+    pub light_count: u32,
+    /// x offset of this method's panel in the output.
+    pub panel_x: u32,
+    /// Output width (all panels).
+    pub output_width: u32,
+    /// Top of the step scale of the heat view.
+    pub heat_max: f32,
+    /// 0 shaded, 1 step heat map.
+    pub heat_view: u32,
+    /// 1 soft shadows, 2 ambient occlusion.
+    pub shading_flags: u32,
+    /// Scale of the field shading distances.
+    pub shading_scale: f32,
+    /// Width of the smooth blend operators.
+    pub blend_width: f32,
+    /// Steps a marching method takes per ray in one dispatch.
+    pub steps_per_dispatch: u32,
+    /// Padding to 16 bytes.
+    pub pad: [u32; 2],
 }
 
-/// Twin of `Binning` in binning.wgsl.
+/// Twin of `Binning` in binning.wgsl (a layout test checks every field's offset).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct GpuBinning {
-    origin: [f32; 4],
-    forward: [f32; 4],
-    right: [f32; 4],
-    up: [f32; 4],
-    tiles: [u32; 4],
-    size: [u32; 4],
+pub struct GpuBinning {
+    /// Eye.
+    pub origin: [f32; 3],
+    /// Padding.
+    pub pad0: f32,
+    /// Forward axis.
+    pub forward: [f32; 3],
+    /// `tan(fov/2)`.
+    pub tan_half_fov: f32,
+    /// Right axis.
+    pub right: [f32; 3],
+    /// Width / height.
+    pub aspect: f32,
+    /// Up axis.
+    pub up: [f32; 3],
+    /// Padding.
+    pub pad1: f32,
+    /// Tiles across.
+    pub tiles_x: u32,
+    /// Tiles down.
+    pub tiles_y: u32,
+    /// Tile edge in pixels.
+    pub tile_size: u32,
+    /// Primitives uploaded.
+    pub primitive_count: u32,
+    /// Frame width in pixels.
+    pub width: u32,
+    /// Frame height in pixels.
+    pub height: u32,
+    /// 1: occluders on.
+    pub occluders: u32,
+    /// Padding.
+    pub pad2: u32,
 }
 
 /// The camera's frame of one render, shared by the binning and trace uniforms.
@@ -132,9 +216,20 @@ struct SceneBuffers {
     kernels: wgpu::Buffer,
     materials: wgpu::Buffer,
     lights: wgpu::Buffer,
-    /// Per-method constants: global Lipschitz bound; field inversion σ, radius, N₀.
-    method: [f32; 4],
+    /// Per-method constants of the scene.
+    method: MethodConstants,
     isovalue: f32,
+}
+
+/// Constants some methods need of a scene, computed once per upload.
+#[derive(Clone, Copy, Debug)]
+struct MethodConstants {
+    /// Global Lipschitz bound (sphere tracing).
+    lipschitz: f32,
+    /// Field inversion: Gaussian σ, smallest blob radius, point normalisation.
+    gauss_sigma: f32,
+    gauss_radius: f32,
+    gauss_norm: f32,
 }
 
 /// A GPU device with the pipelines built so far and the current scene.
@@ -247,32 +342,34 @@ fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePi
     })
 }
 
-fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+fn f3(v: glam::DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
 }
 
-/// σ, smallest radius and normalisation of a Gaussian-blob scene (field inversion).
-fn gaussian_parameters(program: &FieldProgram) -> [f32; 3] {
-    let sigma = match program.common_kernel() {
-        Some(skeletrace_core::field::kernel::Kernel::Gaussian { scale }) => scale,
-        _ => 1.0,
-    };
-    let (mut radius, mut norm) = (f64::INFINITY, 1.0);
-    for p in program.primitives() {
-        if let Primitive::Point(b) = p {
-            radius = radius.min(b.radius);
-            norm = b.norm;
+impl MethodConstants {
+    fn of(program: &FieldProgram) -> Self {
+        let sigma = match program.common_kernel() {
+            Some(skeletrace_core::field::kernel::Kernel::Gaussian { scale }) => scale,
+            _ => 1.0,
+        };
+        let (mut radius, mut norm) = (f64::INFINITY, 1.0);
+        for p in program.primitives() {
+            if let Primitive::Point(b) = p {
+                radius = radius.min(b.radius);
+                norm = b.norm;
+            }
+        }
+        Self {
+            lipschitz: program.global_lipschitz() as f32,
+            gauss_sigma: sigma as f32,
+            gauss_radius: if radius.is_finite() {
+                radius as f32
+            } else {
+                1.0
+            },
+            gauss_norm: norm as f32,
         }
     }
-    [
-        sigma as f32,
-        if radius.is_finite() {
-            radius as f32
-        } else {
-            1.0
-        },
-        norm as f32,
-    ]
 }
 
 impl GpuRenderer {
@@ -337,9 +434,10 @@ impl GpuRenderer {
                 v.push(format!("device lost ({reason:?}): {message}"));
             }
         });
-        let occlude_pipeline = pipeline(&device, BINNING, "occlude_tiles");
-        let count_pipeline = pipeline(&device, BINNING, "count_tiles");
-        let fill_pipeline = pipeline(&device, BINNING, "fill_tiles");
+        let binning = binning_source();
+        let occlude_pipeline = pipeline(&device, &binning, "occlude_tiles");
+        let count_pipeline = pipeline(&device, &binning, "count_tiles");
+        let fill_pipeline = pipeline(&device, &binning, "fill_tiles");
         let renderer = Self {
             device,
             queue,
@@ -452,13 +550,7 @@ impl GpuRenderer {
     pub fn set_scene(&mut self, compiled: &Arc<Compiled>) -> Result<(), BackendError> {
         let program = &compiled.program;
         let packed = PackedScene::new(compiled).map_err(BackendError::Unsupported)?;
-        let gauss = gaussian_parameters(program);
-        let method = [
-            program.global_lipschitz() as f32,
-            gauss[0],
-            gauss[1],
-            gauss[2],
-        ];
+        let method = MethodConstants::of(program);
         let isovalue = program.isovalue() as f32;
         if let Some(old) = &mut self.scene
             && old.packed.primitives.len() == packed.primitives.len()
@@ -577,12 +669,22 @@ impl GpuRenderer {
         let binning = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("binning"),
             contents: bytemuck::bytes_of(&GpuBinning {
-                origin: f4(origin, 0.0),
-                forward: f4(forward, tan_half),
-                right: f4(right, aspect),
-                up: f4(up, 0.0),
-                tiles: [tiles_x, tiles_y, TILE, n_prims],
-                size: [width, height, u32::from(self.occluders), 0],
+                origin: f3(origin),
+                pad0: 0.0,
+                forward: f3(forward),
+                tan_half_fov: tan_half as f32,
+                right: f3(right),
+                aspect: aspect as f32,
+                up: f3(up),
+                pad1: 0.0,
+                tiles_x,
+                tiles_y,
+                tile_size: TILE,
+                primitive_count: n_prims,
+                width,
+                height,
+                occluders: u32::from(self.occluders),
+                pad2: 0,
             }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
@@ -753,13 +855,13 @@ impl GpuRenderer {
         let [colour, depth, steps] = &outputs.written;
         let far = far_distance(program, &camera);
         let (heat_max, heat_view, shading) = match view {
-            View::Shaded(shading) => (1.0, 0.0, shading),
-            View::Steps { steps_max } => (steps_max as f32, 1.0, FieldShading::default()),
+            View::Shaded(shading) => (1.0, 0, shading),
+            View::Steps { steps_max } => (steps_max as f32, 1, FieldShading::default()),
         };
         let shading_flags =
             u32::from(shading.soft_shadows) | (u32::from(shading.ambient_occlusion) << 1);
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        encoder.clear_buffer(&counts, 0, None);
+        encoder.clear_buffer(counts, 0, None);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("fill tiles"),
@@ -771,38 +873,41 @@ impl GpuRenderer {
         }
         for (panel, method) in methods.iter().enumerate() {
             let globals = GpuGlobals {
-                origin: f4(origin, far),
-                forward: f4(forward, tan_half),
-                right: f4(right, aspect),
-                up: f4(up, f64::from(scene.isovalue)),
-                size: [width, height, tiles_x, tiles_y],
-                counts: [
-                    n_prims,
-                    scene.packed.kernels.len() as u32,
-                    scene.packed.blend,
-                    settings.max_steps,
-                ],
-                march: [
-                    settings.epsilon as f32,
-                    settings.min_step as f32,
-                    settings.growth as f32,
-                    settings.initial_interval as f32,
-                ],
-                method: scene.method,
-                tile: [
-                    TILE,
-                    scene.packed.lights.len() as u32,
-                    width * panel as u32,
-                    out_width,
-                ],
-                heat: [
-                    heat_max,
-                    heat_view,
-                    shading_flags as f32,
-                    shading_scale(program) as f32,
-                ],
-                blend: [scene.packed.blend_width, 0.0, 0.0, 0.0],
-                resume: [self.steps_per_dispatch, 0, 0, 0],
+                origin: f3(origin),
+                far: far as f32,
+                forward: f3(forward),
+                tan_half_fov: tan_half as f32,
+                right: f3(right),
+                aspect: aspect as f32,
+                up: f3(up),
+                isovalue: scene.isovalue,
+                width,
+                height,
+                tiles_x,
+                tiles_y,
+                primitive_count: n_prims,
+                group_count: scene.packed.kernels.len() as u32,
+                blend_operator: scene.packed.blend as u32,
+                max_steps: settings.max_steps,
+                epsilon: settings.epsilon as f32,
+                min_step: settings.min_step as f32,
+                growth: settings.growth as f32,
+                initial_interval: settings.initial_interval as f32,
+                lipschitz: scene.method.lipschitz,
+                gauss_sigma: scene.method.gauss_sigma,
+                gauss_radius: scene.method.gauss_radius,
+                gauss_norm: scene.method.gauss_norm,
+                tile_size: TILE,
+                light_count: scene.packed.lights.len() as u32,
+                panel_x: width * panel as u32,
+                output_width: out_width,
+                heat_max,
+                heat_view,
+                shading_flags,
+                shading_scale: shading_scale(program) as f32,
+                blend_width: scene.packed.blend_width,
+                steps_per_dispatch: self.steps_per_dispatch,
+                pad: [0; 2],
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("globals"),
@@ -819,8 +924,8 @@ impl GpuRenderer {
                     entry(2, &scene.kernels),
                     entry(3, &scene.materials),
                     entry(4, &scene.lights),
-                    entry(5, &ranges_buffer),
-                    entry(6, &items),
+                    entry(5, ranges_buffer),
+                    entry(6, items),
                     entry(7, colour),
                     entry(8, depth),
                     entry(9, steps),

@@ -6,17 +6,26 @@ use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::{Primitive, Solid};
 use skeletrace_core::methods::MethodId;
 
+use crate::shared::{MarchBound, wgsl_constants};
+
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
 const MARCH: &str = include_str!("../shaders/march.wgsl");
 const PARTS: &str = include_str!("../shaders/parts.wgsl");
 const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
 const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
-const TAYLOR: &str = include_str!("../shaders/taylor.wgsl");
+const INTERVAL: &str = include_str!("../shaders/interval.wgsl");
+const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
+const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
 const SCALIS: &str = include_str!("../shaders/scalis.wgsl");
 const FIELD_INVERSION: &str = include_str!("../shaders/field_inversion.wgsl");
 const MAIN: &str = include_str!("../shaders/main.wgsl");
-/// The tile-binning passes (standalone).
-pub const BINNING: &str = include_str!("../shaders/binning.wgsl");
+const BINNING: &str = include_str!("../shaders/binning.wgsl");
+
+/// The tile-binning passes: the shared constants and binning.wgsl.
+#[must_use]
+pub fn binning_source() -> String {
+    format!("{}\n{BINNING}", wgsl_constants())
+}
 
 /// A method with a GPU implementation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -135,7 +144,8 @@ impl GpuMethod {
         !matches!(self, Self::ScalisQuadratic | Self::FieldInversion)
     }
 
-    /// The composed compute shader: prelude, the method family, the entry point.
+    /// The composed compute shader: the shared constants, the prelude, the method family, the
+    /// entry point.
     #[must_use]
     pub fn source(self) -> String {
         let family = match self {
@@ -145,18 +155,21 @@ impl GpuMethod {
             | Self::LinearTaylor
             | Self::QuadraticTaylor
             | Self::BottomUpQuadratic => {
-                let id = match self {
-                    Self::Segment => 0,
-                    Self::LinearTaylor => 1,
-                    Self::QuadraticTaylor => 2,
-                    _ => 3,
+                let bound = match self {
+                    Self::Segment => MarchBound::Segment,
+                    Self::LinearTaylor => MarchBound::LinearTaylor,
+                    Self::QuadraticTaylor => MarchBound::QuadraticTaylor,
+                    _ => MarchBound::BottomUpQuadratic,
                 };
-                format!("const METHOD: u32 = {id}u;\n{MARCH}\n{TAYLOR}\n{PARTS}")
+                format!(
+                    "const METHOD: u32 = {}u;\n{MARCH}\n{INTERVAL}\n{PRIMITIVE_JETS}\n{INCLUSION}\n{PARTS}",
+                    bound as u32
+                )
             }
             Self::ScalisQuadratic => SCALIS.to_owned(),
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
-        format!("{PRELUDE}\n{family}\n{MAIN}")
+        format!("{}\n{PRELUDE}\n{family}\n{MAIN}", wgsl_constants())
     }
 }
 
@@ -175,6 +188,125 @@ mod tests {
         );
         if let Err(e) = validator.validate(&module) {
             panic!("{name}: {}", e.emit_to_string(source));
+        }
+    }
+
+    /// Size and member offsets of WGSL struct `name` as naga lays it out.
+    fn wgsl_layout(source: &str, name: &str) -> (u32, Vec<(String, u32)>) {
+        let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{e}"));
+        module
+            .types
+            .iter()
+            .find_map(|(_, ty)| match &ty.inner {
+                naga::TypeInner::Struct { members, span } if ty.name.as_deref() == Some(name) => {
+                    let offsets = members
+                        .iter()
+                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                        .collect();
+                    Some((*span, offsets))
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("no struct {name}"))
+    }
+
+    /// The Rust twin's size and the offsets of its named fields.
+    macro_rules! rust_layout {
+        ($ty:ty: $($field:ident),* $(,)?) => {
+            (
+                std::mem::size_of::<$ty>() as u32,
+                vec![$((stringify!($field), std::mem::offset_of!($ty, $field) as u32)),*],
+            )
+        };
+    }
+
+    /// Every field of the Rust twin sits where its WGSL namesake does, and the sizes agree
+    /// (padding fields excepted by name).
+    fn check_twin(source: &str, wgsl: &str, (size, fields): (u32, Vec<(&str, u32)>)) {
+        let (span, members) = wgsl_layout(source, wgsl);
+        assert_eq!(span, size, "{wgsl}: WGSL size {span}, Rust size {size}");
+        for (field, offset) in fields {
+            let wgsl_offset = members
+                .iter()
+                .find(|(n, _)| n == field)
+                .map(|(_, o)| *o)
+                .unwrap_or_else(|| panic!("{wgsl}: no member {field} in WGSL"));
+            assert_eq!(wgsl_offset, offset, "{wgsl}.{field}");
+        }
+        let named = members
+            .iter()
+            .filter(|(n, _)| !n.starts_with("pad"))
+            .count();
+        assert!(named > 0, "{wgsl}: no members");
+    }
+
+    #[test]
+    fn every_struct_shared_with_wgsl_has_the_rust_layout() {
+        use crate::buffers::{GpuKernel, GpuLight, GpuPrimitive};
+        use crate::renderer::{GpuBinning, GpuGlobals};
+        let trace = GpuMethod::QuadraticTaylor.source();
+        let binning = binning_source();
+        check_twin(
+            &trace,
+            "Globals",
+            rust_layout!(GpuGlobals: origin, far, forward, tan_half_fov, right, aspect, up,
+                isovalue, width, height, tiles_x, tiles_y, primitive_count, group_count,
+                blend_operator, max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
+                gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
+                output_width, heat_max, heat_view, shading_flags, shading_scale, blend_width,
+                steps_per_dispatch),
+        );
+        check_twin(
+            &binning,
+            "Binning",
+            rust_layout!(GpuBinning: origin, forward, tan_half_fov, right, aspect, up, tiles_x,
+                tiles_y, tile_size, primitive_count, width, height, occluders),
+        );
+        for source in [&trace, &binning] {
+            check_twin(
+                source,
+                "Primitive",
+                rust_layout!(GpuPrimitive: kind, group, occluder, a, b, c, bound),
+            );
+        }
+        check_twin(
+            &trace,
+            "Kernel",
+            rust_layout!(GpuKernel: family, kinked, exponent, inv_sigma2, support_sq, clip,
+                clip_scale),
+        );
+        check_twin(&trace, "Light", rust_layout!(GpuLight: vector, colour));
+    }
+
+    /// Every shared constant is emitted once, and none is typed again in a WGSL file.
+    #[test]
+    fn shared_constants_are_defined_only_in_rust() {
+        let emitted = wgsl_constants();
+        let names: Vec<&str> = emitted
+            .lines()
+            .filter_map(|l| l.strip_prefix("const ")?.split(':').next())
+            .collect();
+        assert!(names.len() >= 30, "{emitted}");
+        for (file, text) in [
+            ("prelude.wgsl", PRELUDE),
+            ("march.wgsl", MARCH),
+            ("parts.wgsl", PARTS),
+            ("sphere.wgsl", SPHERE),
+            ("sphere_enhanced.wgsl", SPHERE_ENHANCED),
+            ("interval.wgsl", INTERVAL),
+            ("primitive_jets.wgsl", PRIMITIVE_JETS),
+            ("inclusion.wgsl", INCLUSION),
+            ("scalis.wgsl", SCALIS),
+            ("field_inversion.wgsl", FIELD_INVERSION),
+            ("main.wgsl", MAIN),
+            ("binning.wgsl", BINNING),
+        ] {
+            for name in &names {
+                assert!(
+                    !text.contains(&format!("const {name}:")),
+                    "{file} defines {name} again"
+                );
+            }
         }
     }
 
@@ -202,7 +334,8 @@ mod tests {
     /// Core's `MethodId::has_gpu_implementation` names exactly the methods with shaders here.
     #[test]
     fn gpu_methods_are_the_ones_core_says_have_a_gpu_implementation() {
-        let with_shaders: Vec<MethodId> = GpuMethod::ALL.iter().map(|m| m.id()).collect();
+        let mut with_shaders: Vec<MethodId> = GpuMethod::ALL.iter().map(|m| m.id()).collect();
+        with_shaders.sort();
         let said: Vec<MethodId> = MethodId::ALL
             .into_iter()
             .filter(|m| m.has_gpu_implementation())
@@ -215,6 +348,6 @@ mod tests {
         for method in GpuMethod::ALL {
             validate(method.name(), &method.source());
         }
-        validate("binning", BINNING);
+        validate("binning", &binning_source());
     }
 }

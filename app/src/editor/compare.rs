@@ -26,7 +26,7 @@ impl Editor {
         let response = ui.allocate_rect(rect, egui::Sense::hover());
         let painter = ui.painter_at(rect);
         self.hovered_pixel = None;
-        let Some(shown) = &self.shown else {
+        let Some(shown) = &self.frames.shown else {
             painter.text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,

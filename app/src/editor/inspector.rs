@@ -12,7 +12,7 @@ use skeletrace_render::GpuMethod;
 
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
-use super::{Edit, Editor, ViewMode};
+use super::{Edit, Editor, MethodTag, ViewMode};
 use super::{group_tools, shapes};
 
 /// Shortcuts listed by the help overlay.
@@ -228,7 +228,11 @@ impl Editor {
                 .map(|id| {
                     let applies = id.method().supports(program).is_ok();
                     let gpu = GpuMethod::from_id(id).is_some_and(|g| g.supports(program).is_ok());
-                    (id, applies, gpu)
+                    MethodTag {
+                        id,
+                        applies,
+                        on_gpu: gpu,
+                    }
                 })
                 .collect();
             self.method_tags = Some((revision, tags));
@@ -242,7 +246,12 @@ impl Editor {
         egui::ComboBox::from_label("shaded view")
             .selected_text(self.ui_state.shaded_method.name())
             .show_ui(ui, |ui| {
-                for &(id, applies, gpu) in &names {
+                for &MethodTag {
+                    id,
+                    applies,
+                    on_gpu: gpu,
+                } in &names
+                {
                     if applies {
                         ui.selectable_value(
                             &mut self.ui_state.shaded_method,
@@ -256,7 +265,15 @@ impl Editor {
         egui::Grid::new("compare-methods")
             .num_columns(2)
             .show(ui, |ui| {
-                for (k, &(id, applies, gpu)) in names.iter().enumerate() {
+                for (
+                    k,
+                    &MethodTag {
+                        id,
+                        applies,
+                        on_gpu: gpu,
+                    },
+                ) in names.iter().enumerate()
+                {
                     let mut on = self.ui_state.compare_methods.contains(&id);
                     let label = format!("{id} ({})", tag(gpu));
                     if ui
@@ -697,7 +714,7 @@ impl Editor {
 
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
-            if let Some(shown) = &self.shown {
+            if let Some(shown) = &self.frames.shown {
                 for f in &shown.frames {
                     let backend = if f.on_gpu { "GPU" } else { "CPU" };
                     ui.monospace(format!(
@@ -708,7 +725,10 @@ impl Editor {
                 ui.separator();
                 ui.weak(&shown.adapter);
                 if !shown.refined {
-                    ui.weak(format!("(preview, 1/{} resolution)", self.preview_divisor));
+                    ui.weak(format!(
+                        "(preview, 1/{} resolution)",
+                        self.frames.preview_divisor
+                    ));
                 }
                 for s in &shown.skipped {
                     ui.colored_label(egui::Color32::from_rgb(240, 180, 90), s);

@@ -9,6 +9,7 @@
 mod compare;
 mod document;
 mod files;
+mod frames;
 mod gizmo;
 mod group_tools;
 mod inspector;
@@ -20,7 +21,7 @@ mod worker;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use eframe::egui;
 use serde::{Deserialize, Serialize};
@@ -35,7 +36,7 @@ pub use skeletrace_core::backend::BackendChoice;
 pub use view::OrbitCamera;
 
 use crate::picture::{Canvas, Panels, compose, shared_scale};
-use worker::{RenderWorker, Reply, Request};
+use worker::{RenderWorker, Request};
 
 /// What the centre of the window shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -103,49 +104,15 @@ impl Default for UiState {
 pub const UI_STATE_KEY: &str = "skeletrace-ui";
 /// Seconds between autosaves of a dirty scene to the recovery file.
 const AUTOSAVE_SECONDS: u64 = 20;
-/// Preview resolution divisor at start, before any preview was timed.
-const PREVIEW_DIVISOR: usize = 4;
-/// Time one preview reply should take, all its methods together: what keeps a drag fluid.
-const PREVIEW_TARGET_MS: f64 = 60.0;
-/// The coarsest preview: 1/16 of the viewport's width and height.
-const PREVIEW_DIVISOR_MAX: usize = 16;
-/// Idle time after which the full-resolution frame is requested.
-const REFINE_AFTER: Duration = Duration::from_millis(250);
-
-/// A traced frame ready to draw.
-struct ShownFrame {
-    method: MethodId,
-    frame: Frame,
-    texture: egui::TextureHandle,
+/// A method, whether it applies to the scene, and whether it runs on the GPU there.
+#[derive(Clone, Copy, Debug)]
+struct MethodTag {
+    id: MethodId,
+    /// The method applies to the scene (on the CPU).
+    applies: bool,
+    /// The GPU implements it for the scene.
     on_gpu: bool,
-    ms: f64,
 }
-
-/// The latest reply from the renderer thread.
-struct Shown {
-    id: u64,
-    frames: Vec<ShownFrame>,
-    skipped: Vec<String>,
-    adapter: String,
-    steps_max: u32,
-    /// The reply was traced at full resolution.
-    refined: bool,
-}
-
-/// What was last asked of the renderer; a change triggers a new request.
-#[derive(Clone, PartialEq)]
-struct RenderKey {
-    revision: u64,
-    camera: [u64; 7],
-    size: (usize, usize),
-    methods: Vec<MethodId>,
-    backend: BackendChoice,
-    shadows: bool,
-    shading: FieldShading,
-}
-
-/// A method's name, whether it applies to the scene, and whether it runs on the GPU.
-type MethodTag = (MethodId, bool, bool);
 
 /// A message in the status bar.
 struct Notice {
@@ -159,11 +126,8 @@ pub struct Editor {
     selection: Selection,
     orbit: OrbitCamera,
     ui_state: UiState,
-    worker: RenderWorker,
-    next_request: u64,
-    /// The last request: its key, id, and whether it was at full resolution.
-    requested: Option<(RenderKey, u64, bool)>,
-    shown: Option<Shown>,
+    /// The viewport's frames: requests to the render thread and the replies shown.
+    frames: frames::ViewportFrames,
     gesture: viewport::Gesture,
     sketch: bool,
     notice: Option<Notice>,
@@ -191,10 +155,6 @@ pub struct Editor {
     viewport_rect: Option<egui::Rect>,
     /// The methods' tags for one scene revision.
     method_tags: Option<(u64, Vec<MethodTag>)>,
-    /// Resolution divisor while interacting, adapted to the last reply's trace time.
-    preview_divisor: usize,
-    /// Pixels of the viewport (or of one grid panel) at full resolution.
-    viewport_pixels: usize,
 }
 
 impl Editor {
@@ -221,10 +181,7 @@ impl Editor {
             selection: Selection::new(),
             orbit,
             ui_state,
-            worker: RenderWorker::start(wake),
-            next_request: 1,
-            requested: None,
-            shown: None,
+            frames: frames::ViewportFrames::new(wake),
             gesture: viewport::Gesture::None,
             sketch: false,
             notice: None,
@@ -246,8 +203,6 @@ impl Editor {
             hovered_pixel: None,
             viewport_rect: None,
             method_tags: None,
-            preview_divisor: PREVIEW_DIVISOR,
-            viewport_pixels: 0,
         }
     }
 
@@ -278,7 +233,8 @@ impl Editor {
     /// Frames currently shown, with their methods.
     #[must_use]
     pub fn shown_frames(&self) -> Vec<(MethodId, &Frame)> {
-        self.shown
+        self.frames
+            .shown
             .as_ref()
             .map(|s| s.frames.iter().map(|f| (f.method, &f.frame)).collect())
             .unwrap_or_default()
@@ -287,15 +243,8 @@ impl Editor {
     /// Blocks until the renderer has answered every request sent so far and shows the answer
     /// (tests: the frame then reflects the current scene).
     pub fn wait_for_frames(&mut self, ctx: &egui::Context) {
-        let Some(last) = self.next_request.checked_sub(1).filter(|&id| id > 0) else {
-            return;
-        };
-        if self.shown.as_ref().is_some_and(|s| s.id >= last) {
-            return;
-        }
-        if let Some(reply) = self.worker.wait_for(last) {
-            self.show_reply(ctx, reply);
-        }
+        let failure = self.frames.wait_for_all(ctx, self.ui_state.view);
+        self.report_device_failure(failure);
     }
 
     /// Where `item`'s handle is drawn in the shaded viewport (window points), if visible.
@@ -371,9 +320,8 @@ impl Editor {
     /// Draws one frame of the whole window.
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
-        if let Some(reply) = self.worker.latest() {
-            self.show_reply(&ctx, reply);
-        }
+        let failure = self.frames.receive(&ctx, self.ui_state.view);
+        self.report_device_failure(failure);
         self.poll_file_dialog(&ctx);
         self.poll_background_writes();
         self.handle_dropped_files(&ctx);
@@ -398,117 +346,34 @@ impl Editor {
         }
     }
 
-    fn show_reply(&mut self, ctx: &egui::Context, reply: Reply) {
-        if let Some(failure) = &reply.device_failure {
-            // The document is untouched; the frames of this reply came from the CPU.
-            self.notice = Some(Notice {
-                text: failure.clone(),
-                error: true,
-            });
-        }
-        // Full resolution for the viewport (or grid panel) as it is now: the layout may have
-        // moved since the request, and a newer request does not make this frame a preview.
-        let refined = reply
-            .frames
-            .first()
-            .is_some_and(|t| t.frame.width * t.frame.height >= self.viewport_pixels);
-        if let Some(first) = reply.frames.first() {
-            let ms = reply.frames.iter().map(|t| t.ms).sum();
-            let traced = first.frame.width * first.frame.height;
-            self.preview_divisor =
-                adapted_divisor(self.preview_divisor, ms, traced, self.viewport_pixels);
-        }
-        let named: Vec<(&str, Frame)> = reply
-            .frames
-            .iter()
-            .map(|t| (t.method.name(), t.frame.clone()))
-            .collect();
-        let steps_max = shared_scale(&named).max(1);
-        let frames = reply
-            .frames
-            .into_iter()
-            .map(|t| {
-                let image = frame_image(&t.frame, self.ui_state.view, steps_max);
-                let texture = ctx.load_texture(
-                    format!("frame-{}", t.method),
-                    image,
-                    egui::TextureOptions::LINEAR,
-                );
-                ShownFrame {
-                    method: t.method,
-                    frame: t.frame,
-                    texture,
-                    on_gpu: t.on_gpu,
-                    ms: t.ms,
-                }
-            })
-            .collect();
-        self.shown = Some(Shown {
-            id: reply.id,
-            frames,
-            skipped: reply.skipped,
-            adapter: reply.adapter,
-            steps_max,
-            refined,
-        });
-    }
-
-    /// Sends a render request when the scene, camera, size or methods changed; at preview
-    /// resolution while the user interacts, at full resolution once idle.
+    /// Asks for the frames of the viewport (or of one grid panel of `pixels`) as they should be
+    /// now; nothing is sent when nothing they depend on changed.
     fn request_frames(&mut self, ctx: &egui::Context, pixels: (usize, usize)) {
         let methods = match self.ui_state.view {
             ViewMode::Shaded => vec![self.ui_state.shaded_method],
             ViewMode::Compare => self.ui_state.compare_methods.clone(),
         };
-        self.viewport_pixels = pixels.0 * pixels.1;
         let interacting =
-            self.gesture.is_active() || self.last_interaction.elapsed() < REFINE_AFTER;
-        let divisor = if interacting { self.preview_divisor } else { 1 };
-        let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
-        let camera = self.orbit.camera();
-        let bits = |v: f64| v.to_bits();
-        let key = RenderKey {
+            self.gesture.is_active() || self.last_interaction.elapsed() < frames::REFINE_AFTER;
+        let order = frames::FrameOrder {
             revision: self.doc.revision(),
-            camera: [
-                bits(camera.position[0]),
-                bits(camera.position[1]),
-                bits(camera.position[2]),
-                bits(camera.target[0]),
-                bits(camera.target[1]),
-                bits(camera.target[2]),
-                bits(camera.fov_degrees),
-            ],
-            size,
-            methods: methods.clone(),
-            backend: self.ui_state.backend,
-            shadows: self.ui_state.shadows && self.ui_state.view == ViewMode::Shaded,
-            shading: if self.ui_state.view == ViewMode::Shaded {
-                self.ui_state.shading
-            } else {
-                FieldShading::default()
-            },
-        };
-        if self.requested.as_ref().is_some_and(|(k, _, _)| *k == key) {
-            if interacting {
-                ctx.request_repaint_after(REFINE_AFTER);
-            }
-            return;
-        }
-        let id = self.next_request;
-        self.next_request += 1;
-        self.worker.request(Request {
-            id,
             compiled: self.doc.compiled(),
-            camera,
-            size,
+            camera: self.orbit.camera(),
+            pixels,
             methods,
-            backend: key.backend,
-            shadows: key.shadows,
-            shading: key.shading,
-        });
-        self.requested = Some((key, id, !interacting));
-        if interacting {
-            ctx.request_repaint_after(REFINE_AFTER);
+            backend: self.ui_state.backend,
+            shadows: self.ui_state.shadows,
+            shading: self.ui_state.shading,
+            view: self.ui_state.view,
+            interacting,
+        };
+        self.frames.request(ctx, order);
+    }
+
+    /// Shows a device failure the render thread reported: the frames came from the CPU.
+    fn report_device_failure(&mut self, failure: Option<String>) {
+        if let Some(text) = failure {
+            self.notice = Some(Notice { text, error: true });
         }
     }
 
@@ -766,8 +631,7 @@ impl Editor {
             (width, height)
         };
         let camera = self.orbit.camera();
-        let id = self.next_request;
-        self.next_request += 1;
+        let id = self.frames.next_id();
         let request = Request {
             id,
             compiled: self.doc.compiled(),
@@ -808,29 +672,6 @@ impl Editor {
             ))
         });
     }
-}
-
-/// The preview divisor that makes a preview take about [`PREVIEW_TARGET_MS`], given that the
-/// last reply took `ms` for `traced` pixels (per method) and the viewport has `viewport`
-/// pixels: trace time goes with the pixel count, 1/divisor². It changes by at most a factor
-/// of two per reply, so one slow frame does not swing it.
-fn adapted_divisor(divisor: usize, ms: f64, traced: usize, viewport: usize) -> usize {
-    if !ms.is_finite() || ms <= 0.0 || traced == 0 || viewport == 0 {
-        return divisor;
-    }
-    let ideal = (viewport as f64 * ms / (traced as f64 * PREVIEW_TARGET_MS)).sqrt();
-    let bounded = ideal.clamp(divisor as f64 / 2.0, divisor as f64 * 2.0);
-    (bounded.round() as usize).clamp(1, PREVIEW_DIVISOR_MAX)
-}
-
-/// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]`.
-fn frame_image(frame: &Frame, view: ViewMode, steps_max: u32) -> egui::ColorImage {
-    let mut canvas = Canvas::new(frame.width, frame.height, [0, 0, 0, 255]);
-    match view {
-        ViewMode::Shaded => canvas.draw_shaded(frame, 0, 0),
-        ViewMode::Compare => canvas.draw_steps(frame, steps_max, 0, 0),
-    }
-    egui::ColorImage::from_rgba_unmultiplied([frame.width, frame.height], canvas.bytes())
 }
 
 /// The embedded default scene.
@@ -914,36 +755,4 @@ fn path_recent(editor: &Editor) -> Option<String> {
         .recent
         .first()
         .map(|p| p.display().to_string())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_preview_divisor_follows_the_trace_time_by_at_most_a_factor_of_two() {
-        let full = 800 * 600;
-        let quarter = full / 16;
-        // A quarter-resolution preview at 4× the target: twice as coarse.
-        assert_eq!(
-            adapted_divisor(4, 4.0 * PREVIEW_TARGET_MS, quarter, full),
-            8
-        );
-        // 100× the target: capped at doubling, and at the coarsest divisor.
-        assert_eq!(
-            adapted_divisor(4, 100.0 * PREVIEW_TARGET_MS, quarter, full),
-            8
-        );
-        assert_eq!(
-            adapted_divisor(12, 100.0 * PREVIEW_TARGET_MS, quarter, full),
-            PREVIEW_DIVISOR_MAX
-        );
-        // A full-resolution frame tells as much: 16× the target there is divisor 4.
-        assert_eq!(adapted_divisor(4, 16.0 * PREVIEW_TARGET_MS, full, full), 4);
-        // Much faster than needed: finer, down to full resolution.
-        assert_eq!(adapted_divisor(4, 0.01, quarter, full), 2);
-        assert_eq!(adapted_divisor(1, 0.01, full, full), 1);
-        assert_eq!(adapted_divisor(4, f64::NAN, quarter, full), 4);
-        assert_eq!(adapted_divisor(4, 10.0, 0, full), 4);
-    }
 }

@@ -67,7 +67,7 @@ impl Editor {
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
-        if let Some(f) = self.shown.as_ref().and_then(|s| s.frames.first()) {
+        if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
             painter.image(
                 f.texture.id(),
                 rect,

@@ -14,7 +14,9 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use skeletrace_core::Compiled;
-use skeletrace_core::backend::{BackendChoice, BackendError, DeviceKind, FrameRequest};
+use skeletrace_core::backend::{
+    BackendChoice, BackendError, DeviceKind, FrameBackend as _, FrameRequest,
+};
 use skeletrace_core::frame::{FieldShading, Frame, View};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
@@ -131,14 +133,7 @@ fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn())
         }
         // The GPU is opened once, on the first request that may use it.
         let backends = backends.get_or_insert_with(|| Backends::open(request.backend));
-        if request.backend != BackendChoice::Cpu
-            && backends
-                .gpu
-                .as_ref()
-                .is_err_and(|why| why.starts_with("the CPU backend"))
-        {
-            *backends = Backends::open(request.backend);
-        }
+        backends.open_gpu_for(request.backend);
         let reply = trace(&request, backends);
         if replies.send(reply).is_err() {
             return;
@@ -198,7 +193,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Reply {
         }
     }
     let adapter = match &backends.gpu {
-        Ok(gpu) => gpu.renderer().adapter_name().to_owned(),
+        Ok(gpu) => gpu.describe(),
         Err(why) => format!("no GPU ({why})"),
     };
     Reply {
@@ -215,11 +210,84 @@ fn attempt_on_cpu(
     compiled: &Arc<Compiled>,
     request: &FrameRequest,
 ) -> Result<(Frame, bool), BackendError> {
-    use skeletrace_core::backend::FrameBackend as _;
     let frame = backends
         .cpu
         .render(compiled, request)?
         .pop()
         .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
     Ok((frame, false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use skeletrace_core::backend::{FrameBackend, FrameRequest};
+
+    /// A hardware GPU that supports everything and fails at every frame.
+    struct FailingGpu;
+
+    impl FrameBackend for FailingGpu {
+        fn describe(&self) -> String {
+            "injected failing GPU".to_owned()
+        }
+        fn device_kind(&self) -> DeviceKind {
+            DeviceKind::HardwareGpu
+        }
+        fn supports(&self, _: &Compiled, _: MethodId, _: &FrameRequest) -> Result<(), String> {
+            Ok(())
+        }
+        fn render(
+            &mut self,
+            _: &Arc<Compiled>,
+            _: &FrameRequest,
+        ) -> Result<Vec<Frame>, BackendError> {
+            Err(BackendError::DeviceFailed(
+                "device lost (injected)".to_owned(),
+            ))
+        }
+    }
+
+    /// A device failure is reported, the frame is traced on the CPU instead, and the GPU is not
+    /// tried again.
+    #[test]
+    fn a_failing_gpu_is_reported_and_the_cpu_takes_over() {
+        let scene = crate::editor::default_scene();
+        let mut backends = Backends::open(BackendChoice::Cpu);
+        backends.gpu = Ok(Box::new(FailingGpu));
+        let request = Request {
+            id: 1,
+            compiled: skeletrace_core::compile(&scene),
+            camera: scene.camera,
+            size: (24, 16),
+            methods: vec![MethodId::Segment, MethodId::QuadraticTaylor],
+            backend: BackendChoice::Auto,
+            shadows: false,
+            shading: FieldShading::default(),
+        };
+        let reply = trace(&request, &mut backends);
+        let failure = reply.device_failure.unwrap_or_default();
+        assert!(failure.contains("device lost (injected)"), "{failure}");
+        assert_eq!(
+            reply.frames.len(),
+            2,
+            "both methods traced: {:?}",
+            reply.skipped
+        );
+        assert!(reply.frames.iter().all(|t| !t.on_gpu));
+        assert!(reply.frames.iter().all(|t| t.frame.steps.len() == 24 * 16));
+        assert!(backends.gpu.is_err(), "the failed GPU is dropped");
+        assert!(reply.adapter.contains("GPU failed"), "{}", reply.adapter);
+        // Under an explicit GPU choice too, the editor keeps going on the CPU and says why.
+        let again = trace(
+            &Request {
+                backend: BackendChoice::Gpu,
+                ..request
+            },
+            &mut backends,
+        );
+        assert_eq!(again.frames.len(), 2, "{:?}", again.skipped);
+        assert!(again.frames.iter().all(|t| !t.on_gpu));
+        let failure = again.device_failure.unwrap_or_default();
+        assert!(failure.contains("GPU failed"), "{failure}");
+    }
 }

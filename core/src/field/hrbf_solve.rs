@@ -65,8 +65,8 @@ const SOLVED_KEPT: usize = 32;
 
 /// [`solve`], shared: a set whose points are bit-for-bit those of a recently solved one gets
 /// the same weights without a new solve. A 400-point set takes most of a second to solve, and
-/// a scene is compiled on every edit of any group (and once more after validation on load), so
-/// this keeps editing a scene with large sets live.
+/// a scene is compiled on every edit of any group, so this keeps editing a scene with large
+/// sets live.
 ///
 /// # Errors
 /// As [`solve`].

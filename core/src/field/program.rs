@@ -596,10 +596,11 @@ fn skeleton_primitives(
     }
 }
 
-/// The terms of an HRBF set, scaled into the density `c − (c/ℓ)h` (`crate::field::hrbf_solve`). The weights
-/// are those validation solved (`hrbf_solve::solve_shared`). A set that does not solve has been
-/// refused when the scene was read, or by the editor before the edit was kept; one in a scene
-/// built in code without validation gives no terms here.
+/// The terms of an HRBF set, scaled into the density `c − (c/ℓ)h` (`field::hrbf_solve`). The
+/// weights are solved here, when the scene is compiled (`hrbf_solve::solve_shared` keeps the
+/// latest sets, so an edit elsewhere does not solve them again). Validation guarantees distinct
+/// points, for which the system is non-singular; a set in a scene built in code without
+/// validation that does not solve gives no terms.
 fn hrbf_terms(set: &Hrbf, c: f64, push: &mut impl FnMut(Primitive)) {
     let Ok(weights) = hrbf_solve::solve_shared(&set.points) else {
         return;

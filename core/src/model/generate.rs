@@ -9,7 +9,6 @@ use std::collections::HashMap;
 use glam::{DQuat, DVec3};
 
 use crate::field::kernel::Kernel;
-use crate::field::program::FieldProgram;
 use crate::model::rng::SplitMix64;
 use crate::model::scene::{
     Blend, Blob, Camera, Group, Material, SCENE_VERSION, Scene, Skeleton, SkeletonField, Vertex,
@@ -106,7 +105,8 @@ pub fn default_size(kind: GeneratorKind) -> usize {
     }
 }
 
-/// Generates a scene.
+/// Generates a scene, with the default camera (`compile::framing_camera` frames it once
+/// compiled: the model does not compile).
 #[must_use]
 pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Scene {
     let mut rng = SplitMix64::new(options.seed);
@@ -156,38 +156,13 @@ pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Scene {
         GeneratorKind::Blobs => blobs(&mut rng, size, options.groups.unwrap_or(4).max(1)),
         GeneratorKind::Molecule => (vec![molecule(&mut rng, size)], None),
     };
-    let mut scene = Scene {
+    Scene {
         version: SCENE_VERSION,
         isovalue: 1.0,
         groups,
         blend,
         camera: Camera::default(),
         lights: Scene::default_lights(),
-    };
-    scene.camera = framing_camera(&scene);
-    scene
-}
-
-/// A camera looking at the centre of the scene's supports from a three-quarter view, far
-/// enough to see all of it.
-#[must_use]
-pub fn framing_camera(scene: &Scene) -> Camera {
-    let bounds = FieldProgram::new(scene).support_bounds();
-    if bounds.is_empty() {
-        return Camera::default();
-    }
-    let center = bounds.center();
-    let fov = 40.0_f64;
-    // The support box is wider than the surface (by σ radii): frame 80 % of the distance at
-    // which its bounding sphere would just fit, which keeps the surface in view.
-    let radius = 0.5 * bounds.diagonal();
-    let distance = 0.8 * radius / (0.5 * fov.to_radians()).sin();
-    let eye = center + DVec3::new(0.45, 0.35, 0.82).normalize() * distance;
-    Camera {
-        position: eye.to_array(),
-        target: center.to_array(),
-        up: [0.0, 1.0, 0.0],
-        fov_degrees: fov,
     }
 }
 

@@ -311,7 +311,7 @@ impl Group {
                     set.points.len()
                 ));
             }
-            crate::field::hrbf_solve::solve_shared(&set.points)
+            check_hrbf_points(&set.points)
                 .map_err(|e| format!("group '{}', HRBF set {i}: {e}", self.name))?;
         }
         if let Some(repeat) = &self.repeat {
@@ -736,6 +736,35 @@ impl Rule {
             Err(format!("{}, got ({}, {}, {})", self.what, v[0], v[1], v[2]))
         }
     }
+}
+
+/// An HRBF set's points are solvable: at least one, no two at the same place (the cubic
+/// Hermite system is then non-singular; it is solved when the scene is compiled,
+/// `field::hrbf_solve`).
+fn check_hrbf_points(points: &[HrbfPoint]) -> Result<(), String> {
+    if points.is_empty() {
+        return Err("an HRBF set needs at least one point".to_owned());
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p.position[k]);
+            hi[k] = hi[k].max(p.position[k]);
+        }
+    }
+    let tolerance = 1e-9 * distance(lo, hi).max(1.0);
+    for (a, pa) in points.iter().enumerate() {
+        for (b, pb) in points.iter().enumerate().skip(a + 1) {
+            if distance(pa.position, pb.position) <= tolerance {
+                let [x, y, z] = pa.position;
+                return Err(format!(
+                    "points {a} and {b} coincide at ({x}, {y}, {z}): the interpolation system \
+                     would be singular"
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A direction: three finite numbers, not all 0.

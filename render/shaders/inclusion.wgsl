@@ -1,0 +1,149 @@
+// Forward inclusions of the marching methods over one interval (core: bounds/inclusion.rs,
+// bounds/bottom_up.rs; forward-inclusion 2023 §5–6, appendices A–C) and the bound each
+// method marches with. `METHOD` (BOUND_*) is set by the composer (shaders.rs).
+
+// ---- bottom-up quadratic (bottom_up.rs point_quadratic, inclusion.rs max) ----
+
+fn kernel_convex(k: Kernel, x: f32) -> vec2<f32> {
+    if x < 0.0 {
+        let d0 = kernel_d1(k, 0.0);
+        return vec2<f32>(d0.x + d0.y * x, d0.y);
+    }
+    return kernel_d1(k, x);
+}
+
+fn point_quadratic(ray: Ray, i: u32, t0: f32, h_in: f32) -> Inclusion {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let inv = 1.0 / (prim.a.w * prim.a.w);
+    let w = ray.origin + t0 * ray.dir - prim.a.xyz;
+    let x0 = dot(w, w) * inv;
+    let x1 = 2.0 * dot(w, ray.dir) * inv;
+    let x2 = inv;
+    let n = prim.c.x;
+    let closest = -x1 / (2.0 * x2);
+    var h = h_in;
+    var x_other = x0 + h * (x1 + x2 * h);
+    if closest > 0.0 && closest < h_in {
+        h = 2.0 * closest;
+        x_other = x0 + closest * (x1 + x2 * closest);
+    }
+    let k0 = kernel_convex(k, x0);
+    var chord = k0.y;
+    if abs(x_other - x0) > 1e-12 * (1.0 + abs(x0)) {
+        chord = (kernel_convex(k, x_other).x - k0.x) / (x_other - x0);
+    }
+    return Inclusion(n * k0.x, vec2<f32>(n * k0.y * x1, n * k0.y * x2),
+                     vec2<f32>(n * chord * x1, n * chord * x2), h);
+}
+
+// Quadratic Taylor inclusion (inclusion.rs ForwardInclusion::quadratic): a side whose f″ bound
+// is infinite falls back to linear Taylor.
+fn quadratic_taylor(f: f32, d: f32, jet: Jet, h: f32) -> Inclusion {
+    var lower = vec2<f32>(d, 0.5 * jet.d2.x);
+    var upper = vec2<f32>(d, 0.5 * jet.d2.y);
+    if abs(jet.d2.x) >= INF {
+        lower = vec2<f32>(jet.d1.x, 0.0);
+    }
+    if abs(jet.d2.y) >= INF {
+        upper = vec2<f32>(jet.d1.y, 0.0);
+    }
+    return Inclusion(f, lower, upper, h);
+}
+
+fn inclusion_add(a: Inclusion, b: Inclusion) -> Inclusion {
+    return Inclusion(a.start + b.start, a.lower + b.lower, a.upper + b.upper, min(a.length, b.length));
+}
+
+fn inclusion_neg(a: Inclusion) -> Inclusion {
+    return Inclusion(-a.start, -a.upper, -a.lower, a.length);
+}
+
+fn offset_at(o: vec2<f32>, s: f32) -> f32 {
+    return s * (o.x + o.y * s);
+}
+
+// Maximum of the groups' inclusions (appendix C), or their minimum when `negated` (the
+// maximum of the negations, negated): one Bézier hull over all of them on the shortest of their
+// intervals, as inclusion.rs ForwardInclusion::max. A pairwise fold would differ: each partial
+// hull is re-evaluated on a shorter interval.
+fn groups_max(groups: array<Inclusion, MAX_GROUPS>, negated: bool) -> Inclusion {
+    var h = groups[0].length;
+    for (var g = 1u; g < globals.group_count; g++) {
+        h = min(h, groups[g].length);
+    }
+    var best = groups[0];
+    var c0 = -INF;
+    var c1 = -INF;
+    var c2 = -INF;
+    for (var g = 0u; g < globals.group_count; g++) {
+        var item = groups[g];
+        if negated {
+            item = inclusion_neg(item);
+        }
+        // The last of equal starts, as Iterator::max_by.
+        if g == 0u || item.start >= best.start {
+            best = item;
+        }
+        c0 = max(c0, item.start);
+        c1 = max(c1, item.start + 0.5 * h * item.upper.x);
+        c2 = max(c2, item.start + offset_at(item.upper, h));
+    }
+    var upper = best.upper;
+    if h > 0.0 {
+        upper = vec2<f32>(2.0 * (c1 - c0) / h, (c0 - 2.0 * c1 + c2) / (h * h));
+    }
+    let out = Inclusion(c0, best.lower, upper, h);
+    if negated {
+        return inclusion_neg(out);
+    }
+    return out;
+}
+
+fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32) -> Inclusion {
+    var groups: array<Inclusion, MAX_GROUPS>;
+    for (var g = 0u; g < MAX_GROUPS; g++) {
+        groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
+    }
+    let items = support_count(sp);
+    for (var j = 0u; j < items; j++) {
+        let item = support_item(sp, ray, j);
+        if !overlaps(item, t, t + h) {
+            continue;
+        }
+        let i = item.id;
+        let g = primitives[i].group;
+        var own: Inclusion;
+        if primitives[i].kind == KIND_POINT {
+            own = point_quadratic(ray, i, t, h);
+        } else {
+            // No bottom-up rule: the primitive's own quadratic Taylor inclusion (primitive_taylor).
+            let vg = primitive_value_gradient(i, ray.origin + t * ray.dir);
+            own = quadratic_taylor(vg.x, dot(vg.yzw, ray.dir), item_jet(ray, item, t, t + h), h);
+        }
+        groups[g] = inclusion_add(groups[g], own);
+    }
+    if globals.blend_operator == BLEND_SUM {
+        var out = groups[0];
+        for (var g = 1u; g < globals.group_count; g++) {
+            out = inclusion_add(out, groups[g]);
+        }
+        return out;
+    }
+    return groups_max(groups, globals.blend_operator == BLEND_MIN);
+}
+
+fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
+    if METHOD == BOUND_SEGMENT {
+        return symmetric(f, summed_lipschitz(sp, ray, t, t + h), h);
+    } else if METHOD == BOUND_BOTTOM_UP_QUADRATIC && globals.blend_operator < BLEND_SMOOTH_UNION {
+        return bottom_up_quadratic(sp, ray, t, h);
+    }
+    // Below: Taylor inclusions, also bottom-up-quadratic's fallback for the smooth operators,
+    // which have no forward-inclusion composition rule (bottom_up.rs field_inclusion).
+    let jet = ray_jet(sp, ray, t, t + h);
+    if METHOD == BOUND_LINEAR_TAYLOR {
+        return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);
+    }
+    return quadratic_taylor(f, d, jet, h);
+}

@@ -1,0 +1,169 @@
+//! Constants and enum codes shared by the Rust side of the GPU backend and its WGSL shaders.
+//! Each is defined once, here or in core where the CPU uses it too (shading constants, the
+//! Turbo colour map, the Gauss–Legendre rule), and [`wgsl_constants`] emits them as WGSL
+//! `const`s at the top of every composed shader; the shaders name them, never their values.
+
+use std::fmt::Write as _;
+
+use skeletrace_core::cpu::shading;
+use skeletrace_core::field::quadrature::{GaussLegendre, SCALIS_ORDER};
+use skeletrace_core::frame::TURBO;
+
+/// Most groups the GPU blends (per-pixel group slots in the shaders).
+pub const MAX_GROUPS: usize = 8;
+
+/// `Primitive.kind`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum PrimitiveKind {
+    /// A point blob.
+    Point = 0,
+    /// A distance segment (kernel of the homothetic distance).
+    DistanceSegment = 1,
+    /// A SCALIS segment.
+    ScalisSegment = 2,
+    /// A plane (kernel of the distance to it).
+    Plane = 3,
+}
+
+/// `Globals.blend_operator`: one operator over all groups.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum BlendOperator {
+    /// Sum.
+    Sum = 0,
+    /// Maximum.
+    Max = 1,
+    /// Minimum.
+    Min = 2,
+    /// Smooth union (polynomial smooth maximum) of the groups in order.
+    SmoothUnion = 3,
+    /// Smooth intersection of the groups in order.
+    SmoothIntersection = 4,
+}
+
+/// `Kernel.family`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum KernelFamily {
+    /// Compact polynomial.
+    CompactPolynomial = 0,
+    /// Cauchy.
+    Cauchy = 1,
+    /// Gaussian.
+    Gaussian = 2,
+}
+
+/// `Light.vector.w`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum LightKind {
+    /// `vector.xyz` is the direction towards the light.
+    Directional = 0,
+    /// `vector.xyz` is the light's position.
+    Point = 1,
+}
+
+/// `METHOD` of the inclusion marching family (inclusion.wgsl): which bound the march uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum MarchBound {
+    /// Segment tracing's summed Lipschitz bound.
+    Segment = 0,
+    /// Linear Taylor inclusion.
+    LinearTaylor = 1,
+    /// Quadratic Taylor inclusion.
+    QuadraticTaylor = 2,
+    /// Bottom-up quadratic inclusion.
+    BottomUpQuadratic = 3,
+}
+
+/// A WGSL `const` of type `f32`.
+fn f32_const(out: &mut String, name: &str, value: f64) {
+    let _ = writeln!(out, "const {name}: f32 = {value:?};");
+}
+
+/// A WGSL `const` of type `u32`.
+fn u32_const(out: &mut String, name: &str, value: u32) {
+    let _ = writeln!(out, "const {name}: u32 = {value}u;");
+}
+
+/// A WGSL `const` array of `f32`.
+fn f32_array(out: &mut String, name: &str, values: &[f64]) {
+    let list: Vec<String> = values.iter().map(|v| format!("{v:?}")).collect();
+    let _ = writeln!(
+        out,
+        "const {name}: array<f32, {n}> = array<f32, {n}>({});",
+        list.join(", "),
+        n = values.len()
+    );
+}
+
+/// Every shared constant as WGSL source.
+#[must_use]
+pub fn wgsl_constants() -> String {
+    let mut out = String::from("// Emitted by render/src/shared.rs from the Rust definitions.\n");
+    for (name, kind) in [
+        ("KIND_POINT", PrimitiveKind::Point),
+        ("KIND_DISTANCE_SEGMENT", PrimitiveKind::DistanceSegment),
+        ("KIND_SCALIS_SEGMENT", PrimitiveKind::ScalisSegment),
+        ("KIND_PLANE", PrimitiveKind::Plane),
+    ] {
+        u32_const(&mut out, name, kind as u32);
+    }
+    for (name, op) in [
+        ("BLEND_SUM", BlendOperator::Sum),
+        ("BLEND_MAX", BlendOperator::Max),
+        ("BLEND_MIN", BlendOperator::Min),
+        ("BLEND_SMOOTH_UNION", BlendOperator::SmoothUnion),
+        (
+            "BLEND_SMOOTH_INTERSECTION",
+            BlendOperator::SmoothIntersection,
+        ),
+    ] {
+        u32_const(&mut out, name, op as u32);
+    }
+    for (name, family) in [
+        ("KERNEL_COMPACT_POLYNOMIAL", KernelFamily::CompactPolynomial),
+        ("KERNEL_CAUCHY", KernelFamily::Cauchy),
+        ("KERNEL_GAUSSIAN", KernelFamily::Gaussian),
+    ] {
+        u32_const(&mut out, name, family as u32);
+    }
+    u32_const(&mut out, "LIGHT_DIRECTIONAL", LightKind::Directional as u32);
+    u32_const(&mut out, "LIGHT_POINT", LightKind::Point as u32);
+    for (name, bound) in [
+        ("BOUND_SEGMENT", MarchBound::Segment),
+        ("BOUND_LINEAR_TAYLOR", MarchBound::LinearTaylor),
+        ("BOUND_QUADRATIC_TAYLOR", MarchBound::QuadraticTaylor),
+        ("BOUND_BOTTOM_UP_QUADRATIC", MarchBound::BottomUpQuadratic),
+    ] {
+        u32_const(&mut out, name, bound as u32);
+    }
+    u32_const(&mut out, "MAX_GROUPS", MAX_GROUPS as u32);
+    // Field shading (2014 notes §12.4), the CPU's constants (core cpu/shading.rs).
+    u32_const(&mut out, "SOFT_SHADOW_STEPS", shading::SOFT_SHADOW_STEPS);
+    f32_const(&mut out, "SOFTNESS", shading::SOFTNESS);
+    f32_const(&mut out, "SHADE_MIN_STEP", shading::MIN_STEP);
+    f32_const(&mut out, "SHADE_MAX_STEP", shading::MAX_STEP);
+    f32_const(&mut out, "SHADOW_REACH", shading::SHADOW_REACH);
+    u32_const(&mut out, "AO_SAMPLES", shading::AO_SAMPLES);
+    f32_const(&mut out, "AO_STEP", shading::AO_STEP);
+    f32_const(&mut out, "AO_DECAY", shading::AO_DECAY);
+    // The SCALIS quadrature rule (MATH.md §3): its positive half, nodes increasing; the rule is
+    // symmetric, so node j and −node j share weight j.
+    let rule = GaussLegendre::scalis();
+    let half = SCALIS_ORDER / 2;
+    u32_const(&mut out, "SCALIS_ORDER", SCALIS_ORDER as u32);
+    u32_const(&mut out, "GL_HALF", half as u32);
+    f32_array(&mut out, "GL_NODES", &rule.nodes[SCALIS_ORDER - half..]);
+    f32_array(&mut out, "GL_WEIGHTS", &rule.weights[SCALIS_ORDER - half..]);
+    // The step-count colour map (core frame.rs heat_colour).
+    for (name, row) in ["TURBO_RED", "TURBO_GREEN", "TURBO_BLUE"]
+        .into_iter()
+        .zip(TURBO)
+    {
+        f32_array(&mut out, name, &row);
+    }
+    out
+}
