@@ -4,7 +4,7 @@
 
 use skeletrace_core::backend::{self, BackendChoice, BackendError, FrameBackend, FrameRequest};
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::cpu::backend::CpuBackend;
+use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::methods::MethodId;
 use skeletrace_render::GpuBackend;
 

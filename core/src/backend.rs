@@ -1,5 +1,5 @@
 //! One interface for tracing frames: [`FrameBackend`], implemented by the CPU tracer
-//! (`crate::cpu::backend::CpuBackend`) and the GPU (`skeletrace_render::GpuBackend`), and
+//! (`crate::cpu::cpu_backend::CpuBackend`) and the GPU (`skeletrace_render::GpuBackend`), and
 //! [`choose`], the one place that decides which backend traces a method, used by `render`,
 //! `bench` and the editor.
 //!

@@ -10,9 +10,10 @@
 
 use bytemuck::{Pod, Zeroable};
 use skeletrace_core::compile::Compiled;
+use skeletrace_core::field::blend::BlendTree;
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::{Primitive, Solid};
-use skeletrace_core::model::scene::{Blend, Light};
+use skeletrace_core::model::scene::Light;
 
 pub use crate::shared::BlendOperator;
 pub use crate::shared::MAX_GROUPS;
@@ -100,14 +101,14 @@ fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
 /// width of the smooth operators. Sums, maxima and minima take their leaves in any order; the
 /// smooth operators fold their operands left to right (blend.rs), and the shaders fold groups
 /// in index order, so their leaves must be the groups in that order.
-fn flat_blend(blend: &Blend, groups: usize) -> Option<(BlendOperator, f32)> {
+fn flat_blend(blend: &BlendTree, groups: usize) -> Option<(BlendOperator, f32)> {
     let (op, width, children) = match blend {
-        Blend::Group(0) if groups == 1 => return Some((BlendOperator::Sum, 0.0)),
-        Blend::Sum(v) => (BlendOperator::Sum, 0.0, v),
-        Blend::Max(v) => (BlendOperator::Max, 0.0, v),
-        Blend::Min(v) => (BlendOperator::Min, 0.0, v),
-        Blend::SmoothUnion { width, of } => (BlendOperator::SmoothUnion, *width as f32, of),
-        Blend::SmoothIntersection { width, of } => {
+        BlendTree::Group(0) if groups == 1 => return Some((BlendOperator::Sum, 0.0)),
+        BlendTree::Sum(v) => (BlendOperator::Sum, 0.0, v),
+        BlendTree::Max(v) => (BlendOperator::Max, 0.0, v),
+        BlendTree::Min(v) => (BlendOperator::Min, 0.0, v),
+        BlendTree::SmoothUnion { width, of } => (BlendOperator::SmoothUnion, *width as f32, of),
+        BlendTree::SmoothIntersection { width, of } => {
             (BlendOperator::SmoothIntersection, *width as f32, of)
         }
         _ => return None,
@@ -120,13 +121,13 @@ fn flat_blend(blend: &Blend, groups: usize) -> Option<(BlendOperator, f32)> {
             && children
                 .iter()
                 .enumerate()
-                .all(|(k, c)| *c == Blend::Group(k as u32));
+                .all(|(k, c)| *c == BlendTree::Group(k as u32));
         return in_order.then_some((op, width));
     }
     let mut seen = vec![false; groups];
     for c in children {
         match c {
-            Blend::Group(i) if (*i as usize) < groups && !seen[*i as usize] => {
+            BlendTree::Group(i) if (*i as usize) < groups && !seen[*i as usize] => {
                 seen[*i as usize] = true;
             }
             _ => return None,

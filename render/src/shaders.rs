@@ -243,7 +243,7 @@ mod tests {
     #[test]
     fn every_struct_shared_with_wgsl_has_the_rust_layout() {
         use crate::buffers::{GpuKernel, GpuLight, GpuPrimitive};
-        use crate::renderer::{GpuBinning, GpuGlobals};
+        use crate::gpu_renderer::{GpuBinning, GpuGlobals};
         let trace = GpuMethod::QuadraticTaylor.source();
         let binning = binning_source();
         check_twin(
@@ -328,7 +328,7 @@ mod tests {
                 _ => None,
             })
             .unwrap_or_else(|| panic!("no Suspension struct in the prelude"));
-        assert_eq!(u64::from(span), crate::renderer::SUSPENSION_BYTES);
+        assert_eq!(u64::from(span), crate::gpu_renderer::SUSPENSION_BYTES);
     }
 
     /// Core's `MethodId::has_gpu_implementation` names exactly the methods with shaders here.

@@ -5,7 +5,7 @@
 //! `cargo test --workspace` prints that they were skipped and why; with
 //! `SKELETRACE_REQUIRE_GPU=1` (set by `scripts/test`, hence CI) they fail instead.
 
-use std::sync::OnceLock;
+use std::sync::{Mutex, MutexGuard, OnceLock, PoisonError};
 
 use skeletrace_render::GpuRenderer;
 
@@ -15,12 +15,20 @@ pub fn gpu_required() -> bool {
     std::env::var("SKELETRACE_REQUIRE_GPU").is_ok_and(|v| v == "1")
 }
 
-/// Why no adapter could be opened, found once per test binary; `None` when there is one.
+/// One renderer per test binary: one device, and every pipeline built once for all the tests
+/// (building them is most of a small test's time on lavapipe). Or why there is none.
+fn shared_renderer() -> &'static Result<Mutex<GpuRenderer>, String> {
+    static RENDERER: OnceLock<Result<Mutex<GpuRenderer>, String>> = OnceLock::new();
+    RENDERER.get_or_init(|| {
+        GpuRenderer::new()
+            .map(Mutex::new)
+            .map_err(|e| e.to_string())
+    })
+}
+
+/// Why no adapter could be opened; `None` when there is one.
 fn missing_adapter() -> Option<&'static str> {
-    static MISSING: OnceLock<Option<String>> = OnceLock::new();
-    MISSING
-        .get_or_init(|| GpuRenderer::new().err().map(|e| e.to_string()))
-        .as_deref()
+    shared_renderer().as_ref().err().map(String::as_str)
 }
 
 /// `true` (after printing why) when test `name` must be skipped for want of a GPU adapter;
@@ -44,14 +52,18 @@ pub fn skip_without_gpu(name: &str) -> bool {
     true
 }
 
-/// A GPU renderer for test `name`, or `None` (after printing why) when it must be skipped.
+/// The test binary's GPU renderer, held by test `name` until the guard drops (the tests that
+/// use it run one at a time), or `None` (after printing why) when it must be skipped. A test
+/// that changes the renderer's settings restores them.
 ///
 /// # Panics
-/// When the adapter exists but the renderer fails, or as [`skip_without_gpu`].
+/// As [`skip_without_gpu`].
 #[must_use]
-pub fn gpu_or_skip(name: &str) -> Option<GpuRenderer> {
+pub fn gpu_or_skip(name: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
     if skip_without_gpu(name) {
         return None;
     }
-    Some(GpuRenderer::new().unwrap_or_else(|e| panic!("{name}: {e}")))
+    let renderer = shared_renderer().as_ref().ok()?;
+    // A test that panicked while holding it leaves a renderer that still works.
+    Some(renderer.lock().unwrap_or_else(PoisonError::into_inner))
 }

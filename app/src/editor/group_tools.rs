@@ -5,7 +5,7 @@
 use eframe::egui;
 use skeletrace_core::model::scene::{Hrbf, HrbfPoint, Repeat, Transform, Vec3};
 
-use super::shapes::{scalar, vector};
+use super::shape_tools::{scalar, vector};
 
 /// Eight points on the corners of a cube of half side `half` around `centre`, normals along
 /// the diagonals: a rounded box to start editing from.

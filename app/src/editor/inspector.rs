@@ -13,7 +13,7 @@ use skeletrace_render::GpuMethod;
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
 use super::{Edit, Editor, MethodTag, ViewMode};
-use super::{group_tools, shapes};
+use super::{group_tools, shape_tools};
 
 /// Shortcuts listed by the help overlay.
 pub const SHORTCUTS: [(&str, &str); 27] = [
@@ -597,11 +597,15 @@ impl Editor {
         ui.horizontal(|ui| {
             ui.strong(format!("Shapes ({})", current.len()));
             ui.menu_button("Add shape", |ui| {
-                for (kind, name) in shapes::KINDS.iter().enumerate() {
+                for (kind, name) in shape_tools::KINDS.iter().enumerate() {
                     if ui.button(*name).clicked() {
                         let radius = self.typical_radius();
-                        let shape =
-                            shapes::new_shape(kind, self.orbit.target, 6.0 * radius, 0.5 * radius);
+                        let shape = shape_tools::new_shape(
+                            kind,
+                            self.orbit.target,
+                            6.0 * radius,
+                            0.5 * radius,
+                        );
                         self.apply(Edit::new(format!("add {name}")), |s| {
                             s.groups[g].shapes.push(shape);
                         });
@@ -612,10 +616,10 @@ impl Editor {
         for (k, shape) in current.iter().enumerate() {
             let mut edited = *shape;
             let mut remove = false;
-            egui::CollapsingHeader::new(format!("{} {k}", shapes::kind_name(shape)))
+            egui::CollapsingHeader::new(format!("{} {k}", shape_tools::kind_name(shape)))
                 .id_salt(("shape", g, k))
                 .show(ui, |ui| {
-                    shapes::edit_fields(ui, &mut edited);
+                    shape_tools::edit_fields(ui, &mut edited);
                     remove = ui.button("Remove").clicked();
                 });
             if remove {

@@ -14,7 +14,7 @@ mod gizmo;
 mod group_tools;
 mod inspector;
 mod selection;
-mod shapes;
+mod shape_tools;
 mod view;
 mod viewport;
 mod worker;

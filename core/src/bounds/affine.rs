@@ -16,11 +16,11 @@
 use glam::DVec3;
 
 use crate::bounds::interval::Interval;
+use crate::field::blend::BlendTree;
 use crate::field::geometry::Ray;
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::{HrbfTerm, PointBlob, Primitive};
 use crate::field::program::FieldProgram;
-use crate::model::scene::Blend;
 
 use std::ops::{Add, Mul};
 
@@ -228,23 +228,25 @@ pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<A
     blend(program.blend(), &groups, program.isovalue())
 }
 
-fn blend(b: &Blend, groups: &[AffineForm], isovalue: f64) -> Option<AffineForm> {
-    let fold = |v: &[Blend], op: fn(AffineForm, AffineForm) -> AffineForm| {
+fn blend(b: &BlendTree, groups: &[AffineForm], isovalue: f64) -> Option<AffineForm> {
+    let fold = |v: &[BlendTree], op: fn(AffineForm, AffineForm) -> AffineForm| {
         let mut it = v.iter().map(|c| blend(c, groups, isovalue));
         let first = it.next()??;
         it.try_fold(first, |acc, c| Some(op(acc, c?)))
     };
     match b {
-        Blend::Group(i) => groups.get(*i as usize).copied(),
-        Blend::Sum(v) => fold(v, |a, b| a + b),
-        Blend::Max(v) => fold(v, AffineForm::max),
-        Blend::Min(v) => fold(v, |a, b| a.negate().max(b.negate()).negate()),
-        Blend::Difference(a, c) => {
+        BlendTree::Group(i) => groups.get(*i as usize).copied(),
+        BlendTree::Sum(v) => fold(v, |a, b| a + b),
+        BlendTree::Max(v) => fold(v, AffineForm::max),
+        BlendTree::Min(v) => fold(v, |a, b| a.negate().max(b.negate()).negate()),
+        BlendTree::Difference(a, c) => {
             let a = blend(a, groups, isovalue)?;
             let complement = blend(c, groups, isovalue)?.affine(-1.0, 2.0 * isovalue);
             Some(a.negate().max(complement.negate()).negate())
         }
-        Blend::Ricci { .. } | Blend::SmoothUnion { .. } | Blend::SmoothIntersection { .. } => None,
+        BlendTree::Ricci { .. }
+        | BlendTree::SmoothUnion { .. }
+        | BlendTree::SmoothIntersection { .. } => None,
     }
 }
 

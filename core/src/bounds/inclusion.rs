@@ -7,7 +7,7 @@
 //! value. The minimum is the mirror image.
 
 use crate::bounds::interval::Jet;
-use crate::model::scene::Blend;
+use crate::field::blend::BlendTree;
 
 /// A quadratic `s ↦ a·s + b·s²` (the offset from the exact start value).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -201,33 +201,39 @@ impl std::ops::Add for ForwardInclusion {
 /// Composes group inclusions through the blend tree; `None` for operators without a forward
 /// inclusion rule here (Ricci), where callers fall back to whole-field bounds.
 #[must_use]
-pub fn blend(b: &Blend, groups: &[ForwardInclusion], isovalue: f64) -> Option<ForwardInclusion> {
+pub fn blend(
+    b: &BlendTree,
+    groups: &[ForwardInclusion],
+    isovalue: f64,
+) -> Option<ForwardInclusion> {
     match b {
-        Blend::Group(i) => groups.get(*i as usize).copied(),
-        Blend::Sum(v) => {
+        BlendTree::Group(i) => groups.get(*i as usize).copied(),
+        BlendTree::Sum(v) => {
             let mut it = v.iter().map(|c| blend(c, groups, isovalue));
             let first = it.next()??;
             it.try_fold(first, |acc, c| Some(acc + c?))
         }
-        Blend::Max(v) => {
+        BlendTree::Max(v) => {
             let items: Option<Vec<_>> = v.iter().map(|c| blend(c, groups, isovalue)).collect();
             ForwardInclusion::max(&items?)
         }
-        Blend::Min(v) => {
+        BlendTree::Min(v) => {
             let items: Option<Vec<_>> = v
                 .iter()
                 .map(|c| blend(c, groups, isovalue).map(ForwardInclusion::negate))
                 .collect();
             ForwardInclusion::max(&items?).map(ForwardInclusion::negate)
         }
-        Blend::Difference(a, c) => {
+        BlendTree::Difference(a, c) => {
             let a = blend(a, groups, isovalue)?.negate();
             let mut complement = blend(c, groups, isovalue)?;
             complement.start -= 2.0 * isovalue;
             // −min(a, 2c − b) = max(−a, b − 2c)
             ForwardInclusion::max(&[a, complement]).map(ForwardInclusion::negate)
         }
-        Blend::Ricci { .. } | Blend::SmoothUnion { .. } | Blend::SmoothIntersection { .. } => None,
+        BlendTree::Ricci { .. }
+        | BlendTree::SmoothUnion { .. }
+        | BlendTree::SmoothIntersection { .. } => None,
     }
 }
 

@@ -2,7 +2,7 @@
 //! the field's soft shadows and ambient occlusion (`shading`, 2014 notes §12.4), the papers'
 //! statistics protocol (`stats`) and the CPU [`crate::backend::FrameBackend`] (`backend`).
 
-pub mod backend;
+pub mod cpu_backend;
 pub mod renderer;
 pub mod shading;
 pub mod stats;

@@ -4,24 +4,93 @@
 //! p-blend `(Σ max(fᵢ, 0)^p)^(1/p)`, and the smooth union / intersection built from the 2014
 //! notes' polynomial smooth minimum (§11.6). Each operator evaluates values with gradients and
 //! composes ray-interval jets.
+//!
+//! [`BlendTree`] is the compiled tree the field and the bounds read: the scene's `Blend` (model
+//! data) is turned into it once, when the scene is compiled, so that nothing below the model
+//! depends on the file format.
 
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
 use crate::model::scene::Blend;
 
+/// The blend tree of a compiled scene: operators over group indices.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BlendTree {
+    /// The field of one group.
+    Group(u32),
+    /// Sum.
+    Sum(Vec<BlendTree>),
+    /// Maximum (sharp union).
+    Max(Vec<BlendTree>),
+    /// Minimum (intersection).
+    Min(Vec<BlendTree>),
+    /// `min(f₁, 2c − f₂)`.
+    Difference(Box<BlendTree>, Box<BlendTree>),
+    /// Ricci p-blend.
+    Ricci {
+        /// Exponent `p ≥ 1`.
+        p: f64,
+        /// Operands.
+        of: Vec<BlendTree>,
+    },
+    /// Smooth union of width `width`.
+    SmoothUnion {
+        /// Blend width in field units.
+        width: f64,
+        /// Operands.
+        of: Vec<BlendTree>,
+    },
+    /// Smooth intersection of width `width`.
+    SmoothIntersection {
+        /// Blend width in field units.
+        width: f64,
+        /// Operands.
+        of: Vec<BlendTree>,
+    },
+}
+
+impl BlendTree {
+    /// The compiled form of a scene's blend; `None` (no blend given) is the sum of all
+    /// `groups`.
+    #[must_use]
+    pub fn compile(blend: Option<&Blend>, groups: usize) -> Self {
+        let all = |v: &[Blend]| v.iter().map(|b| Self::compile(Some(b), groups)).collect();
+        match blend {
+            None => Self::Sum((0..groups as u32).map(Self::Group).collect()),
+            Some(Blend::Group(i)) => Self::Group(*i),
+            Some(Blend::Sum(v)) => Self::Sum(all(v)),
+            Some(Blend::Max(v)) => Self::Max(all(v)),
+            Some(Blend::Min(v)) => Self::Min(all(v)),
+            Some(Blend::Difference(a, b)) => Self::Difference(
+                Box::new(Self::compile(Some(a), groups)),
+                Box::new(Self::compile(Some(b), groups)),
+            ),
+            Some(Blend::Ricci { p, of }) => Self::Ricci { p: *p, of: all(of) },
+            Some(Blend::SmoothUnion { width, of }) => Self::SmoothUnion {
+                width: *width,
+                of: all(of),
+            },
+            Some(Blend::SmoothIntersection { width, of }) => Self::SmoothIntersection {
+                width: *width,
+                of: all(of),
+            },
+        }
+    }
+}
+
 /// Value and gradient of `b` from the groups' values and gradients.
 #[must_use]
-pub fn value_gradient(b: &Blend, groups: &[(f64, DVec3)], isovalue: f64) -> (f64, DVec3) {
+pub fn value_gradient(b: &BlendTree, groups: &[(f64, DVec3)], isovalue: f64) -> (f64, DVec3) {
     match b {
-        Blend::Group(i) => groups[*i as usize],
-        Blend::Sum(v) => v.iter().fold((0.0, DVec3::ZERO), |acc, c| {
+        BlendTree::Group(i) => groups[*i as usize],
+        BlendTree::Sum(v) => v.iter().fold((0.0, DVec3::ZERO), |acc, c| {
             let (f, g) = value_gradient(c, groups, isovalue);
             (acc.0 + f, acc.1 + g)
         }),
-        Blend::Max(v) => select(v, groups, isovalue, |a, b| a > b),
-        Blend::Min(v) => select(v, groups, isovalue, |a, b| a < b),
-        Blend::Difference(a, b) => {
+        BlendTree::Max(v) => select(v, groups, isovalue, |a, b| a > b),
+        BlendTree::Min(v) => select(v, groups, isovalue, |a, b| a < b),
+        BlendTree::Difference(a, b) => {
             let (fa, ga) = value_gradient(a, groups, isovalue);
             let (fb, gb) = value_gradient(b, groups, isovalue);
             let complement = 2.0 * isovalue - fb;
@@ -31,7 +100,7 @@ pub fn value_gradient(b: &Blend, groups: &[(f64, DVec3)], isovalue: f64) -> (f64
                 (complement, -gb)
             }
         }
-        Blend::Ricci { p, of } => {
+        BlendTree::Ricci { p, of } => {
             let parts: Vec<(f64, DVec3)> = of
                 .iter()
                 .map(|c| {
@@ -49,12 +118,12 @@ pub fn value_gradient(b: &Blend, groups: &[(f64, DVec3)], isovalue: f64) -> (f64
             });
             (value, grad)
         }
-        Blend::SmoothUnion { width, of } => of
+        BlendTree::SmoothUnion { width, of } => of
             .iter()
             .map(|c| value_gradient(c, groups, isovalue))
             .reduce(|a, b| smooth_max(a, b, *width))
             .unwrap_or((0.0, DVec3::ZERO)),
-        Blend::SmoothIntersection { width, of } => of
+        BlendTree::SmoothIntersection { width, of } => of
             .iter()
             .map(|c| {
                 let (f, g) = value_gradient(c, groups, isovalue);
@@ -105,7 +174,7 @@ pub fn smooth_max_jet(a: Jet, b: Jet, width: f64) -> Jet {
 }
 
 fn select(
-    v: &[Blend],
+    v: &[BlendTree],
     groups: &[(f64, DVec3)],
     isovalue: f64,
     better: impl Fn(f64, f64) -> bool,
@@ -122,20 +191,20 @@ fn select(
 
 /// Jet of `b` over a ray interval from the groups' jets.
 #[must_use]
-pub fn jet(b: &Blend, groups: &[Jet], isovalue: f64) -> Jet {
+pub fn jet(b: &BlendTree, groups: &[Jet], isovalue: f64) -> Jet {
     match b {
-        Blend::Group(i) => groups[*i as usize],
-        Blend::Sum(v) => v
+        BlendTree::Group(i) => groups[*i as usize],
+        BlendTree::Sum(v) => v
             .iter()
             .map(|c| jet(c, groups, isovalue))
             .fold(Jet::ZERO, |a, c| a + c),
-        Blend::Max(v) => fold(v, groups, isovalue, Jet::max),
-        Blend::Min(v) => fold(v, groups, isovalue, Jet::min),
-        Blend::Difference(a, b) => {
+        BlendTree::Max(v) => fold(v, groups, isovalue, Jet::max),
+        BlendTree::Min(v) => fold(v, groups, isovalue, Jet::min),
+        BlendTree::Difference(a, b) => {
             let complement = Jet::constant(2.0 * isovalue) - jet(b, groups, isovalue);
             jet(a, groups, isovalue).min(complement)
         }
-        Blend::Ricci { p, of } => {
+        BlendTree::Ricci { p, of } => {
             let parts: Vec<Jet> = of
                 .iter()
                 .map(|c| jet(c, groups, isovalue).max(Jet::ZERO))
@@ -158,12 +227,12 @@ pub fn jet(b: &Blend, groups: &[Jet], isovalue: f64) -> Jet {
             result.d1 = result.d1.intersect(weighted).unwrap_or(weighted);
             result
         }
-        Blend::SmoothUnion { width, of } => of
+        BlendTree::SmoothUnion { width, of } => of
             .iter()
             .map(|c| jet(c, groups, isovalue))
             .reduce(|a, b| smooth_max_jet(a, b, *width))
             .unwrap_or(Jet::ZERO),
-        Blend::SmoothIntersection { width, of } => -of
+        BlendTree::SmoothIntersection { width, of } => -of
             .iter()
             .map(|c| -jet(c, groups, isovalue))
             .reduce(|a, b| smooth_max_jet(a, b, *width))
@@ -171,7 +240,7 @@ pub fn jet(b: &Blend, groups: &[Jet], isovalue: f64) -> Jet {
     }
 }
 
-fn fold(v: &[Blend], groups: &[Jet], isovalue: f64, op: impl Fn(Jet, Jet) -> Jet) -> Jet {
+fn fold(v: &[BlendTree], groups: &[Jet], isovalue: f64, op: impl Fn(Jet, Jet) -> Jet) -> Jet {
     let mut it = v.iter().map(|c| jet(c, groups, isovalue));
     let first = it.next().unwrap_or(Jet::ZERO);
     it.fold(first, op)
@@ -181,16 +250,18 @@ fn fold(v: &[Blend], groups: &[Jet], isovalue: f64, op: impl Fn(Jet, Jet) -> Jet
 /// their largest operand (Ricci by the sum, its weights being at most 1; the smooth operators'
 /// gradients are convex combinations of their operands').
 #[must_use]
-pub fn lipschitz(b: &Blend, groups: &[f64]) -> f64 {
+pub fn lipschitz(b: &BlendTree, groups: &[f64]) -> f64 {
     match b {
-        Blend::Group(i) => groups[*i as usize],
-        Blend::Sum(v) | Blend::Ricci { of: v, .. } => v.iter().map(|c| lipschitz(c, groups)).sum(),
-        Blend::Max(v)
-        | Blend::Min(v)
-        | Blend::SmoothUnion { of: v, .. }
-        | Blend::SmoothIntersection { of: v, .. } => {
+        BlendTree::Group(i) => groups[*i as usize],
+        BlendTree::Sum(v) | BlendTree::Ricci { of: v, .. } => {
+            v.iter().map(|c| lipschitz(c, groups)).sum()
+        }
+        BlendTree::Max(v)
+        | BlendTree::Min(v)
+        | BlendTree::SmoothUnion { of: v, .. }
+        | BlendTree::SmoothIntersection { of: v, .. } => {
             v.iter().map(|c| lipschitz(c, groups)).fold(0.0, f64::max)
         }
-        Blend::Difference(a, c) => lipschitz(a, groups).max(lipschitz(c, groups)),
+        BlendTree::Difference(a, c) => lipschitz(a, groups).max(lipschitz(c, groups)),
     }
 }

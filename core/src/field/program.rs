@@ -9,7 +9,7 @@
 use glam::{DMat3, DVec3, EulerRot};
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::blend;
+use crate::field::blend::{self, BlendTree};
 use crate::field::bvh::Bvh;
 use crate::field::geometry::{Aabb, Ray, Similarity, SphereCone};
 use crate::field::hrbf_solve;
@@ -17,7 +17,7 @@ use crate::field::kernel::{Kernel, KernelProfile};
 use crate::field::primitives::{
     DistanceSegment, HrbfTerm, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
 };
-use crate::model::scene::{Blend, Group, Hrbf, Scene, Shape, Skeleton, SkeletonField, Vec3};
+use crate::model::scene::{Group, Hrbf, Scene, Shape, Skeleton, SkeletonField, Vec3};
 
 /// Groups evaluated without heap allocation per query.
 const INLINE_GROUPS: usize = 8;
@@ -39,7 +39,7 @@ pub struct FieldProgram {
     groups_of: Vec<u32>,
     kernels: Vec<KernelProfile>,
     kernel_specs: Vec<Kernel>,
-    blend: Blend,
+    blend: BlendTree,
     /// The blend is a plain sum of every group: point values skip the per-group slots.
     blend_is_total_sum: bool,
     bvh: Bvh,
@@ -108,9 +108,7 @@ impl FieldProgram {
             }
             kernels.push(k);
         }
-        let blend = scene.blend.clone().unwrap_or_else(|| {
-            Blend::Sum((0..scene.groups.len() as u32).map(Blend::Group).collect())
-        });
+        let blend = BlendTree::compile(scene.blend.as_ref(), scene.groups.len());
         let mut boxes = Vec::with_capacity(primitives.len());
         let mut unbounded = Vec::new();
         for (i, p) in primitives.iter().enumerate() {
@@ -315,7 +313,7 @@ impl FieldProgram {
 
     /// The blend tree over groups (a sum of all groups when the scene gives none).
     #[must_use]
-    pub fn blend(&self) -> &Blend {
+    pub fn blend(&self) -> &BlendTree {
         &self.blend
     }
 
@@ -512,13 +510,13 @@ pub fn group_placements(group: &Group) -> Vec<Similarity> {
 }
 
 /// Whether `blend` adds every group exactly once and nothing else.
-fn is_total_sum(blend: &Blend, groups: usize) -> bool {
+fn is_total_sum(blend: &BlendTree, groups: usize) -> bool {
     let mut seen = vec![false; groups];
     let mut mark = |i: &u32| !std::mem::replace(&mut seen[*i as usize], true);
     let all_distinct = match blend {
-        Blend::Group(i) => mark(i),
-        Blend::Sum(children) => children.iter().all(|c| match c {
-            Blend::Group(i) => mark(i),
+        BlendTree::Group(i) => mark(i),
+        BlendTree::Sum(children) => children.iter().all(|c| match c {
+            BlendTree::Group(i) => mark(i),
             _ => false,
         }),
         _ => false,

@@ -6,11 +6,11 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
+use crate::field::blend::BlendTree;
 use crate::field::geometry::Ray;
 use crate::field::kernel::{CLIP_EPSILON, Kernel};
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
-use crate::model::scene::Blend;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -36,8 +36,8 @@ struct Prepared<'a> {
 /// The Gaussian scale σ when every group is Gaussian with only point blobs, summed.
 fn gaussian_blobs(program: &FieldProgram) -> Result<(f64, f64, f64), String> {
     let groups = program.group_count();
-    let summed = matches!(program.blend(), Blend::Group(_))
-        || matches!(program.blend(), Blend::Sum(v) if v.iter().all(|b| matches!(b, Blend::Group(_))));
+    let summed = matches!(program.blend(), BlendTree::Group(_))
+        || matches!(program.blend(), BlendTree::Sum(v) if v.iter().all(|b| matches!(b, BlendTree::Group(_))));
     if !summed {
         return Err("field inversion needs groups blended by a plain sum".to_owned());
     }

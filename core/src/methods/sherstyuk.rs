@@ -12,9 +12,9 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
+use crate::field::blend::BlendTree;
 use crate::field::geometry::{Ray, quadratic_roots};
 use crate::field::program::FieldProgram;
-use crate::model::scene::Blend;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -40,8 +40,8 @@ impl Method for Sherstyuk {
 
     fn supports(&self, program: &FieldProgram) -> Result<(), String> {
         let summed = match program.blend() {
-            Blend::Group(_) => true,
-            Blend::Sum(v) => v.iter().all(|b| matches!(b, Blend::Group(_))),
+            BlendTree::Group(_) => true,
+            BlendTree::Sum(v) => v.iter().all(|b| matches!(b, BlendTree::Group(_))),
             _ => false,
         };
         if !summed {

@@ -11,7 +11,7 @@ use skeletrace_core::frame::{Frame, View};
 use skeletrace_core::methods::MethodId;
 
 use crate::buffers::PackedScene;
-use crate::renderer::{GpuRenderer, check_shading_budget};
+use crate::gpu_renderer::{GpuRenderer, check_shading_budget};
 use crate::shaders::GpuMethod;
 
 /// The GPU as a frame backend.
