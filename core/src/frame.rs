@@ -22,6 +22,37 @@ pub enum View {
     },
 }
 
+// ---- Field shading (2014 notes §12.4): the constants both backends use (cpu/shading.rs,
+// render/shaders/main.wgsl). ----
+
+/// Largest number of samples along a soft-shadow ray.
+pub const SOFT_SHADOW_STEPS: u32 = 32;
+/// Penumbra sharpness `k` of `min(k·e/t)`.
+pub const SOFTNESS: f64 = 8.0;
+/// First sample and smallest step of a soft-shadow ray, × scale.
+pub const MIN_STEP: f64 = 0.002;
+/// Largest step (and largest distance estimate), × scale.
+pub const MAX_STEP: f64 = 0.08;
+/// Length of a soft-shadow ray, × scale (shorter for a closer point light).
+pub const SHADOW_REACH: f64 = 1.5;
+/// Ambient-occlusion samples along the normal.
+pub const AO_SAMPLES: u32 = 5;
+/// Height between ambient-occlusion samples, × scale.
+pub const AO_STEP: f64 = 0.012;
+/// Weight ratio between consecutive ambient-occlusion samples.
+pub const AO_DECAY: f64 = 0.6;
+
+/// The scale the shading distances are relative to: the diagonal of the bounded supports.
+#[must_use]
+pub fn shading_scale(program: &FieldProgram) -> f64 {
+    let bounds = program.support_bounds();
+    if bounds.is_empty() {
+        1.0
+    } else {
+        bounds.diagonal()
+    }
+}
+
 /// Which field-based shading terms to add.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]

@@ -12,18 +12,17 @@ use rayon::prelude::*;
 use skeletrace_core::FieldProgram;
 use skeletrace_core::backend::{BackendError, DeviceKind, PassTimes};
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::cpu::shading::{AO_SAMPLES, SOFT_SHADOW_STEPS, shading_scale};
 use skeletrace_core::field::primitives::Primitive;
-use skeletrace_core::frame::{FieldShading, Frame, PinholeCamera, View, far_distance};
+use skeletrace_core::frame::{
+    AO_SAMPLES, FieldShading, Frame, SOFT_SHADOW_STEPS, View, far_distance, shading_scale,
+};
 use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuPrimitive, PackedScene};
-use crate::shaders::{GpuMethod, binning_source};
-
-/// Tile edge in pixels.
-const TILE: u32 = 4;
+use crate::shaders::GpuMethod;
+use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
 
 /// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
 /// method's rays from one dispatch to the next.
@@ -121,92 +120,6 @@ pub struct GpuGlobals {
     pub pad: [u32; 2],
 }
 
-/// Twin of `Binning` in binning.wgsl (a layout test checks every field's offset).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuBinning {
-    /// Eye.
-    pub origin: [f32; 3],
-    /// Padding.
-    pub pad0: f32,
-    /// Forward axis.
-    pub forward: [f32; 3],
-    /// `tan(fov/2)`.
-    pub tan_half_fov: f32,
-    /// Right axis.
-    pub right: [f32; 3],
-    /// Width / height.
-    pub aspect: f32,
-    /// Up axis.
-    pub up: [f32; 3],
-    /// Padding.
-    pub pad1: f32,
-    /// Tiles across.
-    pub tiles_x: u32,
-    /// Tiles down.
-    pub tiles_y: u32,
-    /// Tile edge in pixels.
-    pub tile_size: u32,
-    /// Primitives uploaded.
-    pub primitive_count: u32,
-    /// Frame width in pixels.
-    pub width: u32,
-    /// Frame height in pixels.
-    pub height: u32,
-    /// 1: occluders on.
-    pub occluders: u32,
-    /// Padding.
-    pub pad2: u32,
-}
-
-/// The camera's frame of one render, shared by the binning and trace uniforms.
-#[derive(Clone, Copy)]
-struct FrameGeometry {
-    camera: Camera,
-    origin: glam::DVec3,
-    forward: glam::DVec3,
-    right: glam::DVec3,
-    up: glam::DVec3,
-    tan_half: f64,
-    aspect: f64,
-    width: u32,
-    height: u32,
-    tiles_x: u32,
-    tiles_y: u32,
-}
-
-impl FrameGeometry {
-    fn new(camera: &Camera, width: u32, height: u32) -> Self {
-        let (forward, right, up) = PinholeCamera::new(camera).axes();
-        Self {
-            camera: *camera,
-            origin: glam::DVec3::from_array(camera.position),
-            forward,
-            right,
-            up,
-            tan_half: (0.5 * camera.fov_degrees.to_radians()).tan(),
-            aspect: f64::from(width) / f64::from(height.max(1)),
-            width,
-            height,
-            tiles_x: width.div_ceil(TILE),
-            tiles_y: height.div_ceil(TILE),
-        }
-    }
-}
-
-/// One frame's tile lists (binning.wgsl): per-tile ranges into `items`, filled by
-/// `fill_group` in the trace submission.
-struct TileLists {
-    counts: wgpu::Buffer,
-    ranges: wgpu::Buffer,
-    items: wgpu::Buffer,
-    fill_group: wgpu::BindGroup,
-    /// Binning workgroups: columns of 64 primitives × slices of their (primitive, tile) pairs.
-    workgroups: (u32, u32),
-    /// (primitive, tile) pairs in all lists.
-    total: u32,
-}
-
 /// The uploaded scene.
 struct SceneBuffers {
     /// The compiled scene the buffers were packed from.
@@ -239,9 +152,7 @@ pub struct GpuRenderer {
     adapter: String,
     device_kind: DeviceKind,
     errors: Arc<Mutex<Vec<String>>>,
-    occlude_pipeline: wgpu::ComputePipeline,
-    count_pipeline: wgpu::ComputePipeline,
-    fill_pipeline: wgpu::ComputePipeline,
+    binning: TileBinning,
     trace_pipelines: HashMap<GpuMethod, wgpu::ComputePipeline>,
     scene: Option<SceneBuffers>,
     /// Primitive uploads in bytes, for the tests of partial re-upload.
@@ -250,16 +161,11 @@ pub struct GpuRenderer {
     timestamps: bool,
     /// The GPU's own time for the passes of the last [`GpuRenderer::render`].
     last_pass_times: Option<PassTimes>,
-    /// Workgroups the binning passes aim for in all: enough to fill a GPU; few on a CPU
-    /// adapter, where each workgroup's shared prefix sum costs real time.
-    binning_workgroups: u32,
     /// Output and readback buffers of the last frame size, reused while the size holds.
     outputs: Option<OutputBuffers>,
     /// Steps a marching method takes per ray in one dispatch ([`STEPS_PER_DISPATCH`],
     /// [`STEPS_PER_DISPATCH_CPU_ADAPTER`]).
     steps_per_dispatch: u32,
-    /// Whether binning leaves out primitives behind occluders (binning.wgsl).
-    occluders: bool,
     /// (primitive, tile) pairs in the tile lists of the last frame.
     last_tile_items: u64,
 }
@@ -311,7 +217,7 @@ impl OutputBuffers {
     }
 }
 
-fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+pub(crate) fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     // Storage buffers may not be empty.
     let padded;
     let contents = if bytes.is_empty() {
@@ -327,7 +233,7 @@ fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     })
 }
 
-fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {
+pub(crate) fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(entry),
         source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -342,7 +248,7 @@ fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePi
     })
 }
 
-fn f3(v: glam::DVec3) -> [f32; 3] {
+pub(crate) fn f3(v: glam::DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
@@ -434,10 +340,7 @@ impl GpuRenderer {
                 v.push(format!("device lost ({reason:?}): {message}"));
             }
         });
-        let binning = binning_source();
-        let occlude_pipeline = pipeline(&device, &binning, "occlude_tiles");
-        let count_pipeline = pipeline(&device, &binning, "count_tiles");
-        let fill_pipeline = pipeline(&device, &binning, "fill_tiles");
+        let binning = TileBinning::new(&device, cpu_adapter);
         let renderer = Self {
             device,
             queue,
@@ -448,22 +351,18 @@ impl GpuRenderer {
                 DeviceKind::HardwareGpu
             },
             errors,
-            occlude_pipeline,
-            count_pipeline,
-            fill_pipeline,
+            binning,
             trace_pipelines: HashMap::new(),
             scene: None,
             uploaded_bytes: 0,
             timestamps,
             last_pass_times: None,
-            binning_workgroups: if cpu_adapter { 64 } else { 4096 },
             outputs: None,
             steps_per_dispatch: if cpu_adapter {
                 STEPS_PER_DISPATCH_CPU_ADAPTER
             } else {
                 STEPS_PER_DISPATCH
             },
-            occluders: true,
             last_tile_items: 0,
         };
         renderer.check().map_err(BackendError::DeviceFailed)?;
@@ -514,7 +413,7 @@ impl GpuRenderer {
     /// hits and depths either way; step counts may differ where a march's interval reaches
     /// past the occluding depth.
     pub fn set_occluders(&mut self, on: bool) {
-        self.occluders = on;
+        self.binning.occluders = on;
     }
 
     /// (primitive, tile) pairs in the tile lists of the last frame.
@@ -636,168 +535,6 @@ impl GpuRenderer {
             .map_err(BackendError::DeviceFailed)
     }
 
-    /// Bins the uploaded primitives' supports into the tiles of `geometry` (binning.wgsl): the
-    /// occluding depths and counts per tile in a first submission, read back for the host's
-    /// prefix sum; the lists are filled by the returned `fill_group` in the trace submission.
-    fn bin_tiles(
-        &self,
-        geometry: &FrameGeometry,
-        queries: Option<&wgpu::QuerySet>,
-    ) -> Result<TileLists, String> {
-        let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
-        let d = &self.device;
-        let FrameGeometry {
-            origin,
-            forward,
-            right,
-            up,
-            tan_half,
-            aspect,
-            width,
-            height,
-            tiles_x,
-            tiles_y,
-            ..
-        } = *geometry;
-        let tiles = (tiles_x * tiles_y) as usize;
-        let n_prims = scene.packed.primitives.len() as u32;
-        // Binning workgroups: one column per 64 primitives, as many slices of each column's
-        // (primitive, tile) pairs as fill `binning_workgroups` (binning.wgsl).
-        let columns = n_prims.div_ceil(64).max(1);
-        let slices = (self.binning_workgroups / columns).clamp(1, tiles as u32);
-        // Pass 1: count supports per tile.
-        let binning = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("binning"),
-            contents: bytemuck::bytes_of(&GpuBinning {
-                origin: f3(origin),
-                pad0: 0.0,
-                forward: f3(forward),
-                tan_half_fov: tan_half as f32,
-                right: f3(right),
-                aspect: aspect as f32,
-                up: f3(up),
-                pad1: 0.0,
-                tiles_x,
-                tiles_y,
-                tile_size: TILE,
-                primitive_count: n_prims,
-                width,
-                height,
-                occluders: u32::from(self.occluders),
-                pad2: 0,
-            }),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let counts = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile counts"),
-            size: (tiles * 4) as u64,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let counts_read = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile counts readback"),
-            size: (tiles * 4) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let rects = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile rectangles"),
-            size: u64::from(n_prims.max(1)) * 16,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let occluded = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("occluding depths"),
-            size: (tiles * 4) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let nearest = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("nearest reaches"),
-            size: u64::from(n_prims.max(1)) * 4,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let occlude_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("occlude tiles"),
-            layout: &self.occlude_pipeline.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &binning),
-                entry(1, &scene.primitives),
-                entry(6, &occluded),
-            ],
-        });
-        let count_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("count tiles"),
-            layout: &self.count_pipeline.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &binning),
-                entry(1, &scene.primitives),
-                entry(2, &counts),
-                entry(5, &rects),
-                entry(6, &occluded),
-                entry(7, &nearest),
-            ],
-        });
-        let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        encoder.clear_buffer(&occluded, 0, None);
-        {
-            // The occluding depths, then the counts (binning.wgsl).
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("count tiles"),
-                timestamp_writes: timestamp_writes(queries, 0),
-            });
-            pass.set_pipeline(&self.occlude_pipeline);
-            pass.set_bind_group(0, &occlude_group, &[]);
-            pass.dispatch_workgroups(columns, slices, 1);
-            pass.set_pipeline(&self.count_pipeline);
-            pass.set_bind_group(0, &count_group, &[]);
-            pass.dispatch_workgroups(columns, slices, 1);
-        }
-        encoder.copy_buffer_to_buffer(&counts, 0, &counts_read, 0, (tiles * 4) as u64);
-        self.queue.submit([encoder.finish()]);
-        let tile_counts: Vec<u32> = read_back(d, &counts_read)?;
-        self.check()?;
-        let mut ranges = Vec::with_capacity(tiles);
-        let mut total = 0u32;
-        for &c in &tile_counts {
-            ranges.push([total, total + c]);
-            total += c;
-        }
-
-        // Pass 2: fill the tile lists, then trace every method.
-        let ranges_buffer = storage(d, "tile ranges", bytemuck::cast_slice(&ranges));
-        let items = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile items"),
-            size: u64::from(total.max(1)) * 4,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let fill_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fill tiles"),
-            layout: &self.fill_pipeline.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &binning),
-                entry(2, &counts),
-                entry(3, &ranges_buffer),
-                entry(4, &items),
-                entry(5, &rects),
-                entry(6, &occluded),
-                entry(7, &nearest),
-            ],
-        });
-        Ok(TileLists {
-            counts,
-            ranges: ranges_buffer,
-            items,
-            fill_group,
-            workgroups: (columns, slices),
-            total,
-        })
-    }
-
     /// Fills the tile lists, runs one trace pass per method (each marching method in
     /// dispatches of `steps_per_dispatch` steps) and reads the panels back as frames.
     fn trace_frames(
@@ -817,7 +554,16 @@ impl GpuRenderer {
                 count: 2 * passes,
             })
         });
-        let tile_lists = self.bin_tiles(geometry, queries.as_ref())?;
+        let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
+        let tile_lists = self.binning.bin(
+            &self.device,
+            &self.queue,
+            &scene.primitives,
+            scene.packed.primitives.len() as u32,
+            geometry,
+            queries.as_ref(),
+        )?;
+        self.check()?;
         self.last_tile_items = u64::from(tile_lists.total);
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let FrameGeometry {
@@ -834,15 +580,6 @@ impl GpuRenderer {
             camera,
         } = *geometry;
         let n_prims = scene.packed.primitives.len() as u32;
-        let TileLists {
-            counts,
-            ranges: ranges_buffer,
-            items,
-            fill_group,
-            workgroups: (columns, slices),
-            ..
-        } = &tile_lists;
-        let (columns, slices) = (*columns, *slices);
         let d = &self.device;
         let panels = methods.len() as u32;
         let out_width = width * panels;
@@ -861,16 +598,8 @@ impl GpuRenderer {
         let shading_flags =
             u32::from(shading.soft_shadows) | (u32::from(shading.ambient_occlusion) << 1);
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        encoder.clear_buffer(counts, 0, None);
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("fill tiles"),
-                timestamp_writes: timestamp_writes(queries.as_ref(), 1),
-            });
-            pass.set_pipeline(&self.fill_pipeline);
-            pass.set_bind_group(0, fill_group, &[]);
-            pass.dispatch_workgroups(columns, slices, 1);
-        }
+        self.binning
+            .fill(&mut encoder, &tile_lists, queries.as_ref());
         for (panel, method) in methods.iter().enumerate() {
             let globals = GpuGlobals {
                 origin: f3(origin),
@@ -924,8 +653,8 @@ impl GpuRenderer {
                     entry(2, &scene.kernels),
                     entry(3, &scene.materials),
                     entry(4, &scene.lights),
-                    entry(5, ranges_buffer),
-                    entry(6, items),
+                    entry(5, &tile_lists.ranges),
+                    entry(6, &tile_lists.items),
                     entry(7, colour),
                     entry(8, depth),
                     entry(9, steps),
@@ -1028,7 +757,7 @@ pub fn check_shading_budget(compiled: &Compiled, shading: FieldShading) -> Resul
 }
 
 /// Timestamp writes of pass `pass` (its begin and end), where the device has timestamps.
-fn timestamp_writes(
+pub(crate) fn timestamp_writes(
     queries: Option<&wgpu::QuerySet>,
     pass: u32,
 ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
@@ -1039,7 +768,7 @@ fn timestamp_writes(
     })
 }
 
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: buffer.as_entire_binding(),
@@ -1068,7 +797,10 @@ fn map_for_reading(device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> Result<(
 }
 
 /// Maps a `MAP_READ` buffer and copies it out.
-fn read_back<T: Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<T>, String> {
+pub(crate) fn read_back<T: Pod>(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+) -> Result<Vec<T>, String> {
     map_for_reading(device, &[buffer])?;
     let slice = buffer.slice(..);
     let view = slice

@@ -11,6 +11,7 @@ pub mod gpu_backend;
 pub mod gpu_renderer;
 pub mod shaders;
 pub mod shared;
+pub mod tile_binning;
 
 pub use gpu_backend::GpuBackend;
 pub use gpu_renderer::GpuRenderer;

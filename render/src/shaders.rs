@@ -243,7 +243,8 @@ mod tests {
     #[test]
     fn every_struct_shared_with_wgsl_has_the_rust_layout() {
         use crate::buffers::{GpuKernel, GpuLight, GpuPrimitive};
-        use crate::gpu_renderer::{GpuBinning, GpuGlobals};
+        use crate::gpu_renderer::GpuGlobals;
+        use crate::tile_binning::GpuBinning;
         let trace = GpuMethod::QuadraticTaylor.source();
         let binning = binning_source();
         check_twin(

@@ -5,9 +5,8 @@
 
 use std::fmt::Write as _;
 
-use skeletrace_core::cpu::shading;
 use skeletrace_core::field::quadrature::{GaussLegendre, SCALIS_ORDER};
-use skeletrace_core::frame::TURBO;
+use skeletrace_core::frame::{self as shading, TURBO};
 
 /// Most groups the GPU blends (per-pixel group slots in the shaders).
 pub const MAX_GROUPS: usize = 8;
@@ -141,7 +140,7 @@ pub fn wgsl_constants() -> String {
         u32_const(&mut out, name, bound as u32);
     }
     u32_const(&mut out, "MAX_GROUPS", MAX_GROUPS as u32);
-    // Field shading (2014 notes §12.4), the CPU's constants (core cpu/shading.rs).
+    // Field shading (2014 notes §12.4), the CPU's constants (core frame.rs).
     u32_const(&mut out, "SOFT_SHADOW_STEPS", shading::SOFT_SHADOW_STEPS);
     f32_const(&mut out, "SOFTNESS", shading::SOFTNESS);
     f32_const(&mut out, "SHADE_MIN_STEP", shading::MIN_STEP);

@@ -18,10 +18,10 @@ use rayon::prelude::*;
 
 use crate::bounds::interval::Interval;
 use crate::compile::Compiled;
-use crate::cpu::shading::{ambient_occlusion, shading_scale, soft_shadow};
+use crate::cpu::shading::{ambient_occlusion, soft_shadow};
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
-use crate::frame::{FieldShading, Frame, PinholeCamera, far_distance};
+use crate::frame::{FieldShading, Frame, PinholeCamera, far_distance, shading_scale};
 use crate::methods::{RayTracer, TraceMode, TraceSettings};
 use crate::model::scene::{Camera, Light, Material};
 

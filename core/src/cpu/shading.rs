@@ -14,40 +14,15 @@
 //!   `(h − e)/h`, with weights decaying by [`AO_DECAY`]. It darkens the ambient term fully and
 //!   the direct light by half.
 //!
-//! The scale is the diagonal of the bounded supports. The GPU backend (`render/shaders/
-//! main.wgsl`) runs the same loops with the same constants in f32.
+//! The scale is the diagonal of the bounded supports (`frame::shading_scale`). The GPU backend
+//! (`render/shaders/main.wgsl`) runs the same loops with the same constants (`frame.rs`) in f32.
 
 use glam::DVec3;
 
 use crate::field::program::FieldProgram;
-
-/// Largest number of samples along a soft-shadow ray.
-pub const SOFT_SHADOW_STEPS: u32 = 32;
-/// Penumbra sharpness `k` of `min(k·e/t)`.
-pub const SOFTNESS: f64 = 8.0;
-/// First sample and smallest step of a soft-shadow ray, × scale.
-pub const MIN_STEP: f64 = 0.002;
-/// Largest step (and largest distance estimate), × scale.
-pub const MAX_STEP: f64 = 0.08;
-/// Length of a soft-shadow ray, × scale (shorter for a closer point light).
-pub const SHADOW_REACH: f64 = 1.5;
-/// Ambient-occlusion samples along the normal.
-pub const AO_SAMPLES: u32 = 5;
-/// Height between ambient-occlusion samples, × scale.
-pub const AO_STEP: f64 = 0.012;
-/// Weight ratio between consecutive ambient-occlusion samples.
-pub const AO_DECAY: f64 = 0.6;
-
-/// The scale the shading distances are relative to: the diagonal of the bounded supports.
-#[must_use]
-pub fn shading_scale(program: &FieldProgram) -> f64 {
-    let bounds = program.support_bounds();
-    if bounds.is_empty() {
-        1.0
-    } else {
-        bounds.diagonal()
-    }
-}
+use crate::frame::{
+    AO_DECAY, AO_SAMPLES, AO_STEP, MAX_STEP, MIN_STEP, SHADOW_REACH, SOFT_SHADOW_STEPS, SOFTNESS,
+};
 
 /// First-order distance from a point with field `f`, gradient `g` to the isosurface `c`.
 fn distance_estimate(c: f64, f: f64, g: DVec3, scale: f64) -> f64 {
