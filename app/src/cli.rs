@@ -162,6 +162,9 @@ pub struct GenerateArgs {
     /// Field type of skeleton segments.
     #[arg(long, value_enum, default_value_t = Field::Scalis)]
     pub field: Field,
+    /// Build scenes over the limit of 1 000 000 primitives (about 400 MB).
+    #[arg(long)]
+    pub allow_large: bool,
     /// Output scene file.
     #[arg(short, long)]
     pub output: PathBuf,

@@ -107,9 +107,10 @@ fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {
         groups: args.groups,
         varying_radii: matches!(args.radii, cli::Radii::Varying),
         field: Some(args.field.into()),
+        allow_large: args.allow_large,
     };
     let kind: GeneratorKind = args.kind.into();
-    let mut scene = generate(kind, &options);
+    let mut scene = generate(kind, &options)?;
     // A three-quarter view of the whole scene, from its compiled supports.
     scene.camera = skeletrace_core::compile::framing_camera(&skeletrace_core::compile(&scene));
     let comment = format!(

@@ -110,7 +110,19 @@ fn bad_input_gets_one_line_and_a_failure_status() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let missing = dir.join("missing.ron");
+    let deep = dir.join("deep.ron");
     for (args, expected) in [
+        (
+            vec![
+                "generate",
+                "tree",
+                "--size",
+                "40",
+                "-o",
+                deep.to_str().unwrap_or_default(),
+            ],
+            vec!["tree of size 40", "limit of 1000000", "--allow-large"],
+        ),
         (
             vec!["info", broken.to_str().unwrap_or_default()],
             vec!["broken.ron:3:", "radius", "-2"],
@@ -133,6 +145,7 @@ fn bad_input_gets_one_line_and_a_failure_status() {
         }
         assert!(!err.contains("panicked"), "{err}");
     }
+    assert!(!deep.exists(), "a refused generator writes nothing");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

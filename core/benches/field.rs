@@ -59,6 +59,7 @@ fn skeleton_scene(segments: usize) -> Scene {
             ..GenerateOptions::default()
         },
     )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Points about one radius from random skeleton vertices or blob centres.

@@ -168,6 +168,55 @@ fn blend_references_are_checked() {
 }
 
 /// Loads `text`; when it is valid, compiles and evaluates it. Must never panic.
+/// Repetitions that would expand a small file past the primitive limit are refused with the
+/// count and the limit; the same file with fewer copies loads.
+#[test]
+fn repetitions_past_the_primitive_limit_are_refused_in_one_line() {
+    use skeletrace_core::model::scene::{Blob, Repeat};
+    let file = |copies_z: u32| {
+        let mut scene = Scene::from_ron(VALID, "valid").unwrap_or_else(|e| panic!("{e}"));
+        // 200 blobs and the arm's segment: 201 primitives per copy.
+        scene.groups[0].blobs = (0..200)
+            .map(|i| Blob {
+                center: [f64::from(i) * 0.01, 2.0, 0.0],
+                radius: 0.3,
+            })
+            .collect();
+        scene.groups[0].repeat = Some(Repeat {
+            count: [10, 10, copies_z],
+            spacing: [3.0, 3.0, 3.0],
+        });
+        scene.to_ron()
+    };
+    assert!(Scene::from_ron(&file(4), "small.ron").is_ok());
+    let err = Scene::from_ron(&file(100), "huge.ron")
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        err.contains("huge.ron") && err.contains("2010000 primitives") && err.contains("1000000"),
+        "{err}"
+    );
+    assert!(!err.contains('\n'), "{err}");
+}
+
+/// The memory estimate of the generator limit covers what one primitive takes.
+#[test]
+fn the_bytes_per_primitive_estimate_covers_the_types() {
+    use skeletrace_core::field::primitives::Primitive;
+    use skeletrace_core::model::generate::BYTES_PER_PRIMITIVE;
+    use skeletrace_core::model::scene::Vertex;
+    let used = std::mem::size_of::<Vertex>()
+        + std::mem::size_of::<[u32; 2]>()
+        + std::mem::size_of::<Primitive>()
+        + 2 * std::mem::size_of::<skeletrace_core::Aabb>()
+        + 2 * std::mem::size_of::<u32>();
+    assert!(
+        used as u64 <= BYTES_PER_PRIMITIVE,
+        "{used} bytes per primitive"
+    );
+}
+
 fn exercise(text: &str) {
     if let Ok(scene) = Scene::from_ron(text, "fuzz.ron") {
         let program = FieldProgram::new(&scene);

@@ -11,7 +11,8 @@ use glam::{DQuat, DVec3};
 use crate::field::kernel::Kernel;
 use crate::model::rng::SplitMix64;
 use crate::model::scene::{
-    Blend, Blob, Camera, Group, Material, SCENE_VERSION, Scene, Skeleton, SkeletonField, Vertex,
+    Blend, Blob, Camera, Group, MAX_PRIMITIVES, Material, SCENE_VERSION, Scene, Skeleton,
+    SkeletonField, Vertex,
 };
 
 /// What to generate.
@@ -90,6 +91,37 @@ pub struct GenerateOptions {
     pub varying_radii: bool,
     /// Field type of skeletons (default SCALIS).
     pub field: Option<SkeletonField>,
+    /// Build scenes larger than [`MAX_PRIMITIVES`] primitives.
+    pub allow_large: bool,
+}
+
+/// Memory one generated primitive takes, scene and compiled scene together, rounded up: the
+/// scene's vertex and edge, the compiled primitive, its BVH box and kernel (checked against
+/// the types' sizes in `core/tests/scene_files.rs`).
+pub const BYTES_PER_PRIMITIVE: u64 = 400;
+
+/// How many primitives `generate(kind, options)` builds at most, before it builds anything:
+/// exact for random skeletons, trusses, blobs and molecules; for trees the count if every
+/// branch split in three (`(3^depth − 1)/2`); for foams 16 per Voronoi cell (generated foams
+/// have 8–11).
+#[must_use]
+pub fn estimated_primitives(kind: GeneratorKind, options: &GenerateOptions) -> u64 {
+    let size = options.size.unwrap_or_else(|| default_size(kind)).max(1) as u64;
+    match kind {
+        GeneratorKind::Tree => 3_u64
+            .checked_pow(u32::try_from(size).unwrap_or(u32::MAX))
+            .map_or(u64::MAX, |n| (n - 1) / 2),
+        GeneratorKind::RandomSkeleton | GeneratorKind::Blobs | GeneratorKind::Molecule => size,
+        GeneratorKind::Foam => size.saturating_mul(16),
+        GeneratorKind::Truss => {
+            // Axis edges 3c(c+1)², face diagonals 4c².
+            let c = size;
+            let n = c.saturating_add(1);
+            (3_u64.saturating_mul(c))
+                .saturating_mul(n.saturating_mul(n))
+                .saturating_add(4_u64.saturating_mul(c.saturating_mul(c)))
+        }
+    }
 }
 
 /// Default size of each kind.
@@ -107,8 +139,25 @@ pub fn default_size(kind: GeneratorKind) -> usize {
 
 /// Generates a scene, with the default camera (`compile::framing_camera` frames it once
 /// compiled: the model does not compile).
-#[must_use]
-pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Scene {
+///
+/// # Errors
+/// One line with the estimate and the limit when [`estimated_primitives`] exceeds
+/// [`MAX_PRIMITIVES`] and `options.allow_large` is not set; nothing is built then.
+pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Result<Scene, String> {
+    let estimate = estimated_primitives(kind, options);
+    if estimate > MAX_PRIMITIVES && !options.allow_large {
+        let size = options.size.unwrap_or_else(|| default_size(kind));
+        return Err(format!(
+            "{} of size {size} would build up to {estimate} primitives (about {} MB), over the \
+             limit of {MAX_PRIMITIVES}; choose a smaller --size or pass --allow-large",
+            kind.name(),
+            estimate.saturating_mul(BYTES_PER_PRIMITIVE) / 1_000_000
+        ));
+    }
+    Ok(build(kind, options))
+}
+
+fn build(kind: GeneratorKind, options: &GenerateOptions) -> Scene {
     let mut rng = SplitMix64::new(options.seed);
     let size = options.size.unwrap_or_else(|| default_size(kind)).max(1);
     let field = options.field.unwrap_or(SkeletonField::Scalis);
@@ -627,8 +676,8 @@ mod tests {
                 }),
                 ..GenerateOptions::default()
             };
-            let a = generate(kind, &options);
-            let b = generate(kind, &options);
+            let a = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+            let b = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
             assert!(a == b, "{name} is not deterministic");
             let reparsed = Scene::from_ron(&a.to_ron(), name);
             assert!(reparsed.is_ok(), "{name}: {reparsed:?}");
@@ -639,7 +688,8 @@ mod tests {
             let counts = a.counts();
             assert!(counts.segments + counts.blobs > 0, "{name} is empty");
             if kind != GeneratorKind::Truss {
-                let other = generate(kind, &GenerateOptions { seed: 8, ..options });
+                let other = generate(kind, &GenerateOptions { seed: 8, ..options })
+                    .unwrap_or_else(|e| panic!("{e}"));
                 assert!(a != other, "{name} ignores the seed");
             }
         }
@@ -654,7 +704,8 @@ mod tests {
                 size: Some(20),
                 ..GenerateOptions::default()
             },
-        );
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
         let skeleton = &s.groups[0].skeletons[0];
         let mut degree = vec![0; skeleton.vertices.len()];
         for &[a, b] in &skeleton.edges {
@@ -670,5 +721,78 @@ mod tests {
             degree.len()
         );
         assert!(degree.iter().all(|&d| d >= 1));
+    }
+
+    /// Every generator's estimate bounds what it builds, on sizes and seeds it was not tuned on,
+    /// and sizes past the limit are refused before anything is built.
+    #[test]
+    fn estimates_bound_the_built_scenes_and_the_limit_refuses_early() {
+        let mut rng = SplitMix64::new(99);
+        for &(kind, name) in &GeneratorKind::ALL {
+            for _ in 0..4 {
+                let size = match kind {
+                    GeneratorKind::Tree => 2 + rng.below(7),
+                    GeneratorKind::Truss => 1 + rng.below(5),
+                    GeneratorKind::Foam => 2 + rng.below(60),
+                    _ => 1 + rng.below(400),
+                };
+                let options = GenerateOptions {
+                    seed: rng.below(1000) as u64,
+                    size: Some(size),
+                    ..GenerateOptions::default()
+                };
+                let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+                let c = scene.counts();
+                let built = (c.segments + c.blobs) as u64;
+                let estimate = estimated_primitives(kind, &options);
+                assert!(
+                    built <= estimate,
+                    "{name} size {size}: {built} > {estimate}"
+                );
+            }
+        }
+        // A tree of depth 40 (the issue's out-of-memory case) is refused in one line.
+        let deep = GenerateOptions {
+            size: Some(40),
+            ..GenerateOptions::default()
+        };
+        let err = generate(GeneratorKind::Tree, &deep)
+            .err()
+            .unwrap_or_default();
+        assert!(
+            err.contains("tree of size 40")
+                && err.contains("1000000")
+                && err.contains("--allow-large"),
+            "{err}"
+        );
+        assert!(!err.contains('\n'));
+        for (kind, size) in [
+            (GeneratorKind::Truss, 100),
+            (GeneratorKind::Foam, 100_000),
+            (GeneratorKind::Molecule, 2_000_000),
+        ] {
+            let options = GenerateOptions {
+                size: Some(size),
+                ..GenerateOptions::default()
+            };
+            assert!(generate(kind, &options).is_err(), "{kind:?} {size}");
+        }
+        // The explicit option lifts the limit (checked on a size that is quick to build).
+        let over = GenerateOptions {
+            size: Some(1_000_001),
+            allow_large: true,
+            ..GenerateOptions::default()
+        };
+        assert!(estimated_primitives(GeneratorKind::RandomSkeleton, &over) > MAX_PRIMITIVES);
+        assert!(
+            generate(
+                GeneratorKind::RandomSkeleton,
+                &GenerateOptions {
+                    allow_large: false,
+                    ..over
+                }
+            )
+            .is_err()
+        );
     }
 }

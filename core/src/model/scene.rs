@@ -23,6 +23,10 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::field::kernel::{Kernel, KernelProfile};
 
+/// Most primitives a generator builds unless asked for more, and most that the repetitions of
+/// a scene file may expand it to: at about 400 bytes each (scene and compiled scene), 400 MB.
+pub const MAX_PRIMITIVES: u64 = 1_000_000;
+
 /// Version written by this build; files of other versions are refused with a clear message.
 pub const SCENE_VERSION: u32 = 1;
 
@@ -1065,6 +1069,7 @@ impl Scene {
         for (gi, group) in self.groups.iter().enumerate() {
             at(&format!("group {gi} '{}'", group.name), group.validate())?;
         }
+        self.check_expansion()?;
         self.validate_blend()?;
         let c = &self.camera;
         at("camera position", FINITE3.check3(c.position))?;
@@ -1093,6 +1098,32 @@ impl Scene {
             };
             at(&format!("{item} color"), COLOR.check3(color))?;
             at(&format!("{item} intensity"), NONNEGATIVE.check(intensity))?;
+        }
+        Ok(())
+    }
+
+    /// Repetitions multiply primitives without making the file any longer: a scene whose
+    /// repetitions expand it past [`MAX_PRIMITIVES`] is refused before anything is compiled.
+    fn check_expansion(&self) -> Result<(), String> {
+        if self.groups.iter().all(|g| g.repeat.is_none()) {
+            return Ok(());
+        }
+        let mut total: u64 = 0;
+        for g in &self.groups {
+            let items = g.skeletons.iter().map(|s| s.edges.len()).sum::<usize>()
+                + g.blobs.len()
+                + g.shapes.len()
+                + g.hrbfs.iter().map(|h| h.points.len() + 1).sum::<usize>();
+            let copies: u64 = g
+                .repeat
+                .map_or(1, |r| r.count.iter().map(|&n| u64::from(n)).product());
+            total = total.saturating_add((items as u64).saturating_mul(copies));
+        }
+        if total > MAX_PRIMITIVES {
+            return Err(format!(
+                "the groups' repetitions expand the scene to {total} primitives, over the limit \
+                 of {MAX_PRIMITIVES}; lower the repeat counts"
+            ));
         }
         Ok(())
     }
