@@ -35,7 +35,8 @@ pub const SURFACE_TOLERANCE: f64 = 1e-5;
 pub struct Extracted {
     /// World positions.
     pub positions: Vec<DVec3>,
-    /// Unit outward normals (−∇f/|∇f|).
+    /// Unit outward normals: −∇f/|∇f|, or the area-weighted normal of the vertex's triangles
+    /// where the gradient vanishes.
     pub normals: Vec<DVec3>,
     /// Triangles, counter-clockwise seen from outside, per group.
     pub triangles: Vec<Vec<[u32; 3]>>,
@@ -103,8 +104,10 @@ pub fn extract(
         positions.push(at);
         normals.push(-gradient.normalize_or_zero());
     }
-    let (positions, normals, triangles) = weld(positions, normals, &buffer.indices);
-    let triangles = orient_and_split(&program, &positions, &normals, triangles);
+    let (positions, mut normals, triangles) = weld(positions, normals, &buffer.indices);
+    let triangles = orient(&positions, &normals, triangles);
+    repair_normals(&positions, &mut normals, &triangles);
+    let triangles = split_by_group(&program, &positions, triangles);
     Ok(Extracted {
         positions,
         normals,
@@ -211,25 +214,54 @@ fn weld(
     (kept_positions, kept_normals, triangles)
 }
 
-/// Turns the triangles to face outwards (the side the normals point to, decided by the
-/// majority, as surface nets winds them consistently) and assigns each to the group whose
-/// field is largest at its centre.
-fn orient_and_split(
-    program: &FieldProgram,
-    positions: &[DVec3],
-    normals: &[DVec3],
-    triangles: Vec<[u32; 3]>,
-) -> Vec<Vec<[u32; 3]>> {
+/// Turns the triangles to face outwards: the side the normals point to, decided by the
+/// majority, as surface nets winds them consistently.
+fn orient(positions: &[DVec3], normals: &[DVec3], triangles: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
     let facing = |t: &[u32; 3]| {
         let [a, b, c] = t.map(|i| positions[i as usize]);
         let n = normals[t[0] as usize] + normals[t[1] as usize] + normals[t[2] as usize];
         (b - a).cross(c - a).dot(n)
     };
     let outward = triangles.iter().filter(|t| facing(t) > 0.0).count();
-    let flip = outward * 2 < triangles.len();
+    if outward * 2 < triangles.len() {
+        triangles.into_iter().map(|t| [t[0], t[2], t[1]]).collect()
+    } else {
+        triangles
+    }
+}
+
+/// Gives every vertex a unit normal (glTF requires NORMAL to be unit length): where the
+/// analytic gradient vanished or was not finite, the area-weighted normal of the vertex's
+/// outward-facing triangles; where those cancel too, any unit vector.
+fn repair_normals(positions: &[DVec3], normals: &mut [DVec3], triangles: &[[u32; 3]]) {
+    let is_unit = |n: DVec3| n.is_finite() && (n.length() - 1.0).abs() < 1e-6;
+    if normals.iter().all(|&n| is_unit(n)) {
+        return;
+    }
+    let mut faces = vec![DVec3::ZERO; normals.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        // The cross product's length is twice the area: an area-weighted sum.
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            faces[i as usize] += n;
+        }
+    }
+    for (n, face) in normals.iter_mut().zip(faces) {
+        if !is_unit(*n) {
+            *n = face.try_normalize().unwrap_or(DVec3::Z);
+        }
+    }
+}
+
+/// Assigns each triangle to the group whose field is largest at its centre.
+fn split_by_group(
+    program: &FieldProgram,
+    positions: &[DVec3],
+    triangles: Vec<[u32; 3]>,
+) -> Vec<Vec<[u32; 3]>> {
     let mut groups = vec![Vec::new(); program.group_count().max(1)];
     for t in triangles {
-        let t = if flip { [t[0], t[2], t[1]] } else { t };
         let centre =
             (positions[t[0] as usize] + positions[t[1] as usize] + positions[t[2] as usize]) / 3.0;
         let ray = Ray::new(centre, DVec3::X);
