@@ -2,9 +2,14 @@
 //! could not be). `render`, `bench` and the editor's render thread all pick a backend per
 //! method through [`Backends::choose`], i.e. `skeletrace_core::backend::choose`.
 
-use skeletrace_core::backend::{self, BackendChoice, BackendError, FrameBackend, FrameRequest};
+use std::sync::Arc;
+
+use skeletrace_core::backend::{
+    self, BackendChoice, BackendError, DeviceKind, FrameBackend, FrameRequest,
+};
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
+use skeletrace_core::frame::Frame;
 use skeletrace_core::methods::MethodId;
 use skeletrace_render::GpuBackend;
 
@@ -80,5 +85,30 @@ pub fn parse_backend_choice(text: &str) -> Result<BackendChoice, String> {
         other => Err(format!(
             "unknown backend '{other}'; expected cpu, gpu or auto"
         )),
+    }
+}
+
+/// A stand-in hardware GPU that supports everything and whose device fails at every frame, for
+/// the tests of fault handling (the editor's render thread, `render`, `bench`): put it in
+/// [`Backends::gpu`].
+pub struct FailingGpu;
+
+impl FrameBackend for FailingGpu {
+    fn describe(&self) -> String {
+        "failing GPU (injected)".to_owned()
+    }
+
+    fn device_kind(&self) -> DeviceKind {
+        DeviceKind::HardwareGpu
+    }
+
+    fn supports(&self, _: &Compiled, _: MethodId, _: &FrameRequest) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn render(&mut self, _: &Arc<Compiled>, _: &FrameRequest) -> Result<Vec<Frame>, BackendError> {
+        Err(BackendError::DeviceFailed(
+            "device lost (injected)".to_owned(),
+        ))
     }
 }

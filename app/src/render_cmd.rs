@@ -38,6 +38,11 @@ pub fn parse_size(text: &str) -> Result<(usize, usize), String> {
 /// Bad arguments, a scene error, a method that does not apply, a backend that does not
 /// support it or whose device failed, an unwritable output.
 pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
+    run_on(args, scene, &mut Backends::open(args.backend))
+}
+
+/// Runs `render` on the given backends.
+fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(), String> {
     let (width, height) = parse_size(&args.size)?;
     let compiled = compile(scene);
     let list = args
@@ -54,7 +59,6 @@ pub fn run(args: &RenderArgs, scene: &Scene) -> Result<(), String> {
     } else {
         View::Shaded
     });
-    let mut backends = Backends::open(args.backend);
     if args.backend == BackendChoice::Gpu
         && let Err(why) = &backends.gpu
     {
@@ -127,4 +131,50 @@ fn print_timing(name: &str, ms: f64, frame: &Frame) {
         "{name:<28} {ms:>8.1} ms   steps avg {:.2}, median {}, max {}",
         s.average, s.median, s.max
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+    use skeletrace::backends::FailingGpu;
+
+    use super::*;
+    use crate::cli::{Cli, Command};
+
+    /// A device that fails while `render` traces ends the command with the message, naming the
+    /// method and the device; nothing is written.
+    #[test]
+    fn a_failing_device_ends_render_with_a_clear_message() {
+        let out = std::env::temp_dir().join(format!("skeletrace-fail-{}.png", std::process::id()));
+        let out_arg = out.display().to_string();
+        let cli = Cli::parse_from([
+            "skeletrace",
+            "render",
+            "scene.ron",
+            "-o",
+            &out_arg,
+            "--backend",
+            "gpu",
+            "--size",
+            "16x12",
+            "--method",
+            "segment",
+        ]);
+        let Some(Command::Render(args)) = cli.command else {
+            panic!("render arguments");
+        };
+        let scene = skeletrace::editor::default_scene();
+        let mut backends = Backends::open(BackendChoice::Cpu);
+        backends.gpu = Ok(Box::new(FailingGpu));
+        let err = run_on(&args, &scene, &mut backends)
+            .err()
+            .unwrap_or_default();
+        assert!(
+            err.contains("segment")
+                && err.contains("failing GPU (injected)")
+                && err.contains("device failed: device lost (injected)"),
+            "{err}"
+        );
+        assert!(!out.exists(), "nothing is written after a device failure");
+    }
 }

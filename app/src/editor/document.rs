@@ -308,4 +308,145 @@ mod tests {
         assert!(!Arc::ptr_eq(&edited, &undone));
         assert_eq!(undone.program.primitives(), first.program.primitives());
     }
+
+    /// Random editing sequences on generated scenes (moves, radius drags, deletes, duplicates,
+    /// kernel, blend and field-type changes, new blobs — valid or not — undo and redo): no
+    /// panic, a refused edit leaves the scene as it was, every kept scene validates, undoing to
+    /// the start restores the generated scene exactly and redoing to the end the last one.
+    #[test]
+    fn random_editing_sequences_keep_valid_scenes_and_undo_redo_exactly() {
+        use skeletrace_core::field::kernel::Kernel;
+        use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+        use skeletrace_core::model::rng::SplitMix64;
+        use skeletrace_core::model::scene::{Blend, Blob, SkeletonField};
+
+        use crate::editor::selection::{self, Selection};
+
+        let mut rng = SplitMix64::new(4242);
+        let (mut kept, mut refused, mut travels) = (0, 0, 0);
+        let sequences = 2000;
+        for s in 0..sequences {
+            let (kind, _) = GeneratorKind::ALL[s % GeneratorKind::ALL.len()];
+            let size = match kind {
+                GeneratorKind::Tree => 3,
+                GeneratorKind::Truss | GeneratorKind::Foam => 2,
+                _ => 6,
+            };
+            let options = GenerateOptions {
+                seed: s as u64,
+                size: Some(size),
+                groups: Some(2),
+                ..GenerateOptions::default()
+            };
+            let start = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+            let mut doc = Document::new(start.clone(), None);
+            for _ in 0..5 + rng.below(25) {
+                let items = selection::all_items(doc.scene());
+                let mut chosen = Selection::new();
+                for _ in 0..1 + rng.below(3) {
+                    if !items.is_empty() {
+                        chosen.insert(items[rng.below(items.len())]);
+                    }
+                }
+                let groups = doc.scene().groups.len();
+                let g = rng.below(groups);
+                let x = rng.range(-1.0, 1.0);
+                let before = doc.scene().clone();
+                let result = match rng.below(10) {
+                    0 => doc.apply(Edit::new("move"), |sc| {
+                        selection::translate(sc, &chosen, [x, 0.5 * x, -x]);
+                    }),
+                    1 => doc.apply(Edit::new("radius"), |sc| {
+                        selection::scale_radius(sc, &chosen, 2.0_f64.powf(2.0 * x));
+                    }),
+                    2 => doc.apply(Edit::new("delete"), |sc| selection::delete(sc, &chosen)),
+                    3 => doc.apply(Edit::new("duplicate"), |sc| {
+                        selection::duplicate(sc, &chosen, [0.1, x, 0.0]);
+                    }),
+                    4 => {
+                        let kernel = match rng.below(3) {
+                            0 => Kernel::CompactPolynomial {
+                                degree: 1 + rng.below(10) as u32,
+                                scale: rng.range(0.5, 4.0),
+                            },
+                            1 => Kernel::Cauchy {
+                                degree: rng.below(8) as u32,
+                                scale: rng.range(-0.5, 3.0),
+                            },
+                            _ => Kernel::Gaussian {
+                                scale: rng.range(0.1, 3.0),
+                            },
+                        };
+                        doc.apply(Edit::new("kernel"), |sc| sc.groups[g].kernel = kernel)
+                    }
+                    5 => {
+                        let leaf = |k: usize| Blend::Group(k as u32);
+                        let blend = match rng.below(6) {
+                            0 => None,
+                            1 => Some(Blend::Max((0..groups).map(leaf).collect())),
+                            2 => Some(Blend::Min((0..=groups).map(leaf).collect())),
+                            3 => Some(Blend::Ricci {
+                                p: rng.range(0.5, 4.0),
+                                of: (0..groups).map(leaf).collect(),
+                            }),
+                            4 => Some(Blend::SmoothUnion {
+                                width: x,
+                                of: (0..groups).map(leaf).collect(),
+                            }),
+                            _ => Some(Blend::Difference(
+                                Box::new(leaf(0)),
+                                Box::new(leaf(groups - 1)),
+                            )),
+                        };
+                        doc.apply(Edit::new("blend"), |sc| sc.blend = blend)
+                    }
+                    6 => doc.apply(Edit::new("field type"), |sc| {
+                        for skeleton in &mut sc.groups[g].skeletons {
+                            skeleton.field = match skeleton.field {
+                                SkeletonField::Scalis => SkeletonField::Distance,
+                                SkeletonField::Distance => SkeletonField::Scalis,
+                            };
+                        }
+                    }),
+                    7 => doc.apply(Edit::new("add blob"), |sc| {
+                        sc.groups[g].blobs.push(Blob {
+                            center: [x, x * x, 0.3],
+                            radius: x,
+                        });
+                    }),
+                    8 => {
+                        travels += usize::from(doc.undo());
+                        Ok(())
+                    }
+                    _ => {
+                        travels += usize::from(doc.redo());
+                        Ok(())
+                    }
+                };
+                match result {
+                    Ok(()) => kept += 1,
+                    Err(_) => {
+                        refused += 1;
+                        assert_eq!(doc.scene(), &before, "a refused edit changed the scene");
+                    }
+                }
+                if let Err(e) = doc.scene().validate() {
+                    panic!("sequence {s}: a kept scene does not validate: {e}");
+                }
+            }
+            while doc.redo() {}
+            let end = doc.scene().clone();
+            while doc.undo() {}
+            assert_eq!(doc.scene(), &start, "sequence {s}: undo to the start");
+            while doc.redo() {}
+            assert_eq!(doc.scene(), &end, "sequence {s}: redo to the end");
+        }
+        eprintln!(
+            "{sequences} sequences: {kept} operations kept, {refused} refused, {travels} undo/redo"
+        );
+        assert!(
+            refused > 100 && kept > refused,
+            "{kept} kept, {refused} refused"
+        );
+    }
 }

@@ -221,31 +221,7 @@ fn attempt_on_cpu(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use skeletrace_core::backend::{FrameBackend, FrameRequest};
-
-    /// A hardware GPU that supports everything and fails at every frame.
-    struct FailingGpu;
-
-    impl FrameBackend for FailingGpu {
-        fn describe(&self) -> String {
-            "injected failing GPU".to_owned()
-        }
-        fn device_kind(&self) -> DeviceKind {
-            DeviceKind::HardwareGpu
-        }
-        fn supports(&self, _: &Compiled, _: MethodId, _: &FrameRequest) -> Result<(), String> {
-            Ok(())
-        }
-        fn render(
-            &mut self,
-            _: &Arc<Compiled>,
-            _: &FrameRequest,
-        ) -> Result<Vec<Frame>, BackendError> {
-            Err(BackendError::DeviceFailed(
-                "device lost (injected)".to_owned(),
-            ))
-        }
-    }
+    use crate::backends::FailingGpu;
 
     /// A device failure is reported, the frame is traced on the CPU instead, and the GPU is not
     /// tried again.
