@@ -578,6 +578,10 @@ mod tests {
     use std::collections::HashSet;
     use std::ffi::OsString;
 
+    use skeletrace_core::Scene;
+
+    use crate::editor::Edit;
+
     fn missing(vars: &[(&str, &str)], files: &[&str]) -> Option<String> {
         let files: HashSet<PathBuf> = files.iter().map(PathBuf::from).collect();
         dialog_missing(
@@ -623,5 +627,42 @@ mod tests {
         assert_eq!(picture, PathBuf::from("/tmp/model.v2.png"));
         let opened = with_extension(PathBuf::from("/tmp/README"), FilePurpose::Open);
         assert_eq!(opened, PathBuf::from("/tmp/README"));
+    }
+
+    /// A save that fails tells the user, keeps the document (still dirty, still editable), and
+    /// the recovery file autosaved before it loads back as the edited scene.
+    #[test]
+    fn a_failed_save_is_reported_and_the_recovery_file_loads() {
+        let dir = std::env::temp_dir().join(format!("skeletrace-crash-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        let recovery = dir.join("recovery.ron");
+        let doc = Document::new(super::super::default_scene(), None);
+        let mut editor = Editor::new(
+            doc,
+            super::super::UiState::default(),
+            Some(recovery.clone()),
+            || {},
+        );
+        assert!(editor.apply(Edit::new("move"), |s| {
+            s.groups[0].skeletons[0].vertices[0].position[1] += 0.25;
+        }));
+        let edited = editor.doc.scene().clone();
+        editor.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS + 1);
+        editor.autosave();
+        // The rename onto an existing directory fails after the text was written, even as root.
+        let target = dir.join("taken.ron");
+        std::fs::create_dir_all(target.join("inside")).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!editor.save(Some(target.clone())));
+        let notice = editor.notice().unwrap_or_default().to_owned();
+        assert!(editor.notice.as_ref().is_some_and(|n| n.error), "{notice}");
+        assert!(notice.contains("taken.ron"), "{notice}");
+        assert!(
+            editor.doc.is_dirty(),
+            "the document still holds the unsaved edit"
+        );
+        assert_eq!(editor.doc.scene(), &edited);
+        let restored = Scene::load(&recovery).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(restored, edited, "the recovery file holds the edited scene");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

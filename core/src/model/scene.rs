@@ -1029,6 +1029,17 @@ impl Scene {
     /// # Errors
     /// [`SceneError::Write`] when the file cannot be written or renamed.
     pub fn save_with_comment(&self, path: &Path, comment: &str) -> Result<(), SceneError> {
+        self.write_atomically(path, comment, |_| Ok(()))
+    }
+
+    /// The atomic write of [`Scene::save_with_comment`]; `before_rename` runs on the written,
+    /// flushed temporary file just before the rename (the tests make it fail there).
+    fn write_atomically(
+        &self,
+        path: &Path,
+        comment: &str,
+        before_rename: impl FnOnce(&Path) -> std::io::Result<()>,
+    ) -> Result<(), SceneError> {
         let file = path.display().to_string();
         let fail = |source| SceneError::Write {
             file: file.clone(),
@@ -1049,6 +1060,7 @@ impl Scene {
             }
             f.write_all(self.to_ron().as_bytes())?;
             f.sync_all()?;
+            before_rename(&temp)?;
             std::fs::rename(&temp, path)
         })();
         if result.is_err() {
@@ -1255,4 +1267,65 @@ fn position_of(text: &str, key: &str) -> (usize, usize) {
         }
     }
     (text.lines().count().max(1), 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A save that fails between the write and the rename leaves the old file as it was, no
+    /// temporary file behind, and says which file could not be written.
+    #[test]
+    fn a_save_failing_before_the_rename_keeps_the_old_file() {
+        let dir = std::env::temp_dir().join(format!("skeletrace-save-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        let path = dir.join("scene.ron");
+        let mut scene = Scene {
+            version: SCENE_VERSION,
+            isovalue: 1.0,
+            groups: vec![Group {
+                name: "g".to_owned(),
+                kernel: Kernel::default(),
+                material: Material::default(),
+                skeletons: Vec::new(),
+                blobs: vec![Blob {
+                    center: [0.0; 3],
+                    radius: 1.0,
+                }],
+                shapes: Vec::new(),
+                hrbfs: Vec::new(),
+                transform: Transform::default(),
+                repeat: None,
+            }],
+            blend: None,
+            camera: Camera::default(),
+            lights: Vec::new(),
+        };
+        scene.save(&path).unwrap_or_else(|e| panic!("{e}"));
+        let old = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{e}"));
+        scene.groups[0].blobs[0].radius = 2.0;
+        let mut written = None;
+        let err = scene
+            .write_atomically(&path, "", |temp| {
+                written = std::fs::read_to_string(temp).ok();
+                Err(std::io::Error::other("injected failure before the rename"))
+            })
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            written.is_some_and(|t| t.contains("radius: 2.0")),
+            "the new text was written in full before the failure"
+        );
+        assert!(
+            err.contains("scene.ron") && err.contains("injected"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&path).ok(), Some(old));
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .map(|d| d.filter_map(Result::ok).map(|e| e.file_name()).collect())
+            .unwrap_or_default();
+        assert_eq!(left.len(), 1, "temporary file left behind: {left:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
