@@ -7,7 +7,7 @@
 
 use std::time::Instant;
 
-use skeletrace_core::backend::{BackendChoice, BackendError, FrameRequest};
+use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
 use skeletrace_core::frame::{FieldShading, View};
 use skeletrace_core::{Scene, compile};
 
@@ -70,6 +70,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             view: View::Shaded(FieldShading::default()),
             shadows: false,
             settings: compiled.settings,
+            cancel: Cancel::new(),
         };
         let backend = match backends.choose(args.backend, &compiled, method, &request) {
             Ok(backend) => backend,

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use skeletrace_core::backend::{BackendChoice, BackendError, FrameRequest};
+use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
 use skeletrace_core::frame::{FieldShading, Frame, View as FrameView};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::{Scene, compile};
@@ -80,6 +80,7 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
             }),
             shadows: args.shadows,
             settings: compiled.settings,
+            cancel: Cancel::new(),
         };
         let backend = match backends.choose(args.backend, &compiled, method, &request) {
             Ok(backend) => backend,

@@ -9,6 +9,7 @@
 
 use std::fmt;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::compile::Compiled;
 use crate::frame::{Frame, View};
@@ -39,8 +40,32 @@ pub enum BackendChoice {
     Cpu,
 }
 
+/// Set by whoever asked for a frame once it is no longer wanted (the editor: a newer edit or
+/// camera); a backend that sees it stops and answers [`BackendError::Cancelled`].
+#[derive(Clone, Debug, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    /// A fresh flag, not set.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Asks the backend to stop.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether the frame is no longer wanted.
+    #[must_use]
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
 /// One frame request: a camera, a size, the methods (one frame each) and what to show.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct FrameRequest {
     /// The camera, always separate from the compiled scene.
     pub camera: Camera,
@@ -56,6 +81,8 @@ pub struct FrameRequest {
     pub shadows: bool,
     /// Trace settings (normally the compiled scene's).
     pub settings: TraceSettings,
+    /// Set when the frame is no longer wanted (the CPU backend checks it per pixel).
+    pub cancel: Cancel,
 }
 
 /// How long the last frame's passes ran on the device, from GPU timestamp queries: the
@@ -76,6 +103,8 @@ pub enum BackendError {
     Unsupported(String),
     /// The device failed (lost, out of memory, a shader that did not build): a fault.
     DeviceFailed(String),
+    /// The request was cancelled before its frames were done.
+    Cancelled,
 }
 
 impl fmt::Display for BackendError {
@@ -83,6 +112,7 @@ impl fmt::Display for BackendError {
         match self {
             Self::Unsupported(why) => write!(f, "not supported: {why}"),
             Self::DeviceFailed(why) => write!(f, "device failed: {why}"),
+            Self::Cancelled => write!(f, "cancelled"),
         }
     }
 }

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use eframe::egui;
 use skeletrace_core::Compiled;
-use skeletrace_core::backend::BackendChoice;
+use skeletrace_core::backend::{BackendChoice, Cancel};
 use skeletrace_core::frame::{FieldShading, Frame};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
@@ -166,6 +166,7 @@ impl ViewportFrames {
             backend: key.backend,
             shadows: key.shadows,
             shading: key.shading,
+            cancel: Cancel::new(),
         });
         self.requested = Some(key);
     }

@@ -641,6 +641,7 @@ impl Editor {
             backend: self.ui_state.backend,
             shadows: self.ui_state.shadows,
             shading: self.ui_state.shading,
+            cancel: skeletrace_core::backend::Cancel::new(),
         };
         let what = format!("screenshot {}", path.display());
         self.write_in_background(ctx, what, move || {

@@ -8,14 +8,14 @@
 //! frame says where it was traced. A GPU that fails (device lost, a shader that does not build)
 //! is dropped with the reason in the reply, and the same request is traced on the CPU.
 
-use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
 use skeletrace_core::Compiled;
 use skeletrace_core::backend::{
-    BackendChoice, BackendError, DeviceKind, FrameBackend as _, FrameRequest,
+    BackendChoice, BackendError, Cancel, DeviceKind, FrameBackend as _, FrameRequest,
 };
 use skeletrace_core::frame::{FieldShading, Frame, View};
 use skeletrace_core::methods::MethodId;
@@ -42,6 +42,9 @@ pub struct Request {
     pub shadows: bool,
     /// Field soft shadows and ambient occlusion in the shaded view.
     pub shading: FieldShading,
+    /// Set by [`RenderWorker::request`] when a newer request replaces this one: the CPU tracer
+    /// stops mid-frame and no reply is sent.
+    pub cancel: Cancel,
 }
 
 /// One traced frame.
@@ -74,6 +77,8 @@ pub struct Reply {
 /// Handle on the renderer thread.
 pub struct RenderWorker {
     requests: Option<Sender<Request>>,
+    /// The cancel flag of the newest request sent.
+    newest: Mutex<Option<Cancel>>,
     replies: Receiver<Reply>,
     thread: Option<JoinHandle<()>>,
 }
@@ -90,13 +95,20 @@ impl RenderWorker {
             .ok();
         Self {
             requests: Some(request_tx),
+            newest: Mutex::new(None),
             replies: reply_rx,
             thread,
         }
     }
 
-    /// Queues a request (older queued ones are dropped by the thread).
+    /// Queues a request: the one being traced is cancelled, older queued ones are dropped by
+    /// the thread.
     pub fn request(&self, request: Request) {
+        if let Ok(mut newest) = self.newest.lock()
+            && let Some(previous) = newest.replace(request.cancel.clone())
+        {
+            previous.cancel();
+        }
         if let Some(tx) = &self.requests {
             // A closed channel means the thread ended; the UI then shows its last frame.
             let _ = tx.send(request);
@@ -134,7 +146,10 @@ fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn())
         // The GPU is opened once, on the first request that may use it.
         let backends = backends.get_or_insert_with(|| Backends::open(request.backend));
         backends.open_gpu_for(request.backend);
-        let reply = trace(&request, backends);
+        // A cancelled request has a newer one behind it: that one gets the reply.
+        let Some(reply) = trace(&request, backends) else {
+            continue;
+        };
         if replies.send(reply).is_err() {
             return;
         }
@@ -142,8 +157,9 @@ fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn())
     }
 }
 
-/// Traces every method of `request`, each on the backend chosen for it.
-pub fn trace(request: &Request, backends: &mut Backends) -> Reply {
+/// Traces every method of `request`, each on the backend chosen for it; `None` when the request
+/// was cancelled meanwhile.
+pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
     let mut frames = Vec::new();
     let mut skipped = Vec::new();
     let mut device_failure = None;
@@ -156,6 +172,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Reply {
             view: View::Shaded(request.shading),
             shadows: request.shadows,
             settings: request.compiled.settings,
+            cancel: request.cancel.clone(),
         };
         if let Err(why) = method.method().supports(&request.compiled.program) {
             skipped.push(format!("{method}: {why}"));
@@ -183,6 +200,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Reply {
             other => other,
         };
         match traced {
+            Err(BackendError::Cancelled) => return None,
             Ok((frame, on_gpu)) => frames.push(Traced {
                 method,
                 frame,
@@ -196,13 +214,13 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Reply {
         Ok(gpu) => gpu.describe(),
         Err(why) => format!("no GPU ({why})"),
     };
-    Reply {
+    Some(Reply {
         id: request.id,
         frames,
         skipped,
         adapter,
         device_failure,
-    }
+    })
 }
 
 fn attempt_on_cpu(
@@ -239,8 +257,9 @@ mod tests {
             backend: BackendChoice::Auto,
             shadows: false,
             shading: FieldShading::default(),
+            cancel: Cancel::new(),
         };
-        let reply = trace(&request, &mut backends);
+        let reply = trace(&request, &mut backends).unwrap_or_else(|| panic!("not cancelled"));
         let failure = reply.device_failure.unwrap_or_default();
         assert!(failure.contains("device lost (injected)"), "{failure}");
         assert_eq!(
@@ -260,10 +279,54 @@ mod tests {
                 ..request
             },
             &mut backends,
-        );
+        )
+        .unwrap_or_else(|| panic!("not cancelled"));
         assert_eq!(again.frames.len(), 2, "{:?}", again.skipped);
         assert!(again.frames.iter().all(|t| !t.on_gpu));
         let failure = again.device_failure.unwrap_or_default();
         assert!(failure.contains("GPU failed"), "{failure}");
+    }
+
+    /// A request cancelled while it is traced gets no reply, and the CPU tracer stops early.
+    #[test]
+    fn a_cancelled_request_gets_no_reply() {
+        let scene = crate::editor::default_scene();
+        let mut backends = Backends::open(BackendChoice::Cpu);
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let request = Request {
+            id: 1,
+            compiled: skeletrace_core::compile(&scene),
+            camera: scene.camera,
+            size: (640, 480),
+            methods: vec![MethodId::Sphere],
+            backend: BackendChoice::Cpu,
+            shadows: false,
+            shading: FieldShading::default(),
+            cancel,
+        };
+        assert!(trace(&request, &mut backends).is_none());
+        // Through the thread: the first request is cancelled by the second, which is answered.
+        let worker = RenderWorker::start(|| {});
+        let first = Request {
+            id: 2,
+            cancel: Cancel::new(),
+            ..request.clone()
+        };
+        let second = Request {
+            id: 3,
+            size: (8, 6),
+            cancel: Cancel::new(),
+            ..request
+        };
+        let first_cancel = first.cancel.clone();
+        worker.request(first);
+        worker.request(second);
+        assert!(first_cancel.is_cancelled());
+        let reply = worker
+            .wait_for(3)
+            .unwrap_or_else(|| panic!("a reply to the newest request"));
+        assert_eq!(reply.id, 3);
+        assert_eq!(reply.frames.len(), 1);
     }
 }

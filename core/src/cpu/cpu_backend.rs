@@ -54,7 +54,8 @@ impl FrameBackend for CpuBackend {
                 .map_err(|why| BackendError::Unsupported(format!("{id}: {why}")))?;
             let tracer = method.prepare(&compiled.program, request.settings);
             let mut frame = Renderer::new(compiled, tracer.as_ref(), request.settings)
-                .render(&request.camera, options);
+                .render_unless_cancelled(&request.camera, options, &request.cancel)
+                .ok_or(BackendError::Cancelled)?;
             if let View::Steps { steps_max } = request.view {
                 let top = f64::from(steps_max.max(1));
                 for (colour, &steps) in frame.colour.iter_mut().zip(&frame.steps) {

@@ -16,6 +16,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::backend::Cancel;
 use crate::bounds::interval::Interval;
 use crate::compile::Compiled;
 use crate::cpu::shading::{ambient_occlusion, soft_shadow};
@@ -75,28 +76,47 @@ impl<'a> Renderer<'a> {
     /// Renders the view of `camera`; rays reach just past the farthest support seen from it.
     #[must_use]
     pub fn render(&self, camera: &Camera, options: RenderOptions) -> Frame {
+        match self.render_unless_cancelled(camera, options, &Cancel::new()) {
+            Some(frame) => frame,
+            // Nobody else holds this flag: it is never set.
+            None => unreachable!("a private cancel flag was set"),
+        }
+    }
+
+    /// As [`Renderer::render`], but every pixel first checks `cancel`: `None` once it is set.
+    #[must_use]
+    pub fn render_unless_cancelled(
+        &self,
+        camera: &Camera,
+        options: RenderOptions,
+        cancel: &Cancel,
+    ) -> Option<Frame> {
         let (w, h) = (options.width.max(1), options.height.max(1));
         let pinhole = PinholeCamera::new(camera);
         let context = FrameContext {
             options,
             far: far_distance(self.program, camera),
         };
-        let pixels: Vec<([f32; 3], f64, u32)> = (0..w * h)
+        let pixels: Option<Vec<([f32; 3], f64, u32)>> = (0..w * h)
             .into_par_iter()
             .map(|i| {
+                if cancel.is_cancelled() {
+                    return None;
+                }
                 let ray = pinhole.ray(i % w, i / w, w, h);
                 let mut steps = 0;
                 let (colour, depth) = self.radiance(&ray, 0, &context, &mut steps);
-                (colour.as_vec3().to_array(), depth, steps)
+                Some((colour.as_vec3().to_array(), depth, steps))
             })
             .collect();
-        Frame {
+        let pixels = pixels?;
+        Some(Frame {
             width: w,
             height: h,
             colour: pixels.iter().map(|p| p.0).collect(),
             depth: pixels.iter().map(|p| p.1).collect(),
             steps: pixels.iter().map(|p| p.2).collect(),
-        }
+        })
     }
 
     /// Colour seen along `ray` and the distance of its first crossing.
