@@ -41,6 +41,10 @@ impl Gesture {
 
 /// Pick distance, points.
 const PICK: f32 = 9.0;
+/// Most items the overlay draws: past it (a million-segment foam), only the selection is drawn
+/// and picked, so that the frame's mesh stays within what the GPU accepts (egui's index buffer
+/// once exceeded wgpu's 256 MiB buffer limit) and the UI stays interactive.
+const OVERLAY_ITEMS_MAX: usize = 20_000;
 const SELECTED: Color32 = Color32::from_rgb(255, 200, 60);
 
 /// An item as drawn: screen position (points), radius on screen, and for an HRBF point the
@@ -311,7 +315,26 @@ impl Editor {
         let mut drawn = Vec::new();
         let line = Stroke::new(1.5, Color32::from_rgba_unmultiplied(235, 235, 245, 170));
         let ring = Stroke::new(1.0, Color32::from_rgba_unmultiplied(140, 190, 255, 90));
-        for item in selection::all_items(scene) {
+        let counts = scene.counts();
+        let items = counts.vertices + counts.blobs + counts.hrbf_points;
+        let full = items + counts.segments <= OVERLAY_ITEMS_MAX;
+        let shown: Vec<Item> = if full {
+            selection::all_items(scene)
+        } else {
+            painter.text(
+                painter.clip_rect().left_bottom() + Vec2::new(10.0, -10.0),
+                egui::Align2::LEFT_BOTTOM,
+                format!(
+                    "{items} handles and {} segments: over {OVERLAY_ITEMS_MAX}, only the \
+                     selection is drawn",
+                    counts.segments
+                ),
+                egui::FontId::proportional(13.0),
+                Color32::LIGHT_GRAY,
+            );
+            self.selection.iter().copied().collect()
+        };
+        for item in shown {
             let Some((c, r)) = item.world_ball(scene) else {
                 continue;
             };
@@ -325,7 +348,7 @@ impl Editor {
                 tip: normal_tip(projection, to_screen, scene, item),
             });
         }
-        for (group, g) in scene.groups.iter().enumerate() {
+        for (group, g) in scene.groups.iter().enumerate().filter(|_| full) {
             let place = selection::placement(scene, group);
             let world = |p: [f64; 3]| place.point(glam::DVec3::from_array(p)).to_array();
             for s in &g.skeletons {
