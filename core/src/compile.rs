@@ -7,10 +7,10 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::field::program::FieldProgram;
-use crate::methods::TraceSettings;
 use glam::DVec3;
 
+use crate::field::program::FieldProgram;
+use crate::methods::TraceSettings;
 use crate::model::scene::{Camera, Light, Material, Scene};
 
 static COMPILES: AtomicU64 = AtomicU64::new(0);

@@ -9,6 +9,7 @@
 //! tracer.
 
 use bytemuck::{Pod, Zeroable};
+use skeletrace_core::FieldProgram;
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::field::blend::BlendTree;
 use skeletrace_core::field::kernel::Kernel;
@@ -136,6 +137,29 @@ fn flat_blend(blend: &BlendTree, groups: usize) -> Option<(BlendOperator, f32)> 
     seen.iter().all(|s| *s).then_some((op, width))
 }
 
+/// The shader kind of a primitive, or why the GPU backend does not evaluate it: the one place
+/// that says which primitives the GPU has shaders for.
+fn gpu_kind(p: &Primitive) -> Result<PrimitiveKind, String> {
+    match p {
+        Primitive::Point(_) => Ok(PrimitiveKind::Point),
+        Primitive::Distance(_) => Ok(PrimitiveKind::DistanceSegment),
+        Primitive::Scalis(_) => Ok(PrimitiveKind::ScalisSegment),
+        Primitive::Shape(s) => match s.solid {
+            Solid::Plane { .. } => Ok(PrimitiveKind::Plane),
+            other => Err(format!(
+                "the GPU backend does not evaluate {} shapes yet",
+                match other {
+                    Solid::Box { .. } => "box",
+                    Solid::RoundedBox { .. } => "rounded box",
+                    Solid::Torus { .. } => "torus",
+                    _ => "cylinder",
+                }
+            )),
+        },
+        Primitive::Hrbf(_) => Err("the GPU backend does not evaluate HRBF sets yet".to_owned()),
+    }
+}
+
 /// Fraction of a primitive's own surface radius that its occluder sphere takes: the sphere
 /// stays inside the isolated primitive's surface by a margin that f32 rounding cannot cross.
 const OCCLUDER_SHRINK: f64 = 0.999;
@@ -206,6 +230,31 @@ fn kernel(k: Kernel) -> GpuKernel {
 }
 
 impl PackedScene {
+    /// `Err` with the reason when the GPU backend does not evaluate `program` (too many groups,
+    /// a nested blend, a primitive it has no shader for), without packing anything; otherwise
+    /// the blend operator over the groups and its width.
+    ///
+    /// # Errors
+    /// What the GPU lacks for this scene.
+    pub fn check(program: &FieldProgram) -> Result<(BlendOperator, f32), String> {
+        let groups = program.group_count();
+        if groups > MAX_GROUPS {
+            return Err(format!(
+                "the GPU backend handles at most {MAX_GROUPS} groups (this scene has {groups})"
+            ));
+        }
+        let blend = flat_blend(program.blend(), groups).ok_or_else(|| {
+            "the GPU backend handles one sum, max, min or smooth union/intersection (of the \
+             groups in order) over all groups; this scene's blend tree is nested or uses \
+             difference/Ricci"
+                .to_owned()
+        })?;
+        for p in program.primitives() {
+            gpu_kind(p)?;
+        }
+        Ok(blend)
+    }
+
     /// Packs a compiled scene.
     ///
     /// # Errors
@@ -213,17 +262,7 @@ impl PackedScene {
     pub fn new(compiled: &Compiled) -> Result<Self, String> {
         let program = &compiled.program;
         let groups = program.group_count();
-        if groups > MAX_GROUPS {
-            return Err(format!(
-                "the GPU backend handles at most {MAX_GROUPS} groups (this scene has {groups})"
-            ));
-        }
-        let (blend, blend_width) = flat_blend(program.blend(), groups).ok_or_else(|| {
-            "the GPU backend handles one sum, max, min or smooth union/intersection (of the \
-             groups in order) over all groups; this scene's blend tree is nested or uses \
-             difference/Ricci"
-                .to_owned()
-        })?;
+        let (blend, blend_width) = Self::check(program)?;
         // Occluders hold where a primitive's own field bounds the blended field from below:
         // sums of non-negative kernels, maxima and the smooth union (≥ the maximum).
         let occluding = matches!(
@@ -237,47 +276,33 @@ impl PackedScene {
             let bound = p.support_aabb(k).map_or([0.0, 0.0, 0.0, -1.0], |b| {
                 f4(b.center(), 0.5 * b.diagonal())
             });
-            let (kind, a, b, c) = match p {
+            let kind = gpu_kind(p)?;
+            let (a, b, c) = match p {
                 Primitive::Point(x) => (
-                    PrimitiveKind::Point,
                     f4(x.center, x.radius),
                     [0.0; 4],
                     [x.norm as f32, 0.0, 0.0, 0.0],
                 ),
                 Primitive::Distance(x) => (
-                    PrimitiveKind::DistanceSegment,
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
                     [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
                 ),
                 Primitive::Scalis(x) => (
-                    PrimitiveKind::ScalisSegment,
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
                     [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
                 ),
                 Primitive::Shape(s) => match s.solid {
                     Solid::Plane { normal, offset } => (
-                        PrimitiveKind::Plane,
                         f4(normal, offset),
                         [s.radius as f32, 0.0, 0.0, 0.0],
                         [s.norm as f32, 0.0, 0.0, 0.0],
                     ),
-                    other => {
-                        return Err(format!(
-                            "the GPU backend does not evaluate {} shapes yet",
-                            match other {
-                                Solid::Box { .. } => "box",
-                                Solid::RoundedBox { .. } => "rounded box",
-                                Solid::Torus { .. } => "torus",
-                                _ => "cylinder",
-                            }
-                        ));
-                    }
+                    // `gpu_kind` refused every other shape above.
+                    _ => continue,
                 },
-                Primitive::Hrbf(_) => {
-                    return Err("the GPU backend does not evaluate HRBF sets yet".to_owned());
-                }
+                Primitive::Hrbf(_) => continue,
             };
             primitives.push(GpuPrimitive {
                 kind: kind as u32,

@@ -67,7 +67,7 @@ impl FrameBackend for GpuBackend {
         if request.shadows {
             return Err("exact shadow rays run on the CPU only".to_owned());
         }
-        PackedScene::new(compiled)?;
+        PackedScene::check(&compiled.program)?;
         if let View::Shaded(shading) = request.view {
             check_shading_budget(compiled, shading)?;
         }

@@ -555,16 +555,18 @@ impl GpuRenderer {
             })
         });
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
+        let n_prims = scene.packed.primitives.len() as u32;
         let tile_lists = self.binning.bin(
             &self.device,
             &self.queue,
             &scene.primitives,
-            scene.packed.primitives.len() as u32,
+            n_prims,
             geometry,
             queries.as_ref(),
         )?;
         self.check()?;
         self.last_tile_items = u64::from(tile_lists.total);
+        // Borrowed again: `check` and the tile count above needed `self` in between.
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let FrameGeometry {
             origin,
@@ -579,7 +581,6 @@ impl GpuRenderer {
             tiles_y,
             camera,
         } = *geometry;
-        let n_prims = scene.packed.primitives.len() as u32;
         let d = &self.device;
         let panels = methods.len() as u32;
         let out_width = width * panels;

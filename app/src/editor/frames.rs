@@ -51,7 +51,7 @@ pub(super) struct Shown {
 #[derive(Clone, PartialEq)]
 struct RenderKey {
     revision: u64,
-    camera: [u64; 7],
+    camera: Camera,
     size: (usize, usize),
     methods: Vec<MethodId>,
     backend: BackendChoice,
@@ -127,19 +127,10 @@ impl ViewportFrames {
         self.viewport_pixels = pixels.0 * pixels.1;
         let divisor = if interacting { self.preview_divisor } else { 1 };
         let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
-        let bits = |v: f64| v.to_bits();
         let shaded = view == ViewMode::Shaded;
         let key = RenderKey {
             revision,
-            camera: [
-                bits(camera.position[0]),
-                bits(camera.position[1]),
-                bits(camera.position[2]),
-                bits(camera.target[0]),
-                bits(camera.target[1]),
-                bits(camera.target[2]),
-                bits(camera.fov_degrees),
-            ],
+            camera,
             size,
             methods: methods.clone(),
             backend,

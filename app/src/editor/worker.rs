@@ -14,9 +14,7 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use skeletrace_core::Compiled;
-use skeletrace_core::backend::{
-    BackendChoice, BackendError, Cancel, DeviceKind, FrameBackend as _, FrameRequest,
-};
+use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, DeviceKind, FrameRequest};
 use skeletrace_core::frame::{FieldShading, Frame, View};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
@@ -179,9 +177,10 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
             continue;
         }
         let start = Instant::now();
-        let attempt = |backends: &mut Backends| -> Result<(Frame, bool), BackendError> {
-            let backend =
-                backends.choose(request.backend, &request.compiled, method, &frame_request)?;
+        let attempt = |backends: &mut Backends,
+                       choice: BackendChoice|
+         -> Result<(Frame, bool), BackendError> {
+            let backend = backends.choose(choice, &request.compiled, method, &frame_request)?;
             let on_gpu = backend.device_kind() != DeviceKind::Cpu;
             let frame = backend
                 .render(&request.compiled, &frame_request)?
@@ -189,13 +188,13 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
                 .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
             Ok((frame, on_gpu))
         };
-        let traced = match attempt(backends) {
+        let traced = match attempt(backends, request.backend) {
             Err(BackendError::DeviceFailed(why)) => {
                 // Say so, drop the GPU, and trace this and every later frame on the CPU.
                 let why = format!("GPU failed, continuing on the CPU: {why}");
                 backends.lose_gpu(&why);
                 device_failure = Some(why);
-                attempt_on_cpu(backends, &request.compiled, &frame_request)
+                attempt(backends, BackendChoice::Cpu)
             }
             other => other,
         };
@@ -221,19 +220,6 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
         adapter,
         device_failure,
     })
-}
-
-fn attempt_on_cpu(
-    backends: &mut Backends,
-    compiled: &Arc<Compiled>,
-    request: &FrameRequest,
-) -> Result<(Frame, bool), BackendError> {
-    let frame = backends
-        .cpu
-        .render(compiled, request)?
-        .pop()
-        .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
-    Ok((frame, false))
 }
 
 #[cfg(test)]
