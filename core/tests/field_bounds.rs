@@ -4,7 +4,9 @@
 
 mod common;
 
-use common::{KERNELS, KINDS, Kind, add_primitive, group, scene};
+use common::{
+    KERNELS, KINDS, Kind, add_primitive, every_operator, group, random_blend, random_groups, scene,
+};
 use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::bounds::affine::field_form;
@@ -144,61 +146,60 @@ bound_tests! {
     hrbf_bounds_hold: Kind::Hrbf;
 }
 
+/// Samples `batches × 100` random queries on scenes built by `make(rng)`; panics with the first
+/// violation.
+fn check_scenes(
+    label: &str,
+    batches: usize,
+    seed: u64,
+    make: impl Fn(&mut SplitMix64) -> skeletrace_core::model::scene::Scene + Sync,
+) {
+    let failures: Vec<String> = (0..batches)
+        .into_par_iter()
+        .flat_map_iter(|batch| {
+            let mut rng = SplitMix64::new(seed * 1_000_003 + batch as u64);
+            let scene = make(&mut rng);
+            let program = FieldProgram::new(&scene);
+            let blend = scene.blend;
+            (0..100).filter_map(move |_| {
+                let (ray, span) = random_query(&mut rng);
+                check(&program, &ray, span, &mut rng, 1e-8)
+                    .err()
+                    .map(|e| format!("{blend:?} ray {ray:?} span {span:?}: {e}"))
+            })
+        })
+        .collect();
+    assert!(
+        failures.is_empty(),
+        "{label}: {} violations, first: {}",
+        failures.len(),
+        failures[0]
+    );
+}
+
+/// 100 000 queries per operator, over two random groups of every primitive type.
 #[test]
 fn bounds_hold_through_every_blend_operator() {
-    let operators = |a: Blend, b: Blend| {
-        vec![
-            Blend::Sum(vec![a.clone(), b.clone()]),
-            Blend::Max(vec![a.clone(), b.clone()]),
-            Blend::Min(vec![a.clone(), b.clone()]),
-            Blend::Difference(Box::new(a.clone()), Box::new(b.clone())),
-            Blend::Ricci {
-                p: 2.5,
-                of: vec![a.clone(), b.clone()],
-            },
-            Blend::SmoothUnion {
-                width: 0.3,
-                of: vec![a.clone(), b.clone()],
-            },
-            Blend::SmoothUnion {
-                width: 2.0,
-                of: vec![a.clone(), b.clone()],
-            },
-            Blend::SmoothIntersection {
-                width: 0.5,
-                of: vec![a, b],
-            },
-        ]
-    };
-    for (i, blend) in operators(Blend::Group(0), Blend::Group(1))
+    for (i, blend) in every_operator(Blend::Group(0), Blend::Group(1))
         .into_iter()
         .enumerate()
     {
-        let failures: Vec<String> = (0..200)
-            .into_par_iter()
-            .flat_map_iter(|batch| {
-                let mut rng = SplitMix64::new(batch as u64 + 1000 * i as u64);
-                let mut groups = vec![group(KERNELS[0]), group(KERNELS[3])];
-                for g in &mut groups {
-                    for _ in 0..3 {
-                        let kind = KINDS[rng.below(KINDS.len())];
-                        add_primitive(g, kind, &mut rng);
-                    }
-                }
-                let program = FieldProgram::new(&scene(groups, Some(blend.clone())));
-                (0..100).filter_map(move |_| {
-                    let (ray, span) = random_query(&mut rng);
-                    check(&program, &ray, span, &mut rng, 1e-8).err()
-                })
-            })
-            .collect();
-        assert!(
-            failures.is_empty(),
-            "{blend:?}: {} violations, first: {}",
-            failures.len(),
-            failures[0]
-        );
+        check_scenes(&format!("{blend:?}"), 1000, i as u64, |rng| {
+            scene(random_groups(rng, 2), Some(blend.clone()))
+        });
     }
+}
+
+/// 100 000 queries on random blend trees of depth up to 4 over 2–5 random groups (a new tree
+/// and new groups for every 100 queries).
+#[test]
+fn bounds_hold_through_random_nested_blend_trees() {
+    check_scenes("nested trees", 1000, 99, |rng| {
+        let n = 2 + rng.below(4);
+        let groups = random_groups(rng, n);
+        let blend = random_blend(rng, 4, n as u32);
+        scene(groups, Some(blend))
+    });
 }
 
 #[test]
@@ -316,15 +317,13 @@ fn hrbf_affine_forms_hold() {
 
 #[test]
 fn bottom_up_inclusions_and_affine_forms_hold() {
-    let operators = [
-        None,
-        Some(Blend::Max(vec![Blend::Group(0), Blend::Group(1)])),
-        Some(Blend::Min(vec![Blend::Group(0), Blend::Group(1)])),
-        Some(Blend::Difference(
-            Box::new(Blend::Group(0)),
-            Box::new(Blend::Group(1)),
-        )),
-    ];
+    let operators: Vec<Option<Blend>> = std::iter::once(None)
+        .chain(
+            every_operator(Blend::Group(0), Blend::Group(1))
+                .into_iter()
+                .map(Some),
+        )
+        .collect();
     for kernel in KERNELS {
         for (i, blend) in operators.iter().enumerate() {
             let failures: Vec<String> = (0..100)
@@ -360,4 +359,31 @@ fn bottom_up_inclusions_and_affine_forms_hold() {
             );
         }
     }
+}
+
+/// The bottom-up inclusions and affine forms through random nested blend trees (depth ≤ 4).
+#[test]
+fn bottom_up_inclusions_and_affine_forms_hold_on_random_nested_trees() {
+    let failures: Vec<String> = (0..500)
+        .into_par_iter()
+        .flat_map_iter(|batch| {
+            let mut rng = SplitMix64::new(batch as u64 * 7_919 + 17);
+            let n = 2 + rng.below(4);
+            let groups = random_groups(&mut rng, n);
+            let blend = random_blend(&mut rng, 4, n as u32);
+            let program = FieldProgram::new(&scene(groups, Some(blend.clone())));
+            (0..100).filter_map(move |_| {
+                let (ray, span) = random_query(&mut rng);
+                check_bottom_up_and_affine(&program, &ray, span, &mut rng)
+                    .err()
+                    .map(|e| format!("{blend:?} {ray:?} {span:?}: {e}"))
+            })
+        })
+        .collect();
+    assert!(
+        failures.is_empty(),
+        "{} violations, first: {}",
+        failures.len(),
+        failures[0]
+    );
 }

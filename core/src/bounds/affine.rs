@@ -210,7 +210,8 @@ fn hrbf_form(term: &HrbfTerm, ray: &Ray, span: Interval) -> Option<AffineForm> {
     Some(radial + along(term.linear, term.constant))
 }
 
-/// Affine form of the field over `span`; `None` where the blend has no rule (Ricci).
+/// Affine form of the field over `span`; `None` where the blend has no rule (the smooth blends;
+/// Ricci where two operands may be positive).
 #[must_use]
 pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<AffineForm> {
     let mut groups = vec![AffineForm::constant(0.0); program.group_count()];
@@ -244,9 +245,17 @@ fn blend(b: &BlendTree, groups: &[AffineForm], isovalue: f64) -> Option<AffineFo
             let complement = blend(c, groups, isovalue)?.affine(-1.0, 2.0 * isovalue);
             Some(a.negate().max(complement.negate()).negate())
         }
-        BlendTree::Ricci { .. }
-        | BlendTree::SmoothUnion { .. }
-        | BlendTree::SmoothIntersection { .. } => None,
+        BlendTree::Ricci { of, .. } => {
+            // At most one operand positive: that operand's positive part (`blend::ricci_jet`).
+            let items: Option<Vec<_>> = of.iter().map(|c| blend(c, groups, isovalue)).collect();
+            let mut positive = items?.into_iter().filter(|f| f.range().hi > 0.0);
+            match (positive.next(), positive.next()) {
+                (None, _) => Some(AffineForm::constant(0.0)),
+                (Some(only), None) => Some(only.positive_part()),
+                (Some(_), Some(_)) => None,
+            }
+        }
+        BlendTree::SmoothUnion { .. } | BlendTree::SmoothIntersection { .. } => None,
     }
 }
 

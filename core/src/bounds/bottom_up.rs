@@ -137,8 +137,9 @@ fn primitive_taylor(
 }
 
 /// Bottom-up inclusion of the whole field on `[t, t + h]`: per primitive, summed per group,
-/// composed through the blend tree; where the tree has no composition rule (Ricci), the Taylor
-/// inclusion of the whole field (`f`, `f′` at `t` given).
+/// composed through the blend tree; where the tree has no composition rule (smooth blends;
+/// Ricci where two operands may be positive), the Taylor inclusion of the whole field (`f`, `f′`
+/// at `t` given).
 #[must_use]
 pub fn field_inclusion(
     program: &FieldProgram,

@@ -128,6 +128,20 @@ impl ForwardInclusion {
         self.start + self.upper.at(s)
     }
 
+    /// The largest value of the upper bound on `[0, length]`.
+    #[must_use]
+    pub fn upper_max(&self) -> f64 {
+        let h = self.length;
+        let mut top = self.start.max(self.upper_at(h));
+        if self.upper.b < 0.0 {
+            let apex = -self.upper.a / (2.0 * self.upper.b);
+            if apex > 0.0 && apex < h {
+                top = top.max(self.upper_at(apex));
+            }
+        }
+        top
+    }
+
     fn negate(self) -> Self {
         Self {
             start: -self.start,
@@ -199,7 +213,8 @@ impl std::ops::Add for ForwardInclusion {
 }
 
 /// Composes group inclusions through the blend tree; `None` for operators without a forward
-/// inclusion rule here (Ricci), where callers fall back to whole-field bounds.
+/// inclusion rule here (the smooth blends, and Ricci where two operands may be positive), where
+/// callers fall back to whole-field bounds.
 #[must_use]
 pub fn blend(
     b: &BlendTree,
@@ -231,9 +246,20 @@ pub fn blend(
             // −min(a, 2c − b) = max(−a, b − 2c)
             ForwardInclusion::max(&[a, complement]).map(ForwardInclusion::negate)
         }
-        BlendTree::Ricci { .. }
-        | BlendTree::SmoothUnion { .. }
-        | BlendTree::SmoothIntersection { .. } => None,
+        BlendTree::Ricci { of, .. } => {
+            // Where at most one operand can be positive on the interval the blend is that
+            // operand's positive part (see `blend::ricci_jet`); elsewhere there is no rule.
+            let items: Option<Vec<_>> = of.iter().map(|c| blend(c, groups, isovalue)).collect();
+            let items = items?;
+            let h = items.iter().map(|i| i.length).fold(f64::INFINITY, f64::min);
+            let mut positive = items.into_iter().filter(|i| i.upper_max() > 0.0);
+            match (positive.next(), positive.next()) {
+                (None, _) => Some(ForwardInclusion::zero(h)),
+                (Some(only), None) => Some(only.positive_part()),
+                (Some(_), Some(_)) => None,
+            }
+        }
+        BlendTree::SmoothUnion { .. } | BlendTree::SmoothIntersection { .. } => None,
     }
 }
 

@@ -205,27 +205,8 @@ pub fn jet(b: &BlendTree, groups: &[Jet], isovalue: f64) -> Jet {
             jet(a, groups, isovalue).min(complement)
         }
         BlendTree::Ricci { p, of } => {
-            let parts: Vec<Jet> = of
-                .iter()
-                .map(|c| jet(c, groups, isovalue).max(Jet::ZERO))
-                .collect();
-            if parts.iter().all(|j| *j == Jet::ZERO) {
-                return Jet::ZERO;
-            }
-            let sum = parts
-                .iter()
-                .map(|j| j.powf(*p))
-                .fold(Jet::ZERO, |a, c| a + c);
-            let mut result = sum.powf(1.0 / p);
-            // F′ = Σ wᵢ fᵢ′ with weights wᵢ = (fᵢ/F)^(p−1) in [0, 1].
-            let weighted = parts.iter().fold(Interval::ZERO, |acc, j| {
-                acc + Interval {
-                    lo: j.d1.lo.min(0.0),
-                    hi: j.d1.hi.max(0.0),
-                }
-            });
-            result.d1 = result.d1.intersect(weighted).unwrap_or(weighted);
-            result
+            let operands: Vec<Jet> = of.iter().map(|c| jet(c, groups, isovalue)).collect();
+            ricci_jet(*p, &operands)
         }
         BlendTree::SmoothUnion { width, of } => of
             .iter()
@@ -246,15 +227,18 @@ fn fold(v: &[BlendTree], groups: &[Jet], isovalue: f64, op: impl Fn(Jet, Jet) ->
     it.fold(first, op)
 }
 
-/// Lipschitz bound of `b` from the groups' bounds: sums add, the other operators are bounded by
-/// their largest operand (Ricci by the sum, its weights being at most 1; the smooth operators'
-/// gradients are convex combinations of their operands').
+/// Lipschitz bound of `b` from the groups' bounds: sums add, Ricci takes the p-norm of its
+/// operands' bounds (Hölder, see [`ricci_jet`]), the other operators are bounded by their largest
+/// operand (the smooth operators' gradients are convex combinations of their operands').
 #[must_use]
 pub fn lipschitz(b: &BlendTree, groups: &[f64]) -> f64 {
     match b {
         BlendTree::Group(i) => groups[*i as usize],
-        BlendTree::Sum(v) | BlendTree::Ricci { of: v, .. } => {
-            v.iter().map(|c| lipschitz(c, groups)).sum()
+        BlendTree::Sum(v) => v.iter().map(|c| lipschitz(c, groups)).sum(),
+        BlendTree::Ricci { p, of } => {
+            // |R′| = |Σ uᵢ^(p−1) gᵢ′| ≤ ‖(Lᵢ)‖_p by Hölder, since Σ (uᵢ^(p−1))^(p/(p−1)) = 1.
+            let sum: f64 = of.iter().map(|c| lipschitz(c, groups).powf(*p)).sum();
+            sum.powf(1.0 / p)
         }
         BlendTree::Max(v)
         | BlendTree::Min(v)
@@ -263,5 +247,151 @@ pub fn lipschitz(b: &BlendTree, groups: &[f64]) -> f64 {
             v.iter().map(|c| lipschitz(c, groups)).fold(0.0, f64::max)
         }
         BlendTree::Difference(a, c) => lipschitz(a, groups).max(lipschitz(c, groups)),
+    }
+}
+
+/// Jet of the Ricci blend `R = (Σ gᵢ^p)^(1/p)`, `gᵢ = max(fᵢ, 0)`, from its operands' jets,
+/// derived from the structure of a p-norm rather than by jet arithmetic through `x^(1/p)` (whose
+/// derivatives are unbounded where the sum approaches 0, which is most of space). With
+/// `uᵢ = gᵢ/R ∈ [0, 1]`, `Σ uᵢ^p = 1`:
+///
+/// - **No operand positive** on the interval: `R = 0`.
+/// - **One operand `k` that may be positive**, the others `≤ 0`: `R = max(f_k, 0)` exactly, so
+///   the interval costs what that operand costs (`f_k` itself where `f_k ≥ 0`).
+/// - `p = 1`: `R = Σ gᵢ`.
+/// - **Several**, `p > 1`:
+///   - value: `R` is increasing in every `gᵢ`, so `[‖g.lo‖_p, ‖g.hi‖_p]` is exact.
+///   - `R′ = Σ wᵢ gᵢ′` with weights `wᵢ = uᵢ^(p−1) ∈ [(gᵢ.lo/R.hi)^(p−1), min(1, gᵢ.hi/R.lo)^(p−1)]`.
+///   - `R″ = Σ wᵢ gᵢ″ + T`, `T = (p−1)/R · (Σ uᵢ^(p−2) gᵢ′² − R′²)`. By Cauchy–Schwarz
+///     (`R′² = (Σ uᵢ^(p/2) · uᵢ^(p/2−1) gᵢ′)² ≤ Σ uᵢ^p · Σ uᵢ^(p−2) gᵢ′²`) `T ≥ 0`: the p-norm is
+///     convex. Above, `T ≤ (p−1)/R.lo · (Σ sup uᵢ^(p−2) · sup gᵢ′² − inf R′²)`, with
+///     `sup uᵢ^(p−2)` at the largest `uᵢ` for `p ≥ 2` and at the smallest for `p < 2` (infinite
+///     where `gᵢ` may vanish: the blend's curvature really is unbounded there when `p < 2`).
+///     `T` grows like `1/R` only where every operand is small at once, far below the isovalue.
+///   - Each `gᵢ` enters with `gᵢ′` and `gᵢ″` hulled with 0 where `fᵢ` crosses 0: the jump of
+///     `gᵢ′` at the crossing is multiplied by `wᵢ = 0` there, so `R` stays C¹ (for `p > 1`).
+///
+/// Where `R` itself reaches 0 inside the interval it may have a kink (`R = |t|` for operands `t`
+/// and `−t`); that point is a minimum of `R ≥ 0`, a convex kink, which the infinite `T` bound
+/// (`R.lo = 0`) covers.
+#[must_use]
+pub fn ricci_jet(p: f64, operands: &[Jet]) -> Jet {
+    let positive: Vec<&Jet> = operands.iter().filter(|f| f.value.hi > 0.0).collect();
+    match positive.as_slice() {
+        [] => return Jet::ZERO,
+        [only] => return only.max(Jet::ZERO),
+        _ => {}
+    }
+    if p == 1.0 {
+        return positive
+            .iter()
+            .fold(Jet::ZERO, |acc, f| acc + f.max(Jet::ZERO));
+    }
+    // gᵢ with the C¹ clamp (see above).
+    let parts: Vec<Jet> = positive
+        .iter()
+        .map(|f| {
+            if f.value.lo >= 0.0 {
+                **f
+            } else {
+                Jet {
+                    value: Interval {
+                        lo: 0.0,
+                        hi: f.value.hi,
+                    },
+                    d1: f.d1.include(0.0),
+                    d2: f.d2.include(0.0),
+                }
+            }
+        })
+        .collect();
+    let norm = |end: fn(&Interval) -> f64| {
+        parts
+            .iter()
+            .map(|g| end(&g.value).powf(p))
+            .sum::<f64>()
+            .powf(1.0 / p)
+    };
+    let value = Interval {
+        lo: norm(|v| v.lo),
+        hi: norm(|v| v.hi),
+    };
+    let ratio = |g: &Jet| Interval {
+        lo: g.value.lo / value.hi,
+        hi: if value.lo > 0.0 {
+            (g.value.hi / value.lo).min(1.0)
+        } else {
+            1.0
+        },
+    };
+    let (mut d1, mut weighted_d2, mut curvature) = (Interval::ZERO, Interval::ZERO, 0.0);
+    for g in &parts {
+        let u = ratio(g);
+        let weight = Interval {
+            lo: u.lo.powf(p - 1.0),
+            hi: u.hi.powf(p - 1.0),
+        };
+        d1 = d1 + weight * g.d1;
+        weighted_d2 = weighted_d2 + weight * g.d2;
+        let slope_squared = g.d1.square().hi;
+        if slope_squared > 0.0 {
+            let sup_u = if p >= 2.0 { u.hi } else { u.lo };
+            curvature += sup_u.powf(p - 2.0) * slope_squared;
+        }
+    }
+    let curvature = (curvature - d1.square().lo).max(0.0);
+    let t_hi = if curvature == 0.0 {
+        0.0
+    } else {
+        (p - 1.0) * curvature / value.lo
+    };
+    Jet {
+        value,
+        d1,
+        d2: Interval {
+            lo: weighted_d2.lo,
+            hi: weighted_d2.hi + t_hi,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn jet(value: (f64, f64), d1: (f64, f64), d2: (f64, f64)) -> Jet {
+        Jet {
+            value: Interval::new(value.0, value.1),
+            d1: Interval::new(d1.0, d1.1),
+            d2: Interval::new(d2.0, d2.1),
+        }
+    }
+
+    #[test]
+    fn ricci_of_one_positive_operand_is_that_operand() {
+        let f = jet((0.2, 1.4), (-3.0, 2.0), (-5.0, 7.0));
+        let off = jet((-2.0, 0.0), (-1.0, 1.0), (-9.0, 9.0));
+        for p in [1.0, 1.5, 4.0] {
+            assert_eq!(ricci_jet(p, &[off, f, off]), f);
+            assert_eq!(ricci_jet(p, &[off, off]), Jet::ZERO);
+        }
+    }
+
+    #[test]
+    fn ricci_bounds_are_finite_where_the_blend_is_smooth() {
+        let a = jet((0.5, 1.5), (-2.0, 2.0), (-4.0, 4.0));
+        let b = jet((0.1, 0.8), (-1.0, 3.0), (-2.0, 6.0));
+        for p in [2.0, 4.0, 8.0] {
+            let r = ricci_jet(p, &[a, b]);
+            assert!(r.d2.lo.is_finite() && r.d2.hi.is_finite(), "p = {p}: {r:?}");
+            // max ≤ R ≤ Σ on the values.
+            assert!(r.value.lo >= 0.5 && r.value.hi <= 1.5 + 0.8);
+            // |R′| ≤ Σ |gᵢ′| and, the weights being at most 1, within the operands' hull sum.
+            assert!(r.d1.lo >= -3.0 && r.d1.hi <= 5.0);
+        }
+        // p < 2 with an operand that may vanish: the curvature is genuinely unbounded above.
+        let c = jet((-0.5, 0.8), (-1.0, 3.0), (-2.0, 6.0));
+        let r = ricci_jet(1.5, &[a, c]);
+        assert!(r.d2.hi.is_infinite() && r.d2.lo.is_finite());
     }
 }

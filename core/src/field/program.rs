@@ -344,17 +344,30 @@ impl FieldProgram {
             .map(|(p, _)| p)
     }
 
-    /// A global Lipschitz bound of the blended field (sphere tracing, Hart 1996): every blend
-    /// operator's gradient is bounded by the sum of its operands' gradients, and at any point
-    /// only primitives whose support boxes overlap each other contribute, so the largest sum
-    /// over a primitive and the primitives overlapping it bounds `|∇f|` everywhere.
+    /// A global Lipschitz bound of the blended field (sphere tracing, Hart 1996). Each blend
+    /// operator's gradient is bounded through [`blend::lipschitz`], a monotone, subadditive and
+    /// positively homogeneous function of its groups' bounds `Lᵍ`, so it is at most
+    /// `Σ_g w_g·Lᵍ` with `w_g` the tree's bound for `Lᵍ = 1` and the others 0 (1 for every group
+    /// of a sum or max tree; more where a group appears twice, as in `Sum([G0, G0])`). At any
+    /// point only primitives whose support boxes overlap each other contribute to `Lᵍ`, so the
+    /// largest weighted sum over a primitive and the primitives overlapping it bounds `|∇f|`
+    /// everywhere.
     #[must_use]
     pub fn global_lipschitz(&self) -> f64 {
+        let weights: Vec<f64> = (0..self.group_count())
+            .map(|g| {
+                let mut unit = vec![0.0; self.group_count()];
+                unit[g] = 1.0;
+                blend::lipschitz(&self.blend, &unit)
+            })
+            .collect();
         let lipschitz: Vec<f64> = self
             .primitives
             .iter()
             .enumerate()
-            .map(|(i, p)| p.lipschitz(self.kernel_of(i as u32)))
+            .map(|(i, p)| {
+                weights[self.groups_of[i] as usize] * p.lipschitz(self.kernel_of(i as u32))
+            })
             .collect();
         let unbounded: f64 = self.unbounded.iter().map(|&i| lipschitz[i as usize]).sum();
         let mut worst = unbounded;

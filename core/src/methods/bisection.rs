@@ -1,6 +1,7 @@
 //! Interval bisection with pruning, the root finder of the self-validated baselines
 //! (forward-inclusion 2023 Table 1: revised affine arithmetic and bottom-up linear bisection):
-//! an interval whose enclosure of `f` excludes the isovalue is dropped, others are split, left
+//! an interval whose enclosure of `f` excludes the isovalue (by more than its rounding error) is
+//! dropped, others are split, left
 //! half first, until they are shorter than `epsilon`; there a sign change between the end points
 //! is a crossing. One step is one enclosure computed.
 
@@ -8,7 +9,9 @@ use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 
-use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::{
+    Crossing, RayTracer, Trace, TraceMode, TraceSettings, excludes_isovalue, trace_supports,
+};
 
 /// Bisects `part`; `enclosure(interval, trace)` returns a range of `f` over the interval, or
 /// `None` when it cannot bound it (the interval is then split).
@@ -28,7 +31,7 @@ fn bisect(
             return;
         }
         trace.steps += 1;
-        if enclosure(i, trace).is_some_and(|r| !r.contains(c)) {
+        if enclosure(i, trace).is_some_and(|r| excludes_isovalue(r, c)) {
             continue;
         }
         if i.width() > settings.epsilon {

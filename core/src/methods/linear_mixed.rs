@@ -1,7 +1,7 @@
 //! Linear mixed tracing (forward-inclusion 2023 §7.2): linear Taylor inclusions for each group
 //! (the sums of primitives, where derivatives are easy to bound), composed bottom-up through the
 //! blend tree — the max keeps its kink instead of widening the derivative bounds of the whole
-//! field. Blends without a forward-inclusion rule (Ricci) use the whole-field Taylor bound.
+//! field. Blends without a forward-inclusion rule (smooth blends; Ricci where two operands may be positive) use the whole-field Taylor bound.
 
 use super::MethodId;
 use crate::bounds::inclusion::ForwardInclusion;

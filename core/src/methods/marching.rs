@@ -155,7 +155,7 @@ where
 
 /// The mixed inclusion of forward-inclusion 2023 §7.2: `leaf(f_g(t), f_g′(t), jet_g, h)` for each
 /// group, composed bottom-up through the blend tree; where the blend has no forward-inclusion
-/// rule (Ricci), `leaf` applied to the whole field.
+/// rule (smooth blends; Ricci where two operands may be positive), `leaf` applied to the whole field.
 pub(crate) fn mixed_inclusion(
     p: &FieldProgram,
     ray: &Ray,

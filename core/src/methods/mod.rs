@@ -160,6 +160,29 @@ pub trait RayTracer: Sync {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace;
 }
 
+/// The crossing at `t` where the field jumps across the isovalue, if it does (values just
+/// before and just after `t`).
+fn jump_crossing(program: &FieldProgram, ray: &Ray, t: f64, trace: &mut Trace) -> Option<Crossing> {
+    let inset = 1e-9 * (1.0 + t.abs());
+    let c = program.isovalue();
+    trace.evaluations += 2;
+    let before = program.along_ray(ray, t - inset).0 >= c;
+    let after = program.along_ray(ray, t + inset).0 >= c;
+    (before != after).then_some(Crossing { t, entering: after })
+}
+
+/// Relative slack on an enclosure's rounding error (the interval and affine arithmetic round to
+/// nearest, not outwards): where a bisection point lands on the surface, `f` there may round
+/// to exactly `c` and an enclosure a few ulps above it.
+const ROUNDING_SLACK: f64 = 1e-10;
+
+/// Whether `range` (an enclosure of `f` over an interval) excludes the isovalue `c` by more than
+/// its rounding error: only then may a bisection drop the interval.
+pub(crate) fn excludes_isovalue(range: Interval, c: f64) -> bool {
+    let slack = ROUNDING_SLACK * (1.0 + c.abs() + range.magnitude());
+    range.hi < c - slack || range.lo > c + slack
+}
+
 /// Every method's CPU implementation, in the order of DESIGN.md's table.
 #[must_use]
 pub fn all() -> Vec<Box<dyn Method>> {
@@ -168,6 +191,11 @@ pub fn all() -> Vec<Box<dyn Method>> {
 
 /// Calls `trace_span` on each part of `span` inside some support, collecting crossings and
 /// counts; stops after the first crossing in opaque mode or when the step budget is spent.
+///
+/// Parts that touch are cut at an HRBF set's box, where the field may jump (the surface is cut
+/// there, scene-format.md): a jump across the isovalue is a crossing at the cut, which no method
+/// sees as a sign change inside one part. It is recorded here, once for every method, unless the
+/// part before already ended on it (its last crossing points the same way: crossings alternate).
 pub(crate) fn trace_supports(
     program: &FieldProgram,
     ray: &Ray,
@@ -177,7 +205,21 @@ pub(crate) fn trace_supports(
     mut trace_span: impl FnMut(Interval, &mut Trace),
 ) -> Trace {
     let mut trace = Trace::default();
+    let mut previous_end = None;
     for part in program.ray_support_unions(ray, span) {
+        if previous_end == Some(part.lo)
+            && let Some(jump) = jump_crossing(program, ray, part.lo, &mut trace)
+            && trace
+                .crossings
+                .last()
+                .is_none_or(|last| last.entering != jump.entering)
+        {
+            trace.crossings.push(jump);
+            if mode == TraceMode::Opaque {
+                break;
+            }
+        }
+        previous_end = Some(part.hi);
         trace_span(part, &mut trace);
         if (mode == TraceMode::Opaque && !trace.crossings.is_empty()) || trace.steps >= max_steps {
             break;

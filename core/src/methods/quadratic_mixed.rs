@@ -1,7 +1,7 @@
 //! Quadratic mixed tracing (forward-inclusion 2023 §7.2, appendix C): quadratic Taylor
 //! inclusions for each group, composed bottom-up through the blend tree (the maximum of
 //! quadratic inclusions takes the maxima of their Bézier control points). Blends without a
-//! forward-inclusion rule (Ricci) use the whole-field quadratic Taylor bound.
+//! forward-inclusion rule (smooth blends; Ricci where two operands may be positive) use the whole-field quadratic Taylor bound.
 
 use super::MethodId;
 use crate::bounds::inclusion::ForwardInclusion;

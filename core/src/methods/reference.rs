@@ -1,17 +1,21 @@
 //! The reference root finder (MATH.md §7): interval bisection with the field engine's value
 //! enclosures. An interval `[a, b]` holds no crossing, and is dropped, when the enclosure of `f`
 //! lies on one side of the isovalue or when `|f(m) − c| > λ(b − a)/2` with `m` the midpoint and
-//! `λ` the local Lipschitz bound (the test of MATH.md §7, which tightens as intervals shrink).
-//! Others are split, left half first, down to a width of 10⁻⁷ of the scene diagonal, where a sign change between the end points locates a crossing (refined by
-//! bisection on the sign change). Every true crossing is found, except pairs closer together than
-//! that width. Slow; it is the ground truth of the statistics and the tests.
+//! `λ` the local Lipschitz bound (the test of MATH.md §7, which tightens as intervals shrink),
+//! both with a slack of 10⁻¹⁰ for rounding. Others are split, left half first, down to a width
+//! of 10⁻⁷ of the scene diagonal, where a sign change between the end points locates a crossing
+//! (refined by bisection on the sign change); jumps across `c` at an HRBF set's box are
+//! crossings (`trace_supports`). Every true crossing is found, except pairs closer together
+//! than that width. Slow; it is the ground truth of the statistics and the tests.
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 
-use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::{
+    Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, excludes_isovalue, trace_supports,
+};
 
 /// `reference`.
 pub struct Reference;
@@ -73,8 +77,10 @@ impl RayTracer for Prepared<'_> {
                     let mid = 0.5 * (i.lo + i.hi);
                     trace.evaluations += 1;
                     let f_mid = self.program.along_ray(ray, mid).0;
+                    // The Lipschitz test: `f` stays within `reach` of `f(mid)` on the interval.
                     let reach = 0.5 * i.width() * jet.d1.magnitude();
-                    if jet.value.hi < c || jet.value.lo > c || (f_mid - c).abs() > reach {
+                    let lipschitz_range = Interval::new(f_mid - reach, f_mid + reach);
+                    if excludes_isovalue(jet.value, c) || excludes_isovalue(lipschitz_range, c) {
                         continue;
                     }
                     if i.width() > self.resolution {

@@ -233,3 +233,91 @@ pub fn numeric_gradient(
         program.value(p + DVec3::Z * h) - program.value(p - DVec3::Z * h),
     ) / (2.0 * h)
 }
+
+/// One instance of every blend operator over two operands `a` and `b` (Ricci at several
+/// exponents, below and above 2 where its curvature bound changes form).
+pub fn every_operator(a: Blend, b: Blend) -> Vec<Blend> {
+    let two = vec![a.clone(), b.clone()];
+    let mut ops = vec![
+        Blend::Sum(two.clone()),
+        Blend::Max(two.clone()),
+        Blend::Min(two.clone()),
+        Blend::Difference(Box::new(a), Box::new(b)),
+    ];
+    for p in [1.0, 1.5, 2.0, 4.0] {
+        ops.push(Blend::Ricci { p, of: two.clone() });
+    }
+    ops.push(Blend::SmoothUnion {
+        width: 0.3,
+        of: two.clone(),
+    });
+    ops.push(Blend::SmoothUnion {
+        width: 2.0,
+        of: two.clone(),
+    });
+    ops.push(Blend::SmoothIntersection {
+        width: 0.5,
+        of: two,
+    });
+    ops
+}
+
+/// A random blend tree of depth at most `depth` over groups `0..groups`: every operator, 1–3
+/// operands each, leaves drawn with repetition. The last `groups / 2` groups appear only as the
+/// subtracted side of a difference: a group on both sides, as in `Min([X, Difference(Y, X)])`,
+/// makes `min(f, 2c − f)`, which touches `c` on the whole surface of `X` without crossing it, a
+/// degenerate zero-thickness shell on which "first crossing" has no answer.
+pub fn random_blend(rng: &mut SplitMix64, depth: usize, groups: u32) -> Blend {
+    let all: Vec<u32> = (0..groups).collect();
+    let (positive, subtracted) = all.split_at((groups - groups / 2) as usize);
+    random_subtree(rng, depth, positive, subtracted)
+}
+
+fn random_subtree(rng: &mut SplitMix64, depth: usize, groups: &[u32], subtracted: &[u32]) -> Blend {
+    if depth == 0 || rng.below(4) == 0 {
+        return Blend::Group(groups[rng.below(groups.len())]);
+    }
+    let operator = rng.below(7);
+    if operator == 3 && !subtracted.is_empty() {
+        return Blend::Difference(
+            Box::new(random_subtree(rng, depth - 1, groups, subtracted)),
+            Box::new(random_subtree(rng, depth - 1, subtracted, &[])),
+        );
+    }
+    let (p, width) = (
+        [1.0, 1.5, 2.0, 3.0, 4.0, 8.0][rng.below(6)],
+        rng.range(0.1, 1.5),
+    );
+    let n = 1 + rng.below(3);
+    let of: Vec<Blend> = (0..n)
+        .map(|_| random_subtree(rng, depth - 1, groups, subtracted))
+        .collect();
+    match operator {
+        0 | 3 => Blend::Sum(of),
+        1 => Blend::Max(of),
+        2 => Blend::Min(of),
+        4 => Blend::Ricci { p, of },
+        5 => Blend::SmoothUnion { width, of },
+        _ => Blend::SmoothIntersection { width, of },
+    }
+}
+
+/// `n` groups of 1–3 random primitives each, every primitive type possible (HRBF sets alone in
+/// their group, as the scene format requires), kernels drawn from [`KERNELS`].
+pub fn random_groups(rng: &mut SplitMix64, n: usize) -> Vec<Group> {
+    (0..n)
+        .map(|_| {
+            let mut g = group(KERNELS[rng.below(KERNELS.len())]);
+            let kind = KINDS[rng.below(KINDS.len())];
+            if kind == Kind::Hrbf {
+                add_primitive(&mut g, kind, rng);
+            } else {
+                for _ in 0..1 + rng.below(3) {
+                    let other = KINDS[rng.below(KINDS.len() - 1)];
+                    add_primitive(&mut g, other, rng);
+                }
+            }
+            g
+        })
+        .collect()
+}
