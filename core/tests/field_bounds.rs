@@ -13,6 +13,7 @@ use skeletrace_core::bounds::affine::field_form;
 use skeletrace_core::bounds::bottom_up::{Degree, field_inclusion};
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::Primitive;
+use skeletrace_core::field::ray_field::RayField;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::Blend;
 use skeletrace_core::{FieldProgram, Interval, Ray};
@@ -246,9 +247,10 @@ fn check_bottom_up_and_affine(
     rng: &mut SplitMix64,
 ) -> Result<(), String> {
     let span = continuous_span(program, ray, span);
+    let field = RayField::new(program, ray, span);
     let (f0, d0) = program.along_ray(ray, span.lo);
     for degree in [Degree::Linear, Degree::Quadratic] {
-        let inc = field_inclusion(program, ray, (span.lo, f0, d0, span.width()), degree);
+        let inc = field_inclusion(&field, (span.lo, f0, d0, span.width()), degree);
         if (inc.start - f0).abs() > 1e-9 * (1.0 + f0.abs()) {
             return Err(format!("{degree:?}: start {} ≠ f = {f0}", inc.start));
         }
@@ -266,7 +268,7 @@ fn check_bottom_up_and_affine(
             }
         }
     }
-    if let Some(form) = field_form(program, ray, span) {
+    if let Some(form) = field_form(&field, span) {
         let range = form.range();
         for _ in 0..6 {
             let t = rng.range(span.lo, span.hi);
@@ -296,7 +298,7 @@ fn hrbf_affine_forms_hold() {
             (0..100).filter_map(move |_| {
                 let (ray, span) = random_query(&mut rng);
                 let span = continuous_span(&program, &ray, span);
-                let range = field_form(&program, &ray, span)?.range();
+                let range = field_form(&RayField::new(&program, &ray, span), span)?.range();
                 (0..=16).find_map(|k| {
                     let t = span.lo + span.width() * f64::from(k) / 16.0;
                     let f = program.along_ray(&ray, t).0;

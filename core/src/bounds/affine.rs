@@ -20,7 +20,7 @@ use crate::field::blend::BlendTree;
 use crate::field::geometry::Ray;
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::{HrbfTerm, PointBlob, Primitive};
-use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use std::ops::{Add, Mul};
 
@@ -213,9 +213,10 @@ fn hrbf_form(term: &HrbfTerm, ray: &Ray, span: Interval) -> Option<AffineForm> {
 /// Affine form of the field over `span`; `None` where the blend has no rule (the smooth blends;
 /// Ricci where two operands may be positive).
 #[must_use]
-pub fn field_form(program: &FieldProgram, ray: &Ray, span: Interval) -> Option<AffineForm> {
+pub fn field_form(field: &RayField, span: Interval) -> Option<AffineForm> {
+    let (program, ray) = (field.program(), field.ray());
     let mut groups = vec![AffineForm::constant(0.0); program.group_count()];
-    program.for_each_primitive_on_ray(ray, span, |g, primitive, k, _| {
+    field.for_each_primitive(span, |g, primitive, k, _| {
         let form = match primitive {
             Primitive::Point(b) => point_form(b, k, ray, span),
             Primitive::Hrbf(term) => hrbf_form(term, ray, span).unwrap_or_else(|| {

@@ -29,7 +29,7 @@ use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::{PointBlob, Primitive};
-use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 /// Degree of the bottom-up bounds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -142,14 +142,14 @@ fn primitive_taylor(
 /// at `t` given).
 #[must_use]
 pub fn field_inclusion(
-    program: &FieldProgram,
-    ray: &Ray,
+    field: &RayField,
     (t, f, d, h): (f64, f64, f64, f64),
     degree: Degree,
 ) -> ForwardInclusion {
     let span = Interval::new(t, t + h);
+    let (program, ray) = (field.program(), field.ray());
     let mut groups = vec![ForwardInclusion::zero(h); program.group_count()];
-    program.for_each_primitive_on_ray(ray, span, |g, primitive, k, _| {
+    field.for_each_primitive(span, |g, primitive, k, _| {
         let own = match (primitive, degree) {
             (Primitive::Point(b), Degree::Linear) => point_linear(b, k, ray, t, h),
             (Primitive::Point(b), Degree::Quadratic) => point_quadratic(b, k, ray, t, h),
@@ -160,7 +160,7 @@ pub fn field_inclusion(
     program.clamp_group_slots(&mut groups, |group| *group = group.positive_part());
     let blended =
         inclusion::blend(program.blend(), &groups, program.isovalue()).unwrap_or_else(|| {
-            let jet = program.ray_jet(ray, span);
+            let jet = field.jet(span);
             match degree {
                 Degree::Linear => ForwardInclusion::linear(f, &jet, h),
                 Degree::Quadratic => ForwardInclusion::quadratic(f, d, &jet, h),

@@ -88,7 +88,7 @@ impl Bvh {
         self.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds)
     }
 
-    fn traverse(&self, hit: impl Fn(&Aabb) -> bool, mut visit: impl FnMut(u32)) {
+    fn traverse(&self, hit: impl Fn(&Aabb) -> bool, mut visit: impl FnMut(u32, &Aabb)) {
         if self.nodes.is_empty() {
             return;
         }
@@ -106,7 +106,7 @@ impl Bvh {
                 let first = node.first_or_right as usize;
                 for (item, bounds) in &self.items[first..first + node.count as usize] {
                     if hit(bounds) {
-                        visit(*item);
+                        visit(*item, bounds);
                     }
                 }
             } else {
@@ -118,21 +118,52 @@ impl Bvh {
     }
 
     /// Calls `visit` with every item whose box contains `p`.
-    pub fn for_each_containing(&self, p: DVec3, visit: impl FnMut(u32)) {
-        self.traverse(|b| b.contains(p), visit);
+    pub fn for_each_containing(&self, p: DVec3, mut visit: impl FnMut(u32)) {
+        self.traverse(|b| b.contains(p), |i, _| visit(i));
     }
 
     /// Calls `visit` with every item whose box overlaps `region`.
-    pub fn for_each_overlapping(&self, region: &Aabb, visit: impl FnMut(u32)) {
+    pub fn for_each_overlapping(&self, region: &Aabb, mut visit: impl FnMut(u32)) {
         self.traverse(
             |b| b.min.cmple(region.max).all() && region.min.cmple(b.max).all(),
-            visit,
+            |i, _| visit(i),
         );
     }
 
     /// Calls `visit` with every item whose box meets the ray on `span`.
-    pub fn for_each_on_ray(&self, ray: &Ray, span: Interval, visit: impl FnMut(u32)) {
-        self.traverse(|b| b.ray_interval(ray, span).is_some(), visit);
+    pub fn for_each_on_ray(&self, ray: &Ray, span: Interval, mut visit: impl FnMut(u32)) {
+        let inv = ray.direction.recip();
+        self.traverse(
+            |b| b.ray_interval_with(ray, inv, span).is_some(),
+            |i, _| visit(i),
+        );
+    }
+
+    /// Calls `visit(item, box)` for every item whose box, widened by `pad` on every side, meets
+    /// the ray on `span`, in the order of every other query (depth first, left child first): a
+    /// superset, in the same order, of the items any point or interval query on the ray within
+    /// `span` visits.
+    pub fn for_each_near_ray(
+        &self,
+        ray: &Ray,
+        span: Interval,
+        pad: f64,
+        visit: impl FnMut(u32, &Aabb),
+    ) {
+        let inv = ray.direction.recip();
+        // The slab test without its exact handling of a zero direction component: `f64::min`
+        // and `max` ignore NaN (an origin on a slab plane), which only widens the superset.
+        let (low, high) = (ray.origin + pad, ray.origin - pad);
+        self.traverse(
+            |b| {
+                let t_a = (b.min - low) * inv;
+                let t_b = (b.max - high) * inv;
+                let enter = t_a.min(t_b).max_element().max(span.lo);
+                let exit = t_a.max(t_b).min_element().min(span.hi);
+                enter <= exit
+            },
+            visit,
+        );
     }
 }
 

@@ -92,7 +92,13 @@ impl Aabb {
     /// Parameter interval where the ray is inside the box (slab test), clipped to `span`.
     #[must_use]
     pub fn ray_interval(&self, ray: &Ray, span: Interval) -> Option<Interval> {
-        let inv = ray.direction.recip();
+        self.ray_interval_with(ray, ray.direction.recip(), span)
+    }
+
+    /// [`Aabb::ray_interval`] with the ray direction's reciprocal `inv` computed by the caller
+    /// (once per ray in a traversal).
+    #[must_use]
+    pub fn ray_interval_with(&self, ray: &Ray, inv: DVec3, span: Interval) -> Option<Interval> {
         let t_a = (self.min - ray.origin) * inv;
         let t_b = (self.max - ray.origin) * inv;
         let mut lo = span.lo;

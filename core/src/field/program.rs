@@ -180,11 +180,6 @@ impl FieldProgram {
         !self.unbounded.is_empty()
     }
 
-    fn for_each_near(&self, p: DVec3, mut visit: impl FnMut(u32)) {
-        self.bvh.for_each_containing(p, &mut visit);
-        self.unbounded.iter().copied().for_each(visit);
-    }
-
     fn with_group_slots<T: Copy, R>(&self, zero: T, f: impl FnOnce(&mut [T]) -> R) -> R {
         let n = self.kernels.len();
         if n <= INLINE_GROUPS {
@@ -200,7 +195,7 @@ impl FieldProgram {
     pub fn value(&self, p: DVec3) -> f64 {
         if self.blend_is_total_sum {
             let mut sum = 0.0;
-            self.for_each_near(p, |i| {
+            self.near(p, |i| {
                 sum += self.primitives[i as usize].value(p, self.kernel_of(i));
             });
             return sum;
@@ -211,8 +206,12 @@ impl FieldProgram {
     /// Field value and gradient at `p`.
     #[must_use]
     pub fn value_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        self.value_gradient_in(self, p)
+    }
+
+    pub(crate) fn value_gradient_in(&self, lookup: &impl PointLookup, p: DVec3) -> (f64, DVec3) {
         self.with_group_slots((0.0, DVec3::ZERO), |slots| {
-            self.for_each_near(p, |i| {
+            lookup.near(p, |i| {
                 let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
                 let slot = &mut slots[self.groups_of[i as usize] as usize];
                 slot.0 += v;
@@ -238,8 +237,12 @@ impl FieldProgram {
     /// marching methods need).
     #[must_use]
     pub fn ray_jet(&self, ray: &Ray, span: Interval) -> Jet {
+        self.ray_jet_in(&BvhOnRay(self, ray), ray, span)
+    }
+
+    pub(crate) fn ray_jet_in(&self, lookup: &impl RayLookup, ray: &Ray, span: Interval) -> Jet {
         self.with_group_slots(Jet::ZERO, |slots| {
-            self.accumulate_group_jets(ray, span, slots);
+            self.accumulate_group_jets(lookup, ray, span, slots);
             blend::jet(&self.blend, slots, self.isovalue)
         })
     }
@@ -248,28 +251,18 @@ impl FieldProgram {
     #[must_use]
     pub fn ray_group_jets(&self, ray: &Ray, span: Interval) -> Vec<Jet> {
         let mut slots = vec![Jet::ZERO; self.kernels.len()];
-        self.accumulate_group_jets(ray, span, &mut slots);
+        self.accumulate_group_jets(&BvhOnRay(self, ray), ray, span, &mut slots);
         slots
     }
 
-    /// Calls `visit(i)` for every primitive whose exact support the ray meets on `span` (a
-    /// primitive whose box meets the ray but whose support does not is exactly 0 there; a
-    /// clipped kernel's one-sided derivative at the boundary must not widen the bounds).
-    fn for_each_support_on_ray(&self, ray: &Ray, span: Interval, mut visit: impl FnMut(u32)) {
-        let mut add = |i: u32| {
-            let p = &self.primitives[i as usize];
-            if p.support_interval(ray, self.kernel_of(i))
-                .is_some_and(|s| s.intersect(span).is_some())
-            {
-                visit(i);
-            }
-        };
-        self.bvh.for_each_on_ray(ray, span, &mut add);
-        self.unbounded.iter().copied().for_each(add);
-    }
-
-    fn accumulate_group_jets(&self, ray: &Ray, span: Interval, slots: &mut [Jet]) {
-        self.for_each_support_on_ray(ray, span, |i| {
+    pub(crate) fn accumulate_group_jets(
+        &self,
+        lookup: &impl RayLookup,
+        ray: &Ray,
+        span: Interval,
+        slots: &mut [Jet],
+    ) {
+        lookup.on_ray(span, |i, _| {
             let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
             let slot = &mut slots[self.groups_of[i as usize] as usize];
             *slot = *slot + jet;
@@ -295,20 +288,30 @@ impl FieldProgram {
     /// Every group's `(f(t), f′(t))` along the ray.
     #[must_use]
     pub fn group_values_along_ray(&self, ray: &Ray, t: f64) -> Vec<(f64, f64)> {
-        let p = ray.at(t);
         let mut slots = vec![(0.0, 0.0); self.kernels.len()];
-        self.for_each_near(p, |i| {
+        self.group_values_in(self, ray, t, &mut slots);
+        slots
+    }
+
+    pub(crate) fn group_values_in(
+        &self,
+        lookup: &impl PointLookup,
+        ray: &Ray,
+        t: f64,
+        slots: &mut [(f64, f64)],
+    ) {
+        let p = ray.at(t);
+        lookup.near(p, |i| {
             let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
             let slot = &mut slots[self.groups_of[i as usize] as usize];
             slot.0 += v;
             slot.1 += g.dot(ray.direction);
         });
-        self.clamp_group_slots(&mut slots, |slot| {
+        self.clamp_group_slots(slots, |slot| {
             if slot.0 < 0.0 {
                 *slot = (0.0, 0.0);
             }
         });
-        slots
     }
 
     /// The blend tree over groups (a sum of all groups when the scene gives none).
@@ -388,8 +391,17 @@ impl FieldProgram {
     /// continuous on each part (the methods' bounds hold on spans inside one part).
     #[must_use]
     pub fn ray_support_unions(&self, ray: &Ray, span: Interval) -> Vec<Interval> {
+        self.ray_support_unions_in(&BvhOnRay(self, ray), ray, span)
+    }
+
+    pub(crate) fn ray_support_unions_in(
+        &self,
+        lookup: &impl RayLookup,
+        ray: &Ray,
+        span: Interval,
+    ) -> Vec<Interval> {
         let mut out: Vec<Interval> = Vec::new();
-        for s in self.ray_supports(ray, span) {
+        for s in self.ray_supports_in(lookup, span) {
             match out.last_mut() {
                 Some(last) if s.span.lo <= last.hi => last.hi = last.hi.max(s.span.hi),
                 _ => out.push(s.span),
@@ -419,13 +431,22 @@ impl FieldProgram {
 
     /// Segment tracing's local Lipschitz bound on `span` (Galin et al. 2020; MATH.md §5): the sum
     /// of the primitives' own bounds `max |fᵢ′|` within a group (the bound of a sum is the sum of
-    /// the bounds), combined through the blend tree (sum and Ricci: sum; max, min, difference:
-    /// the largest). Looser than [`FieldProgram::directional_lipschitz`], which bounds the
-    /// derivative of the sum itself.
+    /// the bounds), combined through the blend tree (sum: sum; Ricci: p-norm; max, min,
+    /// difference: the largest). Looser than [`FieldProgram::directional_lipschitz`], which
+    /// bounds the derivative of the sum itself.
     #[must_use]
     pub fn summed_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
+        self.summed_lipschitz_in(&BvhOnRay(self, ray), ray, span)
+    }
+
+    pub(crate) fn summed_lipschitz_in(
+        &self,
+        lookup: &impl RayLookup,
+        ray: &Ray,
+        span: Interval,
+    ) -> f64 {
         self.with_group_slots(0.0, |slots| {
-            self.for_each_support_on_ray(ray, span, |i| {
+            lookup.on_ray(span, |i, _| {
                 let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
                 slots[self.groups_of[i as usize] as usize] += jet.d1.magnitude();
             });
@@ -439,17 +460,25 @@ impl FieldProgram {
         &self,
         ray: &Ray,
         span: Interval,
+        visit: impl FnMut(usize, &Primitive, &KernelProfile, Interval),
+    ) {
+        self.for_each_primitive_in(&BvhOnRay(self, ray), span, visit);
+    }
+
+    pub(crate) fn for_each_primitive_in(
+        &self,
+        lookup: &impl RayLookup,
+        span: Interval,
         mut visit: impl FnMut(usize, &Primitive, &KernelProfile, Interval),
     ) {
-        let mut add = |i: u32| {
-            let p = &self.primitives[i as usize];
-            let k = self.kernel_of(i);
-            if let Some(s) = p.support_interval(ray, k).and_then(|s| s.intersect(span)) {
-                visit(self.groups_of[i as usize] as usize, p, k, s);
-            }
-        };
-        self.bvh.for_each_on_ray(ray, span, &mut add);
-        self.unbounded.iter().copied().for_each(add);
+        lookup.on_ray(span, |i, s| {
+            visit(
+                self.groups_of[i as usize] as usize,
+                &self.primitives[i as usize],
+                self.kernel_of(i),
+                s,
+            );
+        });
     }
 
     /// The kernel shared by every group, if they all use the same one.
@@ -462,26 +491,77 @@ impl FieldProgram {
             .then_some(first)
     }
 
-    /// The supports the ray crosses on `span`, sorted by entry.
+    /// The supports the ray crosses on `span`, sorted by entry (then by primitive).
     #[must_use]
     pub fn ray_supports(&self, ray: &Ray, span: Interval) -> Vec<SupportSpan> {
+        self.ray_supports_in(&BvhOnRay(self, ray), span)
+    }
+
+    pub(crate) fn ray_supports_in(
+        &self,
+        lookup: &impl RayLookup,
+        span: Interval,
+    ) -> Vec<SupportSpan> {
         let mut out = Vec::new();
+        lookup.on_ray(span, |primitive, span| {
+            out.push(SupportSpan { span, primitive });
+        });
+        out.sort_unstable_by(|a, b| {
+            a.span
+                .lo
+                .total_cmp(&b.span.lo)
+                .then(a.primitive.cmp(&b.primitive))
+        });
+        out
+    }
+
+    /// The BVH and the unbounded primitives, for [`crate::field::ray_field::RayField`].
+    pub(crate) fn lookup_parts(&self) -> (&Bvh, &[u32]) {
+        (&self.bvh, &self.unbounded)
+    }
+}
+
+/// Where a point query finds the primitives that may be non-zero at `p`: the program's BVH, or
+/// one ray's gathered candidates (`RayField`). Every lookup visits in the same order (the
+/// BVH's depth-first order, then the unbounded primitives), so that sums agree bit for bit.
+pub(crate) trait PointLookup {
+    /// `visit(i)` for every primitive whose support box contains `p`, and every unbounded one.
+    fn near(&self, p: DVec3, visit: impl FnMut(u32));
+}
+
+/// Where an interval query along one ray finds the primitives whose support it meets.
+pub(crate) trait RayLookup {
+    /// `visit(i, support ∩ span)` for every primitive whose box meets the ray on `span` and
+    /// whose exact support meets it there (a primitive whose box meets the ray but whose
+    /// support does not is exactly 0 there; a clipped kernel's one-sided derivative at the
+    /// boundary must not widen the bounds).
+    fn on_ray(&self, span: Interval, visit: impl FnMut(u32, Interval));
+}
+
+impl PointLookup for FieldProgram {
+    fn near(&self, p: DVec3, mut visit: impl FnMut(u32)) {
+        self.bvh.for_each_containing(p, &mut visit);
+        self.unbounded.iter().copied().for_each(visit);
+    }
+}
+
+/// The BVH queried along one ray.
+struct BvhOnRay<'a>(&'a FieldProgram, &'a Ray);
+
+impl RayLookup for BvhOnRay<'_> {
+    fn on_ray(&self, span: Interval, mut visit: impl FnMut(u32, Interval)) {
+        let (program, ray) = (self.0, self.1);
         let mut add = |i: u32| {
-            let p = &self.primitives[i as usize];
+            let p = &program.primitives[i as usize];
             if let Some(s) = p
-                .support_interval(ray, self.kernel_of(i))
+                .support_interval(ray, program.kernel_of(i))
                 .and_then(|s| s.intersect(span))
             {
-                out.push(SupportSpan {
-                    span: s,
-                    primitive: i,
-                });
+                visit(i, s);
             }
         };
-        self.bvh.for_each_on_ray(ray, span, &mut add);
-        self.unbounded.iter().copied().for_each(add);
-        out.sort_by(|a, b| a.span.lo.total_cmp(&b.span.lo));
-        out
+        program.bvh.for_each_on_ray(ray, span, &mut add);
+        program.unbounded.iter().copied().for_each(add);
     }
 }
 

@@ -5,8 +5,8 @@
 use super::MethodId;
 use crate::bounds::affine::field_form;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::bisection::Bisector;
 use super::{Method, RayTracer, Trace, TraceSettings};
@@ -31,9 +31,9 @@ impl Method for AffineArithmetic {
         Box::new(Bisector {
             program,
             settings,
-            enclosure: |p: &FieldProgram, ray: &Ray, i: Interval, trace: &mut Trace| {
+            enclosure: |field: &RayField, i: Interval, trace: &mut Trace| {
                 trace.evaluations += 1;
-                Some(field_form(p, ray, i).map_or_else(|| p.ray_jet(ray, i).value, |f| f.range()))
+                Some(field_form(field, i).map_or_else(|| field.jet(i).value, |f| f.range()))
             },
         })
     }

@@ -8,6 +8,7 @@
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{
     Crossing, RayTracer, Trace, TraceMode, TraceSettings, excludes_isovalue, trace_supports,
@@ -16,15 +17,14 @@ use super::{
 /// Bisects `part`; `enclosure(interval, trace)` returns a range of `f` over the interval, or
 /// `None` when it cannot bound it (the interval is then split).
 fn bisect(
-    program: &FieldProgram,
-    ray: &Ray,
+    field: &RayField,
     part: Interval,
     settings: &TraceSettings,
     mode: TraceMode,
     trace: &mut Trace,
     enclosure: impl Fn(Interval, &mut Trace) -> Option<Interval>,
 ) {
-    let c = program.isovalue();
+    let c = field.program().isovalue();
     let mut stack = vec![part];
     while let Some(i) = stack.pop() {
         if trace.steps >= settings.max_steps {
@@ -41,8 +41,8 @@ fn bisect(
             continue;
         }
         trace.evaluations += 2;
-        let below_lo = program.along_ray(ray, i.lo).0 < c;
-        if below_lo == (program.along_ray(ray, i.hi).0 < c) {
+        let below_lo = field.along(i.lo).0 < c;
+        if below_lo == (field.along(i.hi).0 < c) {
             continue;
         }
         trace.crossings.push(Crossing {
@@ -55,7 +55,7 @@ fn bisect(
     }
 }
 
-/// A bisection method bound to a scene: `enclosure(program, ray, interval, trace)` encloses
+/// A bisection method bound to a scene: `enclosure(field, interval, trace)` encloses
 /// `f` over an interval. Every bisection-based method is this with its own enclosure.
 pub(crate) struct Bisector<'a, E> {
     pub(crate) program: &'a FieldProgram,
@@ -65,13 +65,14 @@ pub(crate) struct Bisector<'a, E> {
 
 impl<E> RayTracer for Bisector<'_, E>
 where
-    E: Fn(&FieldProgram, &Ray, Interval, &mut Trace) -> Option<Interval> + Sync,
+    E: Fn(&RayField, Interval, &mut Trace) -> Option<Interval> + Sync,
 {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let (p, s) = (self.program, &self.settings);
-        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
-            bisect(p, ray, part, s, mode, trace, |i, trace| {
-                (self.enclosure)(p, ray, i, trace)
+        let s = &self.settings;
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+            bisect(&field, part, s, mode, trace, |i, trace| {
+                (self.enclosure)(&field, i, trace)
             });
         })
     }

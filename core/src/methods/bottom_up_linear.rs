@@ -3,8 +3,8 @@
 
 use super::MethodId;
 use crate::bounds::bottom_up::{Degree, field_inclusion};
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -29,8 +29,8 @@ impl Method for BottomUpLinear {
         Box::new(Marcher {
             program,
             settings,
-            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
-                field_inclusion(p, ray, (t, f, d, h), Degree::Linear)
+            bound: |field: &RayField, t, f, d, h| {
+                field_inclusion(field, (t, f, d, h), Degree::Linear)
             },
         })
     }

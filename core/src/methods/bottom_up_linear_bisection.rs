@@ -5,8 +5,8 @@
 use super::MethodId;
 use crate::bounds::bottom_up::{Degree, field_inclusion};
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::bisection::Bisector;
 use super::{Method, RayTracer, Trace, TraceSettings};
@@ -31,10 +31,10 @@ impl Method for BottomUpLinearBisection {
         Box::new(Bisector {
             program,
             settings,
-            enclosure: |p: &FieldProgram, ray: &Ray, i: Interval, trace: &mut Trace| {
+            enclosure: |field: &RayField, i: Interval, trace: &mut Trace| {
                 trace.evaluations += 1;
-                let (f, d) = p.along_ray(ray, i.lo);
-                let inc = field_inclusion(p, ray, (i.lo, f, d, i.width()), Degree::Linear);
+                let (f, d) = field.along(i.lo);
+                let inc = field_inclusion(field, (i.lo, f, d, i.width()), Degree::Linear);
                 // A shortened validity interval does not cover `i`: no enclosure.
                 (inc.length >= i.width()).then(|| {
                     Interval::new(inc.start, inc.upper_at(inc.length))

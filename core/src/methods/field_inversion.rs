@@ -11,6 +11,7 @@ use crate::field::geometry::Ray;
 use crate::field::kernel::{CLIP_EPSILON, Kernel};
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -100,14 +101,15 @@ impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
         let c = self.program.isovalue();
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
             let mut in_span = 0;
             while t < part.hi && in_span < STEPS_PER_SPAN && trace.steps < s.max_steps {
                 trace.steps += 1;
                 in_span += 1;
                 trace.evaluations += 1;
-                let f = self.program.along_ray(ray, t).0;
+                let f = field.along(t).0;
                 // Undo the clipping as for a single atom: K = (1 − ε)·K_c + ε.
                 let unit = (f / self.norm) * (1.0 - CLIP_EPSILON) + CLIP_EPSILON;
                 let distance = self.radius * (self.sigma * (-unit.ln()).max(0.0).sqrt() - 1.0);

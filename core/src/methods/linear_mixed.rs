@@ -5,8 +5,8 @@
 
 use super::MethodId;
 use crate::bounds::inclusion::ForwardInclusion;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::{Marcher, mixed_inclusion};
 use super::{Method, RayTracer, TraceSettings};
@@ -31,8 +31,8 @@ impl Method for LinearMixed {
         Box::new(Marcher {
             program,
             settings,
-            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
-                mixed_inclusion(p, ray, (t, f, d, h), |g, _, jet, h| {
+            bound: |field: &RayField, t, f, d, h| {
+                mixed_inclusion(field, (t, f, d, h), |g, _, jet, h| {
                     ForwardInclusion::linear(g, jet, h)
                 })
             },

@@ -5,8 +5,8 @@
 use super::MethodId;
 use crate::bounds::inclusion::ForwardInclusion;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -31,8 +31,8 @@ impl Method for LinearTaylor {
         Box::new(Marcher {
             program,
             settings,
-            bound: |p: &FieldProgram, ray: &Ray, t, f, _, h| {
-                ForwardInclusion::linear(f, &p.ray_jet(ray, Interval::new(t, t + h)), h)
+            bound: |field: &RayField, t, f, _, h| {
+                ForwardInclusion::linear(f, &field.jet(Interval::new(t, t + h)), h)
             },
         })
     }

@@ -10,6 +10,7 @@ use crate::bounds::inclusion::{self, ForwardInclusion, Offset};
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::geometry::{Ray, quadratic_roots};
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -24,15 +25,14 @@ pub(crate) fn first_reach(start: f64, offset: Offset, target: f64, limit: f64) -
 
 /// Marches over `part` with `bound(t, f(t), f′(t), h)`, appending to `trace`.
 pub(crate) fn march(
-    program: &FieldProgram,
-    ray: &Ray,
+    field: &RayField,
     part: Interval,
     settings: &TraceSettings,
     mode: TraceMode,
     trace: &mut Trace,
     bound: impl Fn(f64, f64, f64, f64) -> ForwardInclusion,
 ) {
-    let c = program.isovalue();
+    let c = field.program().isovalue();
     let mut t = part.lo;
     let mut h = settings.initial_interval;
     // The previous sample and its side, to catch a step that landed on or past a crossing.
@@ -40,12 +40,12 @@ pub(crate) fn march(
     while t < part.hi && trace.steps < settings.max_steps {
         trace.steps += 1;
         trace.evaluations += 1;
-        let (f, d) = program.along_ray(ray, t);
+        let (f, d) = field.along(t);
         let inside = f >= c;
         if let Some((t_prev, was_inside)) = previous
             && was_inside != inside
         {
-            let at = bisect_sign_change(program, ray, (t_prev, t), was_inside, settings, trace);
+            let at = bisect_sign_change(field, (t_prev, t), was_inside, settings, trace);
             trace.crossings.push(Crossing {
                 t: at,
                 entering: inside,
@@ -68,7 +68,7 @@ pub(crate) fn march(
                 // Confirm: the field must be on the other side of c just past the root.
                 trace.evaluations += 1;
                 let beyond = t + s + settings.min_step;
-                if (program.along_ray(ray, beyond).0 >= c) == inside {
+                if (field.along(beyond).0 >= c) == inside {
                     t += s.max(f64::EPSILON * t.abs());
                     h = settings.min_step;
                     continue;
@@ -100,8 +100,7 @@ pub(crate) fn march(
 /// `epsilon`, by bisection: where a step landed exactly on the surface (or, for the methods
 /// without a guarantee, stepped over it).
 fn bisect_sign_change(
-    program: &FieldProgram,
-    ray: &Ray,
+    field: &RayField,
     (mut lo, mut hi): (f64, f64),
     lo_inside: bool,
     settings: &TraceSettings,
@@ -110,7 +109,7 @@ fn bisect_sign_change(
     while hi - lo > settings.epsilon {
         let mid = 0.5 * (lo + hi);
         trace.evaluations += 1;
-        if (program.along_ray(ray, mid).0 >= program.isovalue()) == lo_inside {
+        if (field.along(mid).0 >= field.program().isovalue()) == lo_inside {
             lo = mid;
         } else {
             hi = mid;
@@ -130,7 +129,7 @@ pub(crate) fn symmetric(start: f64, lambda: f64, length: f64) -> ForwardInclusio
     }
 }
 
-/// A marching method bound to a scene: `bound(program, ray, t, f(t), f′(t), h)` gives the forward
+/// A marching method bound to a scene: `bound(field, t, f(t), f′(t), h)` gives the forward
 /// inclusion on `[t, t + h]`. Every inclusion-based method is this with its own bound.
 pub(crate) struct Marcher<'a, B> {
     pub(crate) program: &'a FieldProgram,
@@ -140,14 +139,14 @@ pub(crate) struct Marcher<'a, B> {
 
 impl<B> RayTracer for Marcher<'_, B>
 where
-    B: Fn(&FieldProgram, &Ray, f64, f64, f64, f64) -> ForwardInclusion + Sync,
+    B: Fn(&RayField, f64, f64, f64, f64) -> ForwardInclusion + Sync,
 {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
-        let p = self.program;
-        trace_supports(p, ray, span, mode, s.max_steps, |part, trace| {
-            march(p, ray, part, s, mode, trace, |t, f, d, h| {
-                (self.bound)(p, ray, t, f, d, h)
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+            march(&field, part, s, mode, trace, |t, f, d, h| {
+                (self.bound)(&field, t, f, d, h)
             });
         })
     }
@@ -157,18 +156,18 @@ where
 /// group, composed bottom-up through the blend tree; where the blend has no forward-inclusion
 /// rule (smooth blends; Ricci where two operands may be positive), `leaf` applied to the whole field.
 pub(crate) fn mixed_inclusion(
-    p: &FieldProgram,
-    ray: &Ray,
+    field: &RayField,
     (t, f, d, h): (f64, f64, f64, f64),
     leaf: impl Fn(f64, f64, &Jet, f64) -> ForwardInclusion,
 ) -> ForwardInclusion {
     let span = Interval::new(t, t + h);
-    let groups: Vec<ForwardInclusion> = p
-        .group_values_along_ray(ray, t)
+    let groups: Vec<ForwardInclusion> = field
+        .group_values(t)
         .iter()
-        .zip(&p.ray_group_jets(ray, span))
+        .zip(&field.group_jets(span))
         .map(|(&(g, dg), jet)| leaf(g, dg, jet, h))
         .collect();
+    let p = field.program();
     inclusion::blend(p.blend(), &groups, p.isovalue())
-        .unwrap_or_else(|| leaf(f, d, &p.ray_jet(ray, span), h))
+        .unwrap_or_else(|| leaf(f, d, &field.jet(span), h))
 }

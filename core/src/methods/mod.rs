@@ -32,6 +32,7 @@ mod sphere_normalized;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 pub use affine_bisection::AffineArithmetic;
 pub use bottom_up_linear::BottomUpLinear;
@@ -162,12 +163,12 @@ pub trait RayTracer: Sync {
 
 /// The crossing at `t` where the field jumps across the isovalue, if it does (values just
 /// before and just after `t`).
-fn jump_crossing(program: &FieldProgram, ray: &Ray, t: f64, trace: &mut Trace) -> Option<Crossing> {
+fn jump_crossing(field: &RayField, t: f64, trace: &mut Trace) -> Option<Crossing> {
     let inset = 1e-9 * (1.0 + t.abs());
-    let c = program.isovalue();
+    let c = field.program().isovalue();
     trace.evaluations += 2;
-    let before = program.along_ray(ray, t - inset).0 >= c;
-    let after = program.along_ray(ray, t + inset).0 >= c;
+    let before = field.along(t - inset).0 >= c;
+    let after = field.along(t + inset).0 >= c;
     (before != after).then_some(Crossing { t, entering: after })
 }
 
@@ -197,8 +198,7 @@ pub fn all() -> Vec<Box<dyn Method>> {
 /// sees as a sign change inside one part. It is recorded here, once for every method, unless the
 /// part before already ended on it (its last crossing points the same way: crossings alternate).
 pub(crate) fn trace_supports(
-    program: &FieldProgram,
-    ray: &Ray,
+    field: &RayField,
     span: Interval,
     mode: TraceMode,
     max_steps: u32,
@@ -206,9 +206,9 @@ pub(crate) fn trace_supports(
 ) -> Trace {
     let mut trace = Trace::default();
     let mut previous_end = None;
-    for part in program.ray_support_unions(ray, span) {
+    for part in field.support_unions(span) {
         if previous_end == Some(part.lo)
-            && let Some(jump) = jump_crossing(program, ray, part.lo, &mut trace)
+            && let Some(jump) = jump_crossing(field, part.lo, &mut trace)
             && trace
                 .crossings
                 .last()

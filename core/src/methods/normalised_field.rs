@@ -8,6 +8,7 @@ use crate::field::geometry::{Ray, SphereCone};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 /// `Ok` with the common kernel when every primitive is a SCALIS segment and every group uses
 /// the same kernel (one `g` for the whole field).
@@ -38,14 +39,9 @@ pub(crate) fn normalising_kernel(program: &FieldProgram) -> KernelProfile {
 }
 
 /// `(F, F′)` along the ray at `t`, with `F = g(f) − 1`.
-pub(crate) fn normalised(
-    program: &FieldProgram,
-    kernel: &KernelProfile,
-    ray: &Ray,
-    t: f64,
-) -> (f64, f64) {
-    let (f, d) = program.along_ray(ray, t);
-    let (g, dg) = kernel.field_normalisation(f, program.isovalue());
+pub(crate) fn normalised(field: &RayField, kernel: &KernelProfile, t: f64) -> (f64, f64) {
+    let (f, d) = field.along(t);
+    let (g, dg) = kernel.field_normalisation(f, field.program().isovalue());
     (g - 1.0, dg * d)
 }
 
@@ -74,11 +70,15 @@ pub(crate) fn thinnest_radius_met(cone: &SphereCone, support_radius: f64, ray: &
 
 /// Smallest radius met by the ray among the segments whose support it crosses on `span`
 /// (infinite when none).
-pub(crate) fn thinnest_radius_on(program: &FieldProgram, ray: &Ray, span: Interval) -> f64 {
+pub(crate) fn thinnest_radius_on(field: &RayField, span: Interval) -> f64 {
     let mut thinnest = f64::INFINITY;
-    program.for_each_primitive_on_ray(ray, span, |_, p, k, _| {
+    field.for_each_primitive(span, |_, p, k, _| {
         if let Primitive::Scalis(s) = p {
-            thinnest = thinnest.min(thinnest_radius_met(&s.cone, k.support_radius(), ray));
+            thinnest = thinnest.min(thinnest_radius_met(
+                &s.cone,
+                k.support_radius(),
+                field.ray(),
+            ));
         }
     });
     thinnest

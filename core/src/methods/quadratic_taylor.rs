@@ -6,8 +6,8 @@
 use super::MethodId;
 use crate::bounds::inclusion::ForwardInclusion;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::Marcher;
 use super::{Method, RayTracer, TraceSettings};
@@ -32,8 +32,8 @@ impl Method for QuadraticTaylor {
         Box::new(Marcher {
             program,
             settings,
-            bound: |p: &FieldProgram, ray: &Ray, t, f, d, h| {
-                ForwardInclusion::quadratic(f, d, &p.ray_jet(ray, Interval::new(t, t + h)), h)
+            bound: |field: &RayField, t, f, d, h| {
+                ForwardInclusion::quadratic(f, d, &field.jet(Interval::new(t, t + h)), h)
             },
         })
     }

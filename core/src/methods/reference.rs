@@ -12,6 +12,7 @@ use super::MethodId;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{
     Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, excludes_isovalue, trace_supports,
@@ -54,18 +55,18 @@ impl Method for Reference {
 }
 
 impl Prepared<'_> {
-    fn below(&self, ray: &Ray, t: f64, trace: &mut Trace) -> bool {
+    fn below(&self, field: &RayField, t: f64, trace: &mut Trace) -> bool {
         trace.evaluations += 1;
-        self.program.along_ray(ray, t).0 < self.program.isovalue()
+        field.along(t).0 < self.program.isovalue()
     }
 }
 
 impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let c = self.program.isovalue();
+        let field = RayField::new(self.program, ray, span);
         trace_supports(
-            self.program,
-            ray,
+            &field,
             span,
             mode,
             self.settings.max_steps,
@@ -73,10 +74,10 @@ impl RayTracer for Prepared<'_> {
                 let mut stack = vec![part];
                 while let Some(i) = stack.pop() {
                     trace.steps += 1;
-                    let jet = self.program.ray_jet(ray, i);
+                    let jet = field.jet(i);
                     let mid = 0.5 * (i.lo + i.hi);
                     trace.evaluations += 1;
-                    let f_mid = self.program.along_ray(ray, mid).0;
+                    let f_mid = field.along(mid).0;
                     // The Lipschitz test: `f` stays within `reach` of `f(mid)` on the interval.
                     let reach = 0.5 * i.width() * jet.d1.magnitude();
                     let lipschitz_range = Interval::new(f_mid - reach, f_mid + reach);
@@ -89,13 +90,13 @@ impl RayTracer for Prepared<'_> {
                         continue;
                     }
                     let (mut lo, mut hi) = (i.lo, i.hi);
-                    let below_lo = self.below(ray, lo, trace);
-                    if below_lo == self.below(ray, hi, trace) {
+                    let below_lo = self.below(&field, lo, trace);
+                    if below_lo == self.below(&field, hi, trace) {
                         continue;
                     }
                     for _ in 0..20 {
                         let mid = 0.5 * (lo + hi);
-                        if self.below(ray, mid, trace) == below_lo {
+                        if self.below(&field, mid, trace) == below_lo {
                             lo = mid;
                         } else {
                             hi = mid;

@@ -20,6 +20,7 @@ use crate::field::geometry::{Ray, SphereCone};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::normalised_field::{normalised, normalising_kernel, scalis_kernel};
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
@@ -155,10 +156,10 @@ fn oracle(b: Hermite, e: Hermite, w: f64) -> Option<f64> {
 }
 
 impl Prepared<'_> {
-    fn hermite(&self, ray: &Ray, t: f64, trace: &mut Trace) -> Hermite {
+    fn hermite(&self, field: &RayField, t: f64, trace: &mut Trace) -> Hermite {
         trace.steps += 1;
         trace.evaluations += 1;
-        let (v, d) = normalised(self.program, &self.kernel, ray, t);
+        let (v, d) = normalised(field, &self.kernel, t);
         Hermite {
             t,
             v,
@@ -169,14 +170,13 @@ impl Prepared<'_> {
 
     /// Support boundaries and homothetic-distance minima inside `part`, sorted, at least
     /// `min_step` apart.
-    fn breakpoints(&self, ray: &Ray, part: Interval) -> Vec<f64> {
+    fn breakpoints(&self, field: &RayField, part: Interval) -> Vec<f64> {
         let mut points = vec![part.lo];
-        self.program
-            .for_each_primitive_on_ray(ray, part, |_, p, _, _| {
-                if let Primitive::Scalis(s) = p {
-                    points.push(homothetic_argmin(&s.cone, ray));
-                }
-            });
+        field.for_each_primitive(part, |_, p, _, _| {
+            if let Primitive::Scalis(s) = p {
+                points.push(homothetic_argmin(&s.cone, field.ray()));
+            }
+        });
         points.retain(|t| (part.lo..part.hi).contains(t));
         points.sort_by(f64::total_cmp);
         let gap = self.settings.min_step;
@@ -197,7 +197,7 @@ impl Prepared<'_> {
     /// Hermite data at the crossing, if one is found.
     fn find_root(
         &self,
-        ray: &Ray,
+        field: &RayField,
         (mut b, mut e): (Hermite, Hermite),
         sign: f64,
         trace: &mut Trace,
@@ -217,7 +217,7 @@ impl Prepared<'_> {
                 (b, e) = (nb, ne);
                 continue;
             };
-            let r = self.hermite(ray, t, trace).flipped(sign);
+            let r = self.hermite(field, t, trace).flipped(sign);
             if r.v.abs() <= r.d.abs() * eps || r.v == 0.0 {
                 return Some(r);
             }
@@ -237,14 +237,14 @@ impl Prepared<'_> {
     /// Crossings on the piece `[b, e]` (all of them in transparent mode).
     fn trace_piece(
         &self,
-        ray: &Ray,
+        field: &RayField,
         (mut b, e): (Hermite, Hermite),
         mode: TraceMode,
         trace: &mut Trace,
     ) {
         loop {
             let sign = if b.v >= 0.0 { 1.0 } else { -1.0 };
-            let Some(r) = self.find_root(ray, (b.flipped(sign), e.flipped(sign)), sign, trace)
+            let Some(r) = self.find_root(field, (b.flipped(sign), e.flipped(sign)), sign, trace)
             else {
                 return;
             };
@@ -262,7 +262,7 @@ impl Prepared<'_> {
             if mode == TraceMode::Opaque || next >= e.t || trace.steps >= self.settings.max_steps {
                 return;
             }
-            b = self.hermite(ray, next, trace);
+            b = self.hermite(field, next, trace);
         }
     }
 }
@@ -270,16 +270,17 @@ impl Prepared<'_> {
 impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
-            let points = self.breakpoints(ray, part);
-            let mut b = self.hermite(ray, points[0], trace);
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+            let points = self.breakpoints(&field, part);
+            let mut b = self.hermite(&field, points[0], trace);
             for &t in &points[1..] {
                 if trace.steps >= s.max_steps {
                     return;
                 }
-                let e = self.hermite(ray, t, trace);
+                let e = self.hermite(&field, t, trace);
                 let found = trace.crossings.len();
-                self.trace_piece(ray, (b, e), mode, trace);
+                self.trace_piece(&field, (b, e), mode, trace);
                 if mode == TraceMode::Opaque && trace.crossings.len() > found {
                     return;
                 }

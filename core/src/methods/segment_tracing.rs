@@ -5,8 +5,8 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::{Marcher, symmetric};
 use super::{Method, RayTracer, TraceSettings};
@@ -31,8 +31,8 @@ impl Method for SegmentTracing {
         Box::new(Marcher {
             program,
             settings,
-            bound: |p: &FieldProgram, ray: &Ray, t, f, _, h| {
-                symmetric(f, p.summed_lipschitz(ray, Interval::new(t, t + h)), h)
+            bound: |field: &RayField, t, f, _, h| {
+                symmetric(f, field.summed_lipschitz(Interval::new(t, t + h)), h)
             },
         })
     }

@@ -15,6 +15,7 @@ use crate::bounds::interval::Interval;
 use crate::field::blend::BlendTree;
 use crate::field::geometry::{Ray, quadratic_roots};
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -135,35 +136,35 @@ impl Piece {
 }
 
 impl Prepared<'_> {
-    fn trace_part(&self, ray: &Ray, part: Interval, mode: TraceMode, trace: &mut Trace) {
+    fn trace_part(&self, field: &RayField, part: Interval, mode: TraceMode, trace: &mut Trace) {
         // Per-primitive pieces.
+        let ray = field.ray();
         let mut pieces = Vec::new();
-        self.program
-            .for_each_primitive_on_ray(ray, part, |_, primitive, k, span| {
-                if span.width() <= 0.0 {
-                    return;
-                }
-                let node = |i: usize| span.lo + span.width() * i as f64 / SUBDIVISIONS as f64;
-                let sample = |t: f64| {
-                    let (v, g) = primitive.value_gradient(ray.at(t), k);
-                    (v, g.dot(ray.direction))
-                };
-                trace.evaluations += SUBDIVISIONS as u32 + 1;
-                let mut previous = (node(0), sample(node(0)));
-                for i in 1..=SUBDIVISIONS {
-                    let t = node(i);
-                    let here = sample(t);
-                    pieces.push(Piece {
-                        t0: previous.0,
-                        t1: t,
-                        v0: previous.1.0,
-                        d0: previous.1.1,
-                        v1: here.0,
-                        d1: here.1,
-                    });
-                    previous = (t, here);
-                }
-            });
+        field.for_each_primitive(part, |_, primitive, k, span| {
+            if span.width() <= 0.0 {
+                return;
+            }
+            let node = |i: usize| span.lo + span.width() * i as f64 / SUBDIVISIONS as f64;
+            let sample = |t: f64| {
+                let (v, g) = primitive.value_gradient(ray.at(t), k);
+                (v, g.dot(ray.direction))
+            };
+            trace.evaluations += SUBDIVISIONS as u32 + 1;
+            let mut previous = (node(0), sample(node(0)));
+            for i in 1..=SUBDIVISIONS {
+                let t = node(i);
+                let here = sample(t);
+                pieces.push(Piece {
+                    t0: previous.0,
+                    t1: t,
+                    v0: previous.1.0,
+                    d0: previous.1.1,
+                    v1: here.0,
+                    d1: here.1,
+                });
+                previous = (t, here);
+            }
+        });
         let mut nodes: Vec<f64> = pieces.iter().flat_map(|p| [p.t0, p.t1]).collect();
         nodes.sort_by(f64::total_cmp);
         nodes.dedup();
@@ -215,8 +216,9 @@ impl Prepared<'_> {
 impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
-            self.trace_part(ray, part, mode, trace);
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+            self.trace_part(&field, part, mode, trace);
         })
     }
 }

@@ -6,8 +6,8 @@
 //! overlapping supports.
 
 use super::MethodId;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::{Marcher, symmetric};
 use super::{Method, RayTracer, TraceSettings};
@@ -33,9 +33,7 @@ impl Method for SphereTracing {
         Box::new(Marcher {
             program,
             settings,
-            bound: move |_: &FieldProgram, _: &Ray, _, f, _, _| {
-                symmetric(f, lipschitz, f64::INFINITY)
-            },
+            bound: move |_: &RayField, _, f, _, _| symmetric(f, lipschitz, f64::INFINITY),
         })
     }
 }

@@ -9,6 +9,7 @@ use super::MethodId;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -47,9 +48,9 @@ impl Method for AcceleratedSphereTracing {
 }
 
 impl Prepared<'_> {
-    fn radius(&self, ray: &Ray, t: f64, trace: &mut Trace) -> (f64, bool) {
+    fn radius(&self, field: &RayField, t: f64, trace: &mut Trace) -> (f64, bool) {
         trace.evaluations += 1;
-        let f = self.program.along_ray(ray, t).0;
+        let f = field.along(t).0;
         let c = self.program.isovalue();
         ((f - c).abs() / self.lipschitz, f >= c)
     }
@@ -58,20 +59,21 @@ impl Prepared<'_> {
 impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
             // (previous radius, previous step); None right after a start or a crossing.
             let mut history: Option<(f64, f64)> = None;
-            let mut current = self.radius(ray, t, trace);
+            let mut current = self.radius(&field, t, trace);
             while t < part.hi && trace.steps < s.max_steps {
                 trace.steps += 1;
                 let (r1, inside) = current;
                 if r1 < s.epsilon {
                     // Confirm the crossing on the other side, as the marching methods do.
-                    if self.radius(ray, t + s.min_step, trace).1 == inside {
+                    if self.radius(&field, t + s.min_step, trace).1 == inside {
                         t += r1.max(f64::EPSILON * t.abs());
                         history = None;
-                        current = self.radius(ray, t, trace);
+                        current = self.radius(&field, t, trace);
                         continue;
                     }
                     trace.crossings.push(Crossing {
@@ -83,7 +85,7 @@ impl RayTracer for Prepared<'_> {
                     }
                     t += r1 + s.min_step;
                     history = None;
-                    current = self.radius(ray, t, trace);
+                    current = self.radius(&field, t, trace);
                     continue;
                 }
                 let mut dt = r1;
@@ -93,10 +95,10 @@ impl RayTracer for Prepared<'_> {
                         dt = (r1 + BETA * r1 * (d + r1 - r0) / denominator).max(r1);
                     }
                 }
-                let mut next = self.radius(ray, t + dt, trace);
+                let mut next = self.radius(&field, t + dt, trace);
                 if dt > r1 && (dt > r1 + next.0 || next.1 != inside) {
                     dt = r1;
-                    next = self.radius(ray, t + dt, trace);
+                    next = self.radius(&field, t + dt, trace);
                 }
                 history = Some((r1, dt));
                 t += dt;

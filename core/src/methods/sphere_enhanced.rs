@@ -10,6 +10,7 @@ use super::MethodId;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
@@ -51,7 +52,8 @@ impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
         let c = self.program.isovalue();
-        trace_supports(self.program, ray, span, mode, s.max_steps, |part, trace| {
+        let field = RayField::new(self.program, ray, span);
+        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
             let mut omega = OMEGA;
             let (mut previous_radius, mut step) = (0.0, 0.0);
@@ -59,7 +61,7 @@ impl RayTracer for Prepared<'_> {
             while t < part.hi && trace.steps < s.max_steps {
                 trace.steps += 1;
                 trace.evaluations += 1;
-                let f = self.program.along_ray(ray, t).0;
+                let f = field.along(t).0;
                 let inside = f >= c;
                 let radius = (f - c).abs() / self.lipschitz;
                 let crossed_side = side.is_some_and(|was| was != inside);
@@ -75,7 +77,7 @@ impl RayTracer for Prepared<'_> {
                 if radius < s.epsilon {
                     // Confirm the crossing on the other side, as the marching methods do.
                     trace.evaluations += 1;
-                    let beyond = self.program.along_ray(ray, t + s.min_step).0 >= c;
+                    let beyond = field.along(t + s.min_step).0 >= c;
                     if beyond == inside {
                         t += radius.max(f64::EPSILON * t.abs());
                         omega = 1.0;

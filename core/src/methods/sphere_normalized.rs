@@ -10,8 +10,8 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::RayField;
 
 use super::marching::{Marcher, symmetric};
 use super::normalised_field::{normalising_kernel, scalis_kernel, thinnest_radius_on};
@@ -42,12 +42,12 @@ impl Method for NormalizedSphereTracing {
         Box::new(Marcher {
             program,
             settings,
-            bound: move |p: &FieldProgram, ray: &Ray, t, f, _, h| {
-                let tau = thinnest_radius_on(p, ray, Interval::new(t, t + h));
+            bound: move |field: &RayField, t, f, _, h| {
+                let tau = thinnest_radius_on(field, Interval::new(t, t + h));
                 if !tau.is_finite() {
                     return symmetric(f, 0.0, h);
                 }
-                let c = p.isovalue();
+                let c = field.program().isovalue();
                 let (g, _) = kernel.field_normalisation(f, c);
                 let distance = (g.max(0.0).sqrt() - 1.0).abs() * tau;
                 let lambda = if distance > 0.0 {

@@ -1,0 +1,230 @@
+//! The field restricted to one ray, with the ray's candidate primitives gathered once (issue 18).
+//!
+//! A tracer asks the field many questions along one ray: the value and derivative at each step,
+//! a bound over the next interval, the supports it crosses. Asked of the [`FieldProgram`], each
+//! walks the BVH again, though the primitives a ray can meet do not change along it. A
+//! [`RayField`] walks the BVH once per ray, keeping every primitive whose (slightly widened)
+//! box meets the ray on the traced span (widened by a margin for the steps that look just past
+//! it), with that box's interval on the ray's line and the primitive's exact support interval;
+//! each question then scans that short list with interval tests. A question outside the
+//! gathered reach goes to the program.
+//!
+//! The answers are bit for bit those of the program's own queries: the list keeps the BVH's
+//! depth-first order (which every program query follows), a point query keeps exactly the items
+//! whose box contains the point, and an interval query exactly those whose box and support meet
+//! the interval (the slab test clipped to a span equals the line's slab interval intersected with
+//! it, `max`/`min` being exact). So the marches, their step counts and depths are unchanged;
+//! `tests/ray_field.rs` compares the two on every asset.
+
+use glam::DVec3;
+
+use crate::bounds::interval::{Interval, Jet};
+use crate::field::geometry::{Aabb, Ray};
+use crate::field::kernel::KernelProfile;
+use crate::field::primitives::Primitive;
+use crate::field::program::{FieldProgram, PointLookup, RayLookup, SupportSpan};
+
+/// One primitive the ray may meet.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    primitive: u32,
+    /// The primitive's support box (`None`: unbounded, a plane), for point queries.
+    bounds: Option<Aabb>,
+    /// The box's interval on the ray's line (the whole line for an unbounded primitive).
+    line: Interval,
+    /// The exact support's interval on the line.
+    support: Option<Interval>,
+}
+
+/// The field along one ray; see the module documentation.
+pub struct RayField<'a> {
+    program: &'a FieldProgram,
+    ray: Ray,
+    /// The part of the ray the candidates cover.
+    reach: Interval,
+    candidates: Vec<Candidate>,
+}
+
+impl<'a> RayField<'a> {
+    /// Gathers the candidates of `ray` on `span` from `program` (one BVH traversal).
+    #[must_use]
+    pub fn new(program: &'a FieldProgram, ray: &Ray, span: Interval) -> Self {
+        let (bvh, unbounded) = program.lookup_parts();
+        let b = bvh.bounds();
+        // Widening absorbs the rounding of `ray.at(t)` against the slab test: a point query's
+        // box containing the point must be in the list.
+        let pad = if b.is_empty() {
+            0.0
+        } else {
+            1e-9 * (b.diagonal() + b.min.abs().max(b.max.abs()).max_element())
+        };
+        let margin = 1e-3 * (1.0 + span.width());
+        let reach = Interval {
+            lo: span.lo - margin,
+            hi: span.hi + margin,
+        };
+        let mut candidates = Vec::with_capacity(64);
+        let support =
+            |i: u32| program.primitives()[i as usize].support_interval(ray, program.kernel_of(i));
+        let inv = ray.direction.recip();
+        bvh.for_each_near_ray(ray, reach, pad, |i, bounds| {
+            candidates.push(Candidate {
+                primitive: i,
+                bounds: Some(*bounds),
+                line: bounds
+                    .ray_interval_with(ray, inv, Interval::ENTIRE)
+                    .unwrap_or(Interval {
+                        lo: f64::INFINITY,
+                        hi: f64::NEG_INFINITY,
+                    }),
+                support: support(i),
+            });
+        });
+        candidates.extend(unbounded.iter().map(|&i| Candidate {
+            primitive: i,
+            bounds: None,
+            line: Interval::ENTIRE,
+            support: support(i),
+        }));
+        Self {
+            program,
+            ray: *ray,
+            reach,
+            candidates,
+        }
+    }
+
+    fn covers(&self, span: Interval) -> bool {
+        self.reach.lo <= span.lo && span.hi <= self.reach.hi
+    }
+
+    /// The program.
+    #[must_use]
+    pub fn program(&self) -> &'a FieldProgram {
+        self.program
+    }
+
+    /// The ray.
+    #[must_use]
+    pub fn ray(&self) -> &Ray {
+        &self.ray
+    }
+
+    /// Number of candidate primitives.
+    #[must_use]
+    pub fn candidate_count(&self) -> usize {
+        self.candidates.len()
+    }
+
+    /// `(f(t), f′(t))`, as [`FieldProgram::along_ray`].
+    #[must_use]
+    pub fn along(&self, t: f64) -> (f64, f64) {
+        if !self.reach.contains(t) {
+            return self.program.along_ray(&self.ray, t);
+        }
+        let (v, g) = self.program.value_gradient_in(self, self.ray.at(t));
+        (v, g.dot(self.ray.direction))
+    }
+
+    /// As [`FieldProgram::ray_jet`].
+    #[must_use]
+    pub fn jet(&self, span: Interval) -> Jet {
+        if !self.covers(span) {
+            return self.program.ray_jet(&self.ray, span);
+        }
+        self.program.ray_jet_in(self, &self.ray, span)
+    }
+
+    /// As [`FieldProgram::ray_group_jets`].
+    #[must_use]
+    pub fn group_jets(&self, span: Interval) -> Vec<Jet> {
+        if !self.covers(span) {
+            return self.program.ray_group_jets(&self.ray, span);
+        }
+        let mut slots = vec![Jet::ZERO; self.program.group_count()];
+        self.program
+            .accumulate_group_jets(self, &self.ray, span, &mut slots);
+        slots
+    }
+
+    /// As [`FieldProgram::group_values_along_ray`].
+    #[must_use]
+    pub fn group_values(&self, t: f64) -> Vec<(f64, f64)> {
+        if !self.reach.contains(t) {
+            return self.program.group_values_along_ray(&self.ray, t);
+        }
+        let mut slots = vec![(0.0, 0.0); self.program.group_count()];
+        self.program.group_values_in(self, &self.ray, t, &mut slots);
+        slots
+    }
+
+    /// As [`FieldProgram::summed_lipschitz`].
+    #[must_use]
+    pub fn summed_lipschitz(&self, span: Interval) -> f64 {
+        if !self.covers(span) {
+            return self.program.summed_lipschitz(&self.ray, span);
+        }
+        self.program.summed_lipschitz_in(self, &self.ray, span)
+    }
+
+    /// As [`FieldProgram::directional_lipschitz`].
+    #[must_use]
+    pub fn directional_lipschitz(&self, span: Interval) -> f64 {
+        self.jet(span).d1.magnitude()
+    }
+
+    /// As [`FieldProgram::for_each_primitive_on_ray`].
+    pub fn for_each_primitive(
+        &self,
+        span: Interval,
+        visit: impl FnMut(usize, &Primitive, &KernelProfile, Interval),
+    ) {
+        if !self.covers(span) {
+            return self
+                .program
+                .for_each_primitive_on_ray(&self.ray, span, visit);
+        }
+        self.program.for_each_primitive_in(self, span, visit);
+    }
+
+    /// As [`FieldProgram::ray_supports`].
+    #[must_use]
+    pub fn supports(&self, span: Interval) -> Vec<SupportSpan> {
+        if !self.covers(span) {
+            return self.program.ray_supports(&self.ray, span);
+        }
+        self.program.ray_supports_in(self, span)
+    }
+
+    /// As [`FieldProgram::ray_support_unions`].
+    #[must_use]
+    pub fn support_unions(&self, span: Interval) -> Vec<Interval> {
+        if !self.covers(span) {
+            return self.program.ray_support_unions(&self.ray, span);
+        }
+        self.program.ray_support_unions_in(self, &self.ray, span)
+    }
+}
+
+impl PointLookup for RayField<'_> {
+    fn near(&self, p: DVec3, mut visit: impl FnMut(u32)) {
+        for c in &self.candidates {
+            if c.bounds.is_none_or(|b| b.contains(p)) {
+                visit(c.primitive);
+            }
+        }
+    }
+}
+
+impl RayLookup for RayField<'_> {
+    fn on_ray(&self, span: Interval, mut visit: impl FnMut(u32, Interval)) {
+        for c in &self.candidates {
+            if c.line.lo.max(span.lo) > c.line.hi.min(span.hi) {
+                continue;
+            }
+            if let Some(s) = c.support.and_then(|s| s.intersect(span)) {
+                visit(c.primitive, s);
+            }
+        }
+    }
+}
