@@ -28,11 +28,16 @@ fn compare(
     rng: &mut SplitMix64,
 ) -> Option<String> {
     let field = RayField::new(program, ray, span);
-    for _ in 0..8 {
+    // Enough point questions that the ray's candidates get binned (`CELLS_AFTER`), so that both
+    // the scan of every candidate and the bins are compared.
+    for k in 0..48 {
         let t = rng.range(span.lo, span.hi);
         let (a, b) = (field.along(t), program.along_ray(ray, t));
         if !same_bits(a.0, b.0) || !same_bits(a.1, b.1) {
-            return Some(format!("along({t}): {a:?} vs {b:?}"));
+            return Some(format!("along({t}) after {k} questions: {a:?} vs {b:?}"));
+        }
+        if k % 4 != 0 {
+            continue;
         }
         if field.group_values(t) != program.group_values_along_ray(ray, t) {
             return Some(format!("group values at {t}"));

@@ -6,8 +6,9 @@
 //! [`RayField`] walks the BVH once per ray, keeping every primitive whose (slightly widened)
 //! box meets the ray on the traced span (widened by a margin for the steps that look just past
 //! it), with that box's interval on the ray's line and the primitive's exact support interval;
-//! each question then scans that short list with interval tests. A question outside the
-//! gathered reach goes to the program.
+//! each question then scans that short list with interval tests. Once a ray has asked many
+//! point questions (sphere tracing), its candidates are binned along the ray so that each
+//! question scans only its bin. A question outside the gathered reach goes to the program.
 //!
 //! The answers are bit for bit those of the program's own queries: the list keeps the BVH's
 //! depth-first order (which every program query follows), a point query keeps exactly the items
@@ -15,6 +16,8 @@
 //! the interval (the slab test clipped to a span equals the line's slab interval intersected with
 //! it, `max`/`min` being exact). So the marches, their step counts and depths are unchanged;
 //! `tests/ray_field.rs` compares the two on every asset.
+
+use std::cell::{Cell, OnceCell};
 
 use glam::DVec3;
 
@@ -43,6 +46,95 @@ pub struct RayField<'a> {
     /// The part of the ray the candidates cover.
     reach: Interval,
     candidates: Vec<Candidate>,
+    /// Built once the ray has asked [`CELLS_AFTER`] point questions.
+    cells: OnceCell<Cells>,
+    point_questions: Cell<u32>,
+}
+
+/// Point questions on one ray after which its candidates are binned: the marches that take a
+/// handful of steps never pay for the bins, sphere tracing's hundreds of steps do once.
+const CELLS_AFTER: u32 = 32;
+
+/// The candidates binned along the ray, so that a question about a point or a short interval
+/// scans only the candidates near it (sphere tracing asks hundreds of point questions per ray):
+/// cell `k` covers `[start + k·width, start + (k + 1)·width)` and lists, in the candidates'
+/// order, those whose box interval on the line, widened by `slack`, overlaps it. A question
+/// that straddles cells scans every candidate.
+#[derive(Debug, Default)]
+struct Cells {
+    start: f64,
+    width: f64,
+    /// `items[offsets[k]..offsets[k + 1]]` are cell `k`'s candidates.
+    offsets: Vec<u32>,
+    items: Vec<u32>,
+}
+
+/// Most cells per ray; about one per two candidates below that.
+const MAX_CELLS: usize = 32;
+
+impl Cells {
+    fn new(candidates: &[Candidate], reach: Interval) -> Self {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for c in candidates.iter().filter(|c| c.bounds.is_some()) {
+            lo = lo.min(c.line.lo);
+            hi = hi.max(c.line.hi);
+        }
+        let (lo, hi) = (lo.max(reach.lo), hi.min(reach.hi));
+        let count = (candidates.len() / 2).min(MAX_CELLS);
+        let spread = lo < hi;
+        if !spread || count < 2 {
+            return Self::default();
+        }
+        let width = (hi - lo) / count as f64;
+        // A point's parameter and its box's interval round differently: widen generously.
+        let slack = 1e-7 * (hi - lo + lo.abs().max(hi.abs()));
+        // Clamped to be non-negative first, the cast truncates as `floor` does (a library call
+        // on the baseline x86-64 target).
+        let last = (count - 1) as f64;
+        let range = |c: &Candidate| {
+            let cell = |t: f64| ((t - lo) / width).clamp(0.0, last) as usize;
+            cell(c.line.lo - slack)..=cell(c.line.hi + slack)
+        };
+        let mut offsets = vec![0_u32; count + 1];
+        for c in candidates {
+            for k in range(c) {
+                offsets[k + 1] += 1;
+            }
+        }
+        for k in 0..count {
+            offsets[k + 1] += offsets[k];
+        }
+        let mut fill = offsets.clone();
+        let mut items = vec![0_u32; offsets[count] as usize];
+        for (i, c) in candidates.iter().enumerate() {
+            for k in range(c) {
+                items[fill[k] as usize] = i as u32;
+                fill[k] += 1;
+            }
+        }
+        Self {
+            start: lo,
+            width,
+            offsets,
+            items,
+        }
+    }
+
+    /// The cell holding every candidate that may matter on `[a, b]`, if one does.
+    fn cell(&self, a: f64, b: f64) -> Option<&[u32]> {
+        let count = self.offsets.len().checked_sub(1)?;
+        let end = self.start + self.width * count as f64;
+        let inside = a >= self.start && b < end;
+        if !inside {
+            return None;
+        }
+        // Both non-negative: the casts truncate as `floor` does.
+        let k = ((a - self.start) / self.width) as usize;
+        if k != ((b - self.start) / self.width) as usize || k >= count {
+            return None;
+        }
+        Some(&self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize])
+    }
 }
 
 impl<'a> RayField<'a> {
@@ -91,6 +183,8 @@ impl<'a> RayField<'a> {
             ray: *ray,
             reach,
             candidates,
+            cells: OnceCell::new(),
+            point_questions: Cell::new(0),
         }
     }
 
@@ -122,7 +216,9 @@ impl<'a> RayField<'a> {
         if !self.reach.contains(t) {
             return self.program.along_ray(&self.ray, t);
         }
-        let (v, g) = self.program.value_gradient_in(self, self.ray.at(t));
+        let (v, g) = self
+            .program
+            .value_gradient_in(&AtParameter(self, t), self.ray.at(t));
         (v, g.dot(self.ray.direction))
     }
 
@@ -154,7 +250,8 @@ impl<'a> RayField<'a> {
             return self.program.group_values_along_ray(&self.ray, t);
         }
         let mut slots = vec![(0.0, 0.0); self.program.group_count()];
-        self.program.group_values_in(self, &self.ray, t, &mut slots);
+        self.program
+            .group_values_in(&AtParameter(self, t), &self.ray, t, &mut slots);
         slots
     }
 
@@ -206,11 +303,39 @@ impl<'a> RayField<'a> {
     }
 }
 
-impl PointLookup for RayField<'_> {
+impl RayField<'_> {
+    /// The candidates' indices in one cell covering `[a, b]`, once the cells are built.
+    fn cell(&self, a: f64, b: f64) -> Option<&[u32]> {
+        self.cells.get().and_then(|cells| cells.cell(a, b))
+    }
+}
+
+/// Point queries at `ray.at(t)`.
+struct AtParameter<'b, 'a>(&'b RayField<'a>, f64);
+
+impl PointLookup for AtParameter<'_, '_> {
     fn near(&self, p: DVec3, mut visit: impl FnMut(u32)) {
-        for c in &self.candidates {
-            if c.bounds.is_none_or(|b| b.contains(p)) {
-                visit(c.primitive);
+        let field = self.0;
+        let asked = field.point_questions.get() + 1;
+        field.point_questions.set(asked);
+        if asked == CELLS_AFTER {
+            field
+                .cells
+                .get_or_init(|| Cells::new(&field.candidates, field.reach));
+        }
+        let test = |c: &Candidate| c.bounds.is_none_or(|b| b.contains(p));
+        if let Some(cell) = field.cell(self.1, self.1) {
+            for &i in cell {
+                let c = &field.candidates[i as usize];
+                if test(c) {
+                    visit(c.primitive);
+                }
+            }
+        } else {
+            for c in &field.candidates {
+                if test(c) {
+                    visit(c.primitive);
+                }
             }
         }
     }
@@ -218,13 +343,19 @@ impl PointLookup for RayField<'_> {
 
 impl RayLookup for RayField<'_> {
     fn on_ray(&self, span: Interval, mut visit: impl FnMut(u32, Interval)) {
-        for c in &self.candidates {
-            if c.line.lo.max(span.lo) > c.line.hi.min(span.hi) {
-                continue;
-            }
-            if let Some(s) = c.support.and_then(|s| s.intersect(span)) {
+        let mut test = |c: &Candidate| {
+            if c.line.lo.max(span.lo) <= c.line.hi.min(span.hi)
+                && let Some(s) = c.support.and_then(|s| s.intersect(span))
+            {
                 visit(c.primitive, s);
             }
+        };
+        if let Some(cell) = self.cell(span.lo, span.hi) {
+            for &i in cell {
+                test(&self.candidates[i as usize]);
+            }
+        } else {
+            self.candidates.iter().for_each(test);
         }
     }
 }
