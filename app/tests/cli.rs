@@ -205,6 +205,7 @@ fn stats_json_follows_the_design_schema() {
         "\"missed\": 0",
         "\"spurious\": 0",
         "\"avg_steps\"",
+        "\"avg_evaluations\"",
         "\"median_steps\"",
         "\"p95_steps\"",
         "\"max_steps\"",

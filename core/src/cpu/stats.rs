@@ -32,6 +32,10 @@ pub struct MethodStats {
     pub spurious: usize,
     /// Mean steps per ray.
     pub avg_steps: f64,
+    /// Mean point evaluations of the field per ray (value and gradient count as one): the
+    /// measure that compares methods whose steps differ in cost (a SCALIS iteration, a bisection
+    /// leaf, a confirmation past a root).
+    pub avg_evaluations: f64,
     /// Median steps per ray.
     pub median_steps: u32,
     /// 95th percentile of steps per ray.
@@ -106,7 +110,7 @@ pub fn run(
     for method in chosen {
         let tracer = method.prepare(program, settings);
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let results: Vec<(Option<f64>, u32, u128)> = rays
+        let results: Vec<(Option<f64>, u32, u128, u32)> = rays
             .par_iter()
             .map(|(ray, span)| {
                 let start = Instant::now();
@@ -116,7 +120,12 @@ pub fn run(
                 if n.is_multiple_of(4096) {
                     progress(method.name(), n as f64 / rays.len() as f64);
                 }
-                (trace.first().map(|c| c.t), trace.steps, elapsed)
+                (
+                    trace.first().map(|c| c.t),
+                    trace.steps,
+                    elapsed,
+                    trace.evaluations,
+                )
             })
             .collect();
         let mut steps: Vec<u32> = results.iter().map(|r| r.1).collect();
@@ -128,13 +137,15 @@ pub fn run(
             missed: 0,
             spurious: 0,
             avg_steps: steps.iter().map(|&s| f64::from(s)).sum::<f64>() / steps.len().max(1) as f64,
+            avg_evaluations: results.iter().map(|r| f64::from(r.3)).sum::<f64>()
+                / results.len().max(1) as f64,
             median_steps: percentile(&steps, 0.5),
             p95_steps: percentile(&steps, 0.95),
             max_steps: steps.last().copied().unwrap_or(0),
             ns_per_ray: results.iter().map(|r| r.2 as f64).sum::<f64>() / rays.len().max(1) as f64,
             max_depth_error: 0.0,
         };
-        for ((got, _, _), want) in results.iter().zip(&reference) {
+        for ((got, _, _, _), want) in results.iter().zip(&reference) {
             stats.hits += usize::from(got.is_some());
             match (want, got) {
                 (Some(w), Some(g)) if *g > w + tolerance => stats.missed += 1,
@@ -175,14 +186,16 @@ impl SceneStats {
             .map(|m| {
                 format!(
                     "{{\"name\": {}, \"rays\": {}, \"hits\": {}, \"missed\": {}, \"spurious\": {}, \
-                     \"avg_steps\": {}, \"median_steps\": {}, \"p95_steps\": {}, \"max_steps\": {}, \
-                     \"ns_per_ray\": {}, \"max_depth_error\": {}}}",
+                     \"avg_steps\": {}, \"avg_evaluations\": {}, \"median_steps\": {}, \
+                     \"p95_steps\": {}, \"max_steps\": {}, \"ns_per_ray\": {}, \
+                     \"max_depth_error\": {}}}",
                     json_string(&m.name),
                     m.rays,
                     m.hits,
                     m.missed,
                     m.spurious,
                     json_number(m.avg_steps),
+                    json_number(m.avg_evaluations),
                     m.median_steps,
                     m.p95_steps,
                     m.max_steps,
@@ -203,17 +216,18 @@ impl SceneStats {
     #[must_use]
     pub fn to_table(&self) -> String {
         let mut out = String::from(
-            "| method | hits | missed | spurious | avg steps | median | p95 | max | ns/ray | max depth error |\n\
-             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+            "| method | hits | missed | spurious | avg steps | avg evaluations | median | p95 | max | ns/ray | max depth error |\n\
+             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for m in &self.methods {
             out.push_str(&format!(
-                "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {:.0} | {:.1e} |\n",
+                "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {} | {:.0} | {:.1e} |\n",
                 m.name,
                 m.hits,
                 m.missed,
                 m.spurious,
                 m.avg_steps,
+                m.avg_evaluations,
                 m.median_steps,
                 m.p95_steps,
                 m.max_steps,
