@@ -1,6 +1,6 @@
-//! Time per ray of every method on the `blobs` and `tree` assets (issue: "every root-finding
-//! method on the CPU"), with the statistics protocol's rays (six axis directions from the faces
-//! of the support box), single-threaded. Criterion reports time per ray as the inverse of the
+//! Time per ray of every method on the `blobs` and `tree` assets and on 1000 summed blobs
+//! (`generate blobs --groups 1 --size 1000`, issue 18), with the statistics protocol's rays (six
+//! axis directions from the faces of the support box), single-threaded. Criterion reports time per ray as the inverse of the
 //! element throughput; `skeletrace stats` reports the same quantity with the step counts.
 
 use std::hint::black_box;
@@ -9,17 +9,21 @@ use std::path::Path;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use skeletrace_core::cpu::stats::protocol_rays;
 use skeletrace_core::methods::{self, MethodId, TraceMode, TraceSettings};
+use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::{FieldProgram, Scene};
 
 const RAYS: usize = 600;
 
-fn bench_scene(c: &mut Criterion, name: &str) {
+fn asset(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"));
-    let scene = match Scene::load(&path) {
+    match Scene::load(&path) {
         Ok(s) => s,
         Err(e) => panic!("{e}"),
-    };
-    let program = FieldProgram::new(&scene);
+    }
+}
+
+fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
+    let program = FieldProgram::new(scene);
     let settings = TraceSettings::for_program(&program);
     let rays = protocol_rays(&program, RAYS, 1);
     let mut group = c.benchmark_group(format!("ray/{name}"));
@@ -42,8 +46,18 @@ fn bench_scene(c: &mut Criterion, name: &str) {
 }
 
 fn methods_per_ray(c: &mut Criterion) {
-    bench_scene(c, "blobs");
-    bench_scene(c, "tree");
+    bench_scene(c, "blobs", &asset("blobs"));
+    bench_scene(c, "tree", &asset("tree"));
+    let options = GenerateOptions {
+        seed: 1,
+        size: Some(1000),
+        groups: Some(1),
+        ..GenerateOptions::default()
+    };
+    match generate(GeneratorKind::Blobs, &options) {
+        Ok(scene) => bench_scene(c, "blobs-1000", &scene),
+        Err(e) => panic!("{e}"),
+    }
 }
 
 criterion_group!(benches, methods_per_ray);

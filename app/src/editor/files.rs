@@ -498,17 +498,27 @@ impl Editor {
         }
     }
 
-    pub(super) fn autosave(&mut self) {
-        if self.last_autosave.elapsed() < Duration::from_secs(AUTOSAVE_SECONDS) {
-            return;
-        }
-        self.last_autosave = Instant::now();
+    /// Writes the recovery file when the document changed since the last one was written and
+    /// the autosave period has passed; before that, asks egui to wake up when it will have, so
+    /// that an edit followed by no input at all is still saved within the period.
+    pub(super) fn autosave(&mut self, ctx: &egui::Context) {
         let Some(path) = self.recovery_path.clone() else {
             return;
         };
-        if !self.doc.is_dirty() || self.recovery_offer.is_some() {
+        let revision = self.doc.revision();
+        if !self.doc.is_dirty()
+            || self.recovery_offer.is_some()
+            || self.autosaved_revision == Some(revision)
+        {
             return;
         }
+        let period = Duration::from_secs(AUTOSAVE_SECONDS);
+        let waited = self.last_autosave.elapsed();
+        if waited < period {
+            ctx.request_repaint_after(period - waited);
+            return;
+        }
+        self.last_autosave = Instant::now();
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
@@ -516,12 +526,13 @@ impl Editor {
             || "an unsaved scene".to_owned(),
             |p| p.display().to_string(),
         );
-        if let Err(why) = self
+        match self
             .doc
             .scene()
             .save_with_comment(&path, &format!("skeletrace recovery of {origin}"))
         {
-            self.complain(format!("autosave failed: {why}"));
+            Ok(()) => self.autosaved_revision = Some(revision),
+            Err(why) => self.complain(format!("autosave failed: {why}")),
         }
     }
 
@@ -648,7 +659,7 @@ mod tests {
         }));
         let edited = editor.doc.scene().clone();
         editor.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS + 1);
-        editor.autosave();
+        editor.autosave(&egui::Context::default());
         // The rename onto an existing directory fails after the text was written, even as root.
         let target = dir.join("taken.ron");
         std::fs::create_dir_all(target.join("inside")).unwrap_or_else(|e| panic!("{e}"));
@@ -663,6 +674,55 @@ mod tests {
         assert_eq!(editor.doc.scene(), &edited);
         let restored = Scene::load(&recovery).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(restored, edited, "the recovery file holds the edited scene");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// An edit followed by no input at all: the editor asks egui to wake it when the autosave
+    /// period ends (egui then runs a frame without any event), and that frame writes the
+    /// recovery file; an unchanged document is not written again.
+    #[test]
+    fn an_edit_followed_by_idleness_is_autosaved() {
+        let dir = std::env::temp_dir().join(format!("skeletrace-idle-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        let recovery = dir.join("recovery.ron");
+        let mut editor = Editor::new(
+            Document::new(super::super::default_scene(), None),
+            super::super::UiState::default(),
+            Some(recovery.clone()),
+            || {},
+        );
+        let ctx = egui::Context::default();
+        let wake_up = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let heard = wake_up.clone();
+        ctx.set_request_repaint_callback(move |info| {
+            if let Ok(mut slot) = heard.lock() {
+                *slot = Some(info.delay);
+            }
+        });
+        assert!(editor.apply(Edit::new("move"), |s| {
+            s.groups[0].skeletons[0].vertices[0].position[1] += 0.25;
+        }));
+        editor.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS - 2);
+        editor.autosave(&ctx);
+        assert!(!recovery.exists(), "written before the period ended");
+        let delay = wake_up.lock().ok().and_then(|d| *d);
+        assert!(
+            delay.is_some_and(|d| d > Duration::from_secs(1) && d <= Duration::from_secs(2)),
+            "no wake-up asked for the end of the period: {delay:?}"
+        );
+        // The frame egui runs at that time, without input.
+        editor.last_autosave -= Duration::from_secs(2);
+        editor.autosave(&ctx);
+        let restored = Scene::load(&recovery).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(&restored, editor.doc.scene());
+        // Nothing changed since: no new write, no new wake-up.
+        std::fs::remove_file(&recovery).unwrap_or_else(|e| panic!("{e}"));
+        editor.last_autosave -= Duration::from_secs(AUTOSAVE_SECONDS + 1);
+        editor.autosave(&ctx);
+        assert!(
+            !recovery.exists(),
+            "an unchanged document was written again"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

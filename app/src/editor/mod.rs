@@ -149,6 +149,8 @@ pub struct Editor {
     background_writes: Vec<files::BackgroundWrite>,
     last_interaction: Instant,
     last_autosave: Instant,
+    /// The document revision the recovery file holds.
+    autosaved_revision: Option<u64>,
     active_group: usize,
     hovered_pixel: Option<(usize, usize)>,
     /// Where the shaded viewport was last drawn.
@@ -199,6 +201,7 @@ impl Editor {
             background_writes: Vec::new(),
             last_interaction: Instant::now(),
             last_autosave: Instant::now(),
+            autosaved_revision: None,
             active_group: 0,
             hovered_pixel: None,
             viewport_rect: None,
@@ -340,7 +343,7 @@ impl Editor {
             ViewMode::Compare => self.comparison(ui),
         });
         self.dialogs(&ctx);
-        self.autosave();
+        self.autosave(&ctx);
         if ui.input(|i| i.pointer.any_released()) {
             self.doc.end_gesture();
         }
