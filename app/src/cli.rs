@@ -35,6 +35,9 @@ pub enum Command {
     Render(RenderArgs),
     /// Time full frames per method: median milliseconds over several frames.
     Bench(BenchArgs),
+    /// Trace one pixel's camera ray with each method and print its steps: where each step
+    /// stood, the field there, the bound it computed and how far that let it go.
+    TraceRay(TraceRayArgs),
     /// Export the isosurface as a glTF mesh (.glb, or .gltf with a .bin beside it).
     Export(ExportArgs),
 }
@@ -120,6 +123,25 @@ pub struct RenderArgs {
     /// Ambient occlusion estimated from the field (2014 notes §12.4; CPU and GPU).
     #[arg(long)]
     pub ao: bool,
+}
+
+/// Arguments of `trace-ray`.
+#[derive(Args, Debug)]
+pub struct TraceRayArgs {
+    /// Scene file (.ron).
+    pub scene: PathBuf,
+    /// Pixel `X,Y` (from the top left) of a frame of `--size`, as `render` numbers them.
+    #[arg(long)]
+    pub pixel: String,
+    /// Frame size, `WxH`.
+    #[arg(long, default_value = "512x512")]
+    pub size: String,
+    /// `all` (every method that applies) or a comma-separated list.
+    #[arg(long, default_value = "all")]
+    pub methods: String,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `stats`.

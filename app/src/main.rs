@@ -6,6 +6,7 @@
 mod bench_cmd;
 mod cli;
 mod render_cmd;
+mod trace_ray_cmd;
 
 use std::io::IsTerminal;
 use std::path::Path;
@@ -31,6 +32,9 @@ fn main() -> ExitCode {
         }
         Some(Command::Render(args)) => {
             load(Some(&args.scene)).and_then(|s| render_cmd::run(&args, &s))
+        }
+        Some(Command::TraceRay(args)) => {
+            load(Some(&args.scene)).and_then(|s| trace_ray_cmd::run(&args, &s))
         }
         Some(Command::Export(args)) => load(Some(&args.scene)).and_then(|s| run_export(&args, &s)),
         Some(Command::Info { scene }) => {

@@ -352,3 +352,77 @@ fn bench_reports_milliseconds_per_frame_for_each_method() {
     assert_eq!(times.len(), 2, "{out}");
     assert!(times.iter().all(|&t| t > 0.0 && t.is_finite()), "{out}");
 }
+
+/// `trace-ray --json` traces the ray the CPU renderer traces for that pixel: its step counts are
+/// the step heat map's there, and its step log (for the marching methods) has one record per
+/// step.
+#[test]
+fn trace_ray_reports_the_heat_maps_step_counts_and_a_consistent_step_log() {
+    use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
+    use skeletrace_core::frame::FieldShading;
+    use skeletrace_core::methods::MethodId;
+    use skeletrace_core::{Scene, compile};
+
+    let scene_path = assets().into_iter().find(|p| p.ends_with("blobs.ron"));
+    let scene_path = scene_path.unwrap_or_default();
+    let scene = Scene::load(&scene_path).unwrap_or_else(|e| panic!("{e}"));
+    let compiled = compile(&scene);
+    let (w, h) = (48, 40);
+    for method in [
+        MethodId::Segment,
+        MethodId::QuadraticTaylor,
+        MethodId::SphereEnhanced,
+    ] {
+        let tracer = method
+            .method()
+            .prepare(&compiled.program, compiled.settings);
+        let frame = Renderer::new(&compiled, tracer.as_ref(), compiled.settings).render(
+            &scene.camera,
+            RenderOptions {
+                width: w,
+                height: h,
+                shadows: false,
+                shading: FieldShading::default(),
+            },
+        );
+        for (x, y) in [(24, 20), (10, 30), (40, 5), (30, 22)] {
+            let o = skeletrace(&[
+                "trace-ray",
+                &scene_path.display().to_string(),
+                "--pixel",
+                &format!("{x},{y}"),
+                "--size",
+                &format!("{w}x{h}"),
+                "--methods",
+                method.name(),
+                "--json",
+            ]);
+            assert!(o.status.success(), "{}", text(&o.stderr));
+            let out = text(&o.stdout);
+            let want = frame.steps[y * w + x];
+            assert!(
+                out.contains(&format!("\"steps\": {want},")),
+                "{method} at ({x}, {y}): the heat map has {want} steps; trace-ray said {out}"
+            );
+            let records = out.matches("\"t\": ").count();
+            if method == MethodId::SphereEnhanced {
+                assert!(out.contains("\"log\": null"), "{out}");
+            } else {
+                assert_eq!(
+                    records, want as usize,
+                    "{method}: one record per step: {out}"
+                );
+            }
+        }
+    }
+    let bad = skeletrace(&[
+        "trace-ray",
+        &scene_path.display().to_string(),
+        "--pixel",
+        "99,1",
+        "--size",
+        "48x40",
+    ]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("outside the 48x40 frame"));
+}

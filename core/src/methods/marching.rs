@@ -12,7 +12,9 @@ use crate::field::geometry::{Ray, quadratic_roots};
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::{Crossing, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::{
+    Crossing, RayTracer, StepRecord, Trace, TraceMode, TraceSettings, trace_supports_into,
+};
 
 /// First `s ∈ [0, limit]` where `start + offset(s)` reaches `target`, if any.
 pub(crate) fn first_reach(start: f64, offset: Offset, target: f64, limit: f64) -> Option<f64> {
@@ -63,7 +65,17 @@ pub(crate) fn march(
         } else {
             inclusion.upper
         };
-        match first_reach(f, offset, c, limit) {
+        let reach = first_reach(f, offset, c, limit);
+        if let Some(log) = trace.log.as_mut() {
+            log.push(StepRecord {
+                t,
+                f,
+                slope: d,
+                bound: inclusion,
+                step: reach.unwrap_or(limit),
+            });
+        }
+        match reach {
             Some(s) if s < settings.epsilon => {
                 // Confirm: the field must be on the other side of c just past the root.
                 trace.evaluations += 1;
@@ -142,9 +154,26 @@ where
     B: Fn(&RayField, f64, f64, f64, f64) -> ForwardInclusion + Sync,
 {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        self.trace_into(Trace::default(), ray, span, mode)
+    }
+
+    fn trace_logged(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        let logged = Trace {
+            log: Some(Vec::new()),
+            ..Trace::default()
+        };
+        self.trace_into(logged, ray, span, mode)
+    }
+}
+
+impl<B> Marcher<'_, B>
+where
+    B: Fn(&RayField, f64, f64, f64, f64) -> ForwardInclusion + Sync,
+{
+    fn trace_into(&self, trace: Trace, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
         let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+        trace_supports_into(trace, &field, span, mode, s.max_steps, |part, trace| {
             march(&field, part, s, mode, trace, |t, f, d, h| {
                 (self.bound)(&field, t, f, d, h)
             });

@@ -114,6 +114,25 @@ pub struct Trace {
     pub steps: u32,
     /// Point evaluations of the field (value and gradient count as one).
     pub evaluations: u32,
+    /// Every step of a marching method, when asked for ([`RayTracer::trace_logged`]).
+    pub log: Option<Vec<StepRecord>>,
+}
+
+/// One step of a marching method (forward-inclusion 2023, algorithm 1): where it stood, the
+/// field there, the bound it computed on `[t, t + bound.length]` and how far that bound let it
+/// go (`step`: to the first point where the bound reaches `c`, or the bound's whole length).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepRecord {
+    /// Ray parameter of the step's start.
+    pub t: f64,
+    /// `f(t)`.
+    pub f: f64,
+    /// `f′(t)` along the ray.
+    pub slope: f64,
+    /// The bounds: `f(t) + lower(s) ≤ f(t + s) ≤ f(t) + upper(s)` for `s ≤ length`.
+    pub bound: crate::bounds::inclusion::ForwardInclusion,
+    /// The advance the bound allows.
+    pub step: f64,
 }
 
 impl Trace {
@@ -159,6 +178,12 @@ pub trait Method: Sync {
 pub trait RayTracer: Sync {
     /// Traces `ray` over `span`.
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace;
+
+    /// As [`RayTracer::trace`], with the step log of the marching methods ([`StepRecord`]);
+    /// the other methods give none (`log` stays `None`).
+    fn trace_logged(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        self.trace(ray, span, mode)
+    }
 }
 
 /// The crossing at `t` where the field jumps across the isovalue, if it does (values just
@@ -202,9 +227,20 @@ pub(crate) fn trace_supports(
     span: Interval,
     mode: TraceMode,
     max_steps: u32,
+    trace_span: impl FnMut(Interval, &mut Trace),
+) -> Trace {
+    trace_supports_into(Trace::default(), field, span, mode, max_steps, trace_span)
+}
+
+/// [`trace_supports`] appending to `trace` (one whose `log` is on).
+pub(crate) fn trace_supports_into(
+    mut trace: Trace,
+    field: &RayField,
+    span: Interval,
+    mode: TraceMode,
+    max_steps: u32,
     mut trace_span: impl FnMut(Interval, &mut Trace),
 ) -> Trace {
-    let mut trace = Trace::default();
     let mut previous_end = None;
     for part in field.support_unions(span) {
         if previous_end == Some(part.lo)
