@@ -87,6 +87,15 @@ pub enum View {
     Steps,
 }
 
+/// How step counts map onto the heat maps' colour scale.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    /// `ln(1 + steps) / ln(1 + top)`: 5 and 2048 steps both readable.
+    Log,
+    /// `steps / top`.
+    Linear,
+}
+
 /// Arguments of `render`.
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -114,6 +123,9 @@ pub struct RenderArgs {
     /// Top of the step-count colour scale (default: the largest count in the image).
     #[arg(long)]
     pub steps_max: Option<u32>,
+    /// Step-count colour scale.
+    #[arg(long, value_enum, default_value = "log")]
+    pub scale: Scale,
     /// Cast shadow rays in the shaded view.
     #[arg(long)]
     pub shadows: bool,

@@ -5,7 +5,7 @@ use std::fs;
 use std::io::BufWriter;
 use std::path::Path;
 
-use skeletrace_core::frame::{Frame, StepSummary, heat_colour, srgb8};
+use skeletrace_core::frame::{Frame, StepScale, StepSummary, heat_colour, srgb8};
 
 /// Text scale: 8×8 glyphs drawn at 2×.
 const TEXT_SCALE: usize = 2;
@@ -65,9 +65,16 @@ impl Canvas {
     }
 
     /// Draws a frame's step counts as a heat map on the scale `[0, steps_max]`.
-    pub fn draw_steps(&mut self, frame: &Frame, steps_max: u32, x: usize, y: usize) {
+    pub fn draw_steps(
+        &mut self,
+        frame: &Frame,
+        steps_max: u32,
+        scale: StepScale,
+        x: usize,
+        y: usize,
+    ) {
         for (i, &s) in frame.steps.iter().enumerate() {
-            let colour = heat_rgba(f64::from(s) / f64::from(steps_max.max(1)));
+            let colour = heat_rgba(scale.position(f64::from(s), steps_max));
             self.put(x + i % frame.width, y + i / frame.width, colour);
         }
     }
@@ -137,37 +144,65 @@ impl Canvas {
         }
     }
 
-    /// The colour bar of the step-count scale `[0, steps_max]`, titled "steps", with tick
-    /// labels that do not overlap; counts above the scale take its top colour (`clipped` marks
-    /// the last label `>=`).
-    pub fn colour_bar(&mut self, x: usize, y: usize, width: usize, steps_max: u32, clipped: bool) {
+    /// The colour bar of the step-count scale `[0, steps_max]`, titled "steps" (or "steps, log"),
+    /// with tick labels that do not overlap: quarters of the range on a linear scale, 0, 1, 2, 5,
+    /// 10, 20, 50, … on a logarithmic one, and the top. Counts above the scale take its top
+    /// colour (`clipped` marks the last label `>=`).
+    pub fn colour_bar(
+        &mut self,
+        x: usize,
+        y: usize,
+        width: usize,
+        steps_max: u32,
+        scale: StepScale,
+        clipped: bool,
+    ) {
         let white = [235, 235, 235, 255];
         self.fill(x, y, width, BAR_HEIGHT, [24, 26, 30, 255]);
-        self.text(x + 8, y + 6, "steps", white);
-        let bar_x = x + 16 + Self::text_width("steps");
+        let title = match scale {
+            StepScale::Log => "steps, log",
+            StepScale::Linear => "steps",
+        };
+        self.text(x + 8, y + 6, title, white);
+        let bar_x = x + 16 + Self::text_width(title);
         let bar_w = (x + width).saturating_sub(bar_x + 16).max(1);
         for i in 0..bar_w {
             let c = heat_rgba(i as f64 / (bar_w - 1).max(1) as f64);
             self.fill(bar_x + i, y + 6, 1, 14, c);
         }
-        let mut free_from = x;
-        for k in 0..=4u32 {
-            let value = (f64::from(steps_max) * f64::from(k) / 4.0).round();
-            let text = if k == 4 && clipped {
-                format!(">={steps_max}")
+        let top = steps_max.max(1);
+        let mut values: Vec<u32> = match scale {
+            StepScale::Linear => (0..4u32).map(|k| (top * k + 2) / 4).collect(),
+            StepScale::Log => std::iter::once(0)
+                .chain((0..10).flat_map(|e| [1, 2, 5].map(|m| m * 10u32.pow(e))))
+                .take_while(|&v| v < top)
+                .collect(),
+        };
+        values.push(top);
+        // The top label first: it must show; then the others, left to right, where they fit.
+        let last = values.len() - 1;
+        let mut order: Vec<usize> = (0..last).collect();
+        order.insert(0, last);
+        let mut placed: Vec<(usize, usize)> = Vec::new();
+        for k in order {
+            let value = values[k];
+            let text = if k == last && clipped {
+                format!(">={value}")
             } else {
-                format!("{value:.0}")
+                value.to_string()
             };
-            let tick = bar_x + (bar_w - 1) * k as usize / 4;
+            let position = scale.position(f64::from(value), top);
+            let tick = bar_x + ((bar_w - 1) as f64 * position).round() as usize;
             self.fill(tick, y + 20, 1, 4, white);
             let w = Self::text_width(&text);
             let tx = tick
                 .saturating_sub(w / 2)
                 .min((x + width).saturating_sub(w + 2))
                 .max(x + 2);
-            if tx >= free_from {
+            let overlaps = placed.iter().any(|&(a, b)| tx < b + 8 && a < tx + w + 8);
+            if !overlaps {
                 self.text(tx, y + 26, &text, white);
-                free_from = tx + w + 8;
+                placed.push((tx, tx + w));
             }
         }
     }
@@ -244,6 +279,8 @@ pub enum Panels {
     Steps {
         /// Top of the shared scale.
         steps_max: u32,
+        /// Logarithmic or linear.
+        scale: StepScale,
         /// Some pixel exceeds `steps_max` (the bar says `>=`).
         clipped: bool,
     },
@@ -277,11 +314,25 @@ pub fn compose(frames: &[(&str, Frame)], panels: Panels) -> Canvas {
         }
         match panels {
             Panels::Shaded { .. } => canvas.draw_shaded(frame, x, y + label),
-            Panels::Steps { steps_max, .. } => canvas.draw_steps(frame, steps_max, x, y + label),
+            Panels::Steps {
+                steps_max, scale, ..
+            } => canvas.draw_steps(frame, steps_max, scale, x, y + label),
         }
     }
-    if let Panels::Steps { steps_max, clipped } = panels {
-        canvas.colour_bar(0, rows * (h + label), columns * w, steps_max, clipped);
+    if let Panels::Steps {
+        steps_max,
+        scale,
+        clipped,
+    } = panels
+    {
+        canvas.colour_bar(
+            0,
+            rows * (h + label),
+            columns * w,
+            steps_max,
+            scale,
+            clipped,
+        );
     }
     canvas
 }

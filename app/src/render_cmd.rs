@@ -4,11 +4,11 @@
 use std::time::Instant;
 
 use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
-use skeletrace_core::frame::{FieldShading, Frame, View as FrameView};
+use skeletrace_core::frame::{FieldShading, Frame, StepScale, View as FrameView};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::{Scene, compile};
 
-use crate::cli::{RenderArgs, View};
+use crate::cli::{RenderArgs, Scale, View};
 use skeletrace::backends::Backends;
 use skeletrace::picture::{Panels, compose, shared_scale};
 
@@ -113,7 +113,14 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
         View::Shaded => Panels::Shaded {
             labelled: args.compare.is_some(),
         },
-        View::Steps => Panels::Steps { steps_max, clipped },
+        View::Steps => Panels::Steps {
+            steps_max,
+            scale: match args.scale {
+                Scale::Log => StepScale::Log,
+                Scale::Linear => StepScale::Linear,
+            },
+            clipped,
+        },
     };
     let picture = compose(&frames, panels);
     picture.save_png(&args.output)?;

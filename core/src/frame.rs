@@ -220,6 +220,30 @@ pub const TURBO: [[f64; 6]; 3] = [
     ],
 ];
 
+/// How step counts map onto the colour scale `[0, top]`: logarithmically by default, so that
+/// 5 and 2048 steps are both readable on one scale, or linearly.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StepScale {
+    /// `ln(1 + steps) / ln(1 + top)`.
+    #[default]
+    Log,
+    /// `steps / top`.
+    Linear,
+}
+
+impl StepScale {
+    /// Position in `[0, 1]` of `steps` on a scale whose top is `top` (counts above take 1).
+    #[must_use]
+    pub fn position(self, steps: f64, top: u32) -> f64 {
+        let top = f64::from(top.max(1));
+        let x = match self {
+            Self::Log => steps.max(0.0).ln_1p() / top.ln_1p(),
+            Self::Linear => steps / top,
+        };
+        x.clamp(0.0, 1.0)
+    }
+}
+
 /// The step-count colour map (Turbo, Mikhailov 2019, polynomial fit [`TURBO`]) at
 /// `x ∈ [0, 1]`, sRGB in `[0, 1]`.
 #[must_use]
@@ -229,4 +253,30 @@ pub fn heat_colour(x: f64) -> [f32; 3] {
         let v = c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5]))));
         v.clamp(0.0, 1.0) as f32
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On a 2048-step scale, 5 and 8 steps land in clearly different colours on the log scale
+    /// (a tenth of the bar apart) where the linear one squeezes them into its first 0.4 %.
+    #[test]
+    fn the_log_scale_separates_small_counts_that_the_linear_one_merges() {
+        for scale in [StepScale::Log, StepScale::Linear] {
+            assert_eq!(scale.position(0.0, 2048), 0.0);
+            assert_eq!(scale.position(2048.0, 2048), 1.0);
+            assert_eq!(scale.position(5000.0, 2048), 1.0, "counts above the top clip");
+            let mut last = -1.0;
+            for s in 0..=2048 {
+                let x = scale.position(f64::from(s), 2048);
+                assert!(x > last, "{scale:?} is not increasing at {s}");
+                last = x;
+            }
+        }
+        let gap = |scale: StepScale| scale.position(8.0, 2048) - scale.position(5.0, 2048);
+        assert!(gap(StepScale::Log) > 0.05, "{}", gap(StepScale::Log));
+        assert!(gap(StepScale::Linear) < 0.004);
+        assert_eq!(StepScale::default(), StepScale::Log);
+    }
 }

@@ -110,7 +110,7 @@ impl Editor {
         painter.text(
             egui::pos2(bar_rect.left(), bar_rect.bottom() + 2.0),
             egui::Align2::LEFT_TOP,
-            "0 steps",
+            "0 steps (log scale)",
             egui::FontId::proportional(12.0),
             egui::Color32::LIGHT_GRAY,
         );

@@ -10,7 +10,7 @@ use std::time::Duration;
 use eframe::egui;
 use skeletrace_core::Compiled;
 use skeletrace_core::backend::{BackendChoice, Cancel};
-use skeletrace_core::frame::{FieldShading, Frame};
+use skeletrace_core::frame::{FieldShading, Frame, StepScale};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
 
@@ -242,12 +242,13 @@ pub(super) fn adapted_divisor(divisor: usize, ms: f64, traced: usize, viewport: 
     (bounded.round() as usize).clamp(1, PREVIEW_DIVISOR_MAX)
 }
 
-/// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]`.
+/// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]`
+/// (logarithmic, as the grid's colour bar says).
 fn frame_image(frame: &Frame, view: ViewMode, steps_max: u32) -> egui::ColorImage {
     let mut canvas = Canvas::new(frame.width, frame.height, [0, 0, 0, 255]);
     match view {
         ViewMode::Shaded => canvas.draw_shaded(frame, 0, 0),
-        ViewMode::Compare => canvas.draw_steps(frame, steps_max, 0, 0),
+        ViewMode::Compare => canvas.draw_steps(frame, steps_max, StepScale::Log, 0, 0),
     }
     egui::ColorImage::from_rgba_unmultiplied([frame.width, frame.height], canvas.bytes())
 }

@@ -26,7 +26,7 @@ use std::time::Instant;
 use eframe::egui;
 use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
-use skeletrace_core::frame::{FieldShading, Frame};
+use skeletrace_core::frame::{FieldShading, Frame, StepScale};
 use skeletrace_core::methods::MethodId;
 
 pub use document::{Document, Edit};
@@ -663,7 +663,11 @@ impl Editor {
                 ViewMode::Compare => {
                     let steps_max = shared_scale(&named).max(1);
                     let clipped = named.iter().any(|(_, f)| f.step_summary().max > steps_max);
-                    Panels::Steps { steps_max, clipped }
+                    Panels::Steps {
+                        steps_max,
+                        scale: StepScale::Log,
+                        clipped,
+                    }
                 }
             };
             let canvas: Canvas = compose(&named, panels);
