@@ -266,7 +266,11 @@ mod tests {
         for scale in [StepScale::Log, StepScale::Linear] {
             assert_eq!(scale.position(0.0, 2048), 0.0);
             assert_eq!(scale.position(2048.0, 2048), 1.0);
-            assert_eq!(scale.position(5000.0, 2048), 1.0, "counts above the top clip");
+            assert_eq!(
+                scale.position(5000.0, 2048),
+                1.0,
+                "counts above the top clip"
+            );
             let mut last = -1.0;
             for s in 0..=2048 {
                 let x = scale.position(f64::from(s), 2048);
