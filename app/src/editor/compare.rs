@@ -10,17 +10,18 @@ impl Editor {
     pub(super) fn comparison(&mut self, ui: &mut egui::Ui) {
         let rect = ui.available_rect_before_wrap();
         let n = self.ui_state.compare_methods.len().max(1);
-        let columns = n.min(crate::picture::COLUMNS);
-        let rows = n.div_ceil(columns);
         let bar = 44.0;
         let label = 34.0;
-        let cell_w = rect.width() / columns as f32;
-        let cell_h = ((rect.height() - bar) / rows as f32 - label).max(16.0);
+        // Every panel shows the whole view at the aspect the viewport has in this area.
+        let area_h = (rect.height() - bar).max(16.0);
+        let aspect = rect.width() / area_h;
+        let grid = GridLayout::new(n, rect.width(), area_h, label, aspect);
+        let (columns, cell_w, cell_h) = (grid.columns, grid.cell_w, grid.panel_h);
         let ppp = ui.ctx().pixels_per_point();
         // Heat maps trace every chosen method: half resolution keeps the grid responsive.
         let pixels = (
-            ((cell_w * ppp) as usize / 2).max(8),
-            ((cell_h * ppp) as usize / 2).max(8),
+            ((grid.panel_w * ppp) as usize / 2).max(8),
+            ((grid.panel_h * ppp) as usize / 2).max(8),
         );
         self.request_frames(ui.ctx(), pixels);
         let response = ui.allocate_rect(rect, egui::Sense::hover());
@@ -131,6 +132,48 @@ impl Editor {
     }
 }
 
+/// The comparison grid's arrangement: the number of columns that makes `n` panels of aspect
+/// `aspect` (width over height, each with a label strip of `label` above it) largest in a
+/// `width × height` area, and the panels' size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GridLayout {
+    columns: usize,
+    rows: usize,
+    /// Width of a column.
+    cell_w: f32,
+    panel_w: f32,
+    panel_h: f32,
+}
+
+impl GridLayout {
+    fn new(n: usize, width: f32, height: f32, label: f32, aspect: f32) -> Self {
+        let n = n.max(1);
+        let aspect = aspect.max(1e-3);
+        (1..=n)
+            .map(|columns| {
+                let rows = n.div_ceil(columns);
+                let cell_w = width / columns as f32;
+                let cell_h = (height / rows as f32 - label).max(1.0);
+                let panel_w = (cell_w - 4.0).max(1.0).min(cell_h * aspect);
+                Self {
+                    columns,
+                    rows,
+                    cell_w,
+                    panel_w,
+                    panel_h: panel_w / aspect,
+                }
+            })
+            .max_by(|a, b| a.panel_w.total_cmp(&b.panel_w))
+            .unwrap_or(Self {
+                columns: 1,
+                rows: 1,
+                cell_w: width,
+                panel_w: width,
+                panel_h: height,
+            })
+    }
+}
+
 /// The largest rectangle of aspect `aspect` centred in `outer`.
 fn fit_rect(outer: egui::Rect, aspect: f32) -> egui::Rect {
     let (w, h) = (outer.width(), outer.height());
@@ -140,4 +183,44 @@ fn fit_rect(outer: egui::Rect, aspect: f32) -> egui::Rect {
         egui::vec2(w, w / aspect.max(1e-3))
     };
     egui::Rect::from_center_size(outer.center(), size)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// For 1, 2, 4, 9 and 16 panels in wide and tall areas, every panel keeps the viewport's
+    /// aspect, the grid fits the area, and no other column count gives larger panels.
+    #[test]
+    fn the_grid_keeps_the_viewports_aspect_for_any_number_of_panels() {
+        for (width, height) in [(1200.0, 700.0), (700.0, 1100.0), (1600.0, 500.0)] {
+            let (label, aspect) = (34.0, width / height);
+            for n in [1, 2, 4, 9, 16] {
+                let g = GridLayout::new(n, width, height, label, aspect);
+                assert!(g.columns * g.rows >= n, "{n} panels in {g:?}");
+                assert!(
+                    ((g.panel_w / g.panel_h) - aspect).abs() < 1e-3 * aspect,
+                    "{n} panels: {g:?} against aspect {aspect}"
+                );
+                assert!(g.panel_w <= g.cell_w && g.columns as f32 * g.cell_w <= width + 1e-3);
+                assert!(
+                    g.rows as f32 * (g.panel_h + label) <= height + 1e-3,
+                    "{g:?}"
+                );
+                for columns in 1..=n {
+                    let rows = n.div_ceil(columns);
+                    let fits = ((width / columns as f32 - 4.0)
+                        .min((height / rows as f32 - label) * aspect))
+                    .max(0.0);
+                    assert!(
+                        fits <= g.panel_w + 1e-3,
+                        "{columns} columns would be larger"
+                    );
+                }
+            }
+        }
+        // One panel is the whole area, less its label.
+        let one = GridLayout::new(1, 1000.0, 634.0, 34.0, 1000.0 / 634.0);
+        assert!(one.panel_w > 940.0, "{one:?}");
+    }
 }
