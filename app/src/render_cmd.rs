@@ -136,8 +136,8 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
 fn print_timing(name: &str, ms: f64, frame: &Frame) {
     let s = frame.step_summary();
     println!(
-        "{name:<28} {ms:>8.1} ms   steps avg {:.2}, median {}, max {}",
-        s.average, s.median, s.max
+        "{name:<28} {ms:>8.1} ms   steps avg {:.2}, median {}, p95 {}, max {}",
+        s.average, s.median, s.p95, s.max
     );
 }
 

@@ -93,12 +93,14 @@ pub struct StepSummary {
     pub average: f64,
     /// Median.
     pub median: u32,
+    /// 95th percentile.
+    pub p95: u32,
     /// Maximum.
     pub max: u32,
 }
 
 impl Frame {
-    /// Average, median and maximum steps.
+    /// Average, median, 95th percentile and maximum steps.
     #[must_use]
     pub fn step_summary(&self) -> StepSummary {
         let mut sorted = self.steps.clone();
@@ -107,6 +109,7 @@ impl Frame {
         StepSummary {
             average: sorted.iter().map(|&s| f64::from(s)).sum::<f64>() / n as f64,
             median: sorted.get(sorted.len() / 2).copied().unwrap_or(0),
+            p95: sorted.get(sorted.len() * 95 / 100).copied().unwrap_or(0),
             max: sorted.last().copied().unwrap_or(0),
         }
     }

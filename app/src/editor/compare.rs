@@ -53,7 +53,10 @@ impl Editor {
             painter.text(
                 egui::pos2(x + 4.0, y + 18.0),
                 egui::Align2::LEFT_TOP,
-                format!("avg {:.2}  median {}  max {}", s.average, s.median, s.max),
+                format!(
+                    "avg {:.2}  median {}  p95 {}  max {}",
+                    s.average, s.median, s.p95, s.max
+                ),
                 egui::FontId::monospace(11.0),
                 egui::Color32::LIGHT_GRAY,
             );
