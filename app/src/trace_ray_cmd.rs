@@ -5,6 +5,7 @@
 //! is the heat map's there (opaque scenes; `app/tests/cli.rs` checks it).
 
 use skeletrace_core::frame::{PinholeCamera, far_distance};
+use skeletrace_core::json::{self, number};
 use skeletrace_core::methods::{MethodId, Trace, TraceMode};
 use skeletrace_core::{Interval, Scene, compile};
 
@@ -127,8 +128,8 @@ fn method_json(id: MethodId, trace: &Trace) -> String {
         },
     );
     format!(
-        "{{\"name\": \"{}\", \"steps\": {}, \"evaluations\": {}, \"hit\": {hit}, \"log\": {log}}}",
-        id.name(),
+        "{{\"name\": {}, \"steps\": {}, \"evaluations\": {}, \"hit\": {hit}, \"log\": {log}}}",
+        json::string(id.name()),
         trace.steps,
         trace.evaluations
     )
@@ -136,13 +137,4 @@ fn method_json(id: MethodId, trace: &Trace) -> String {
 
 fn vector(v: [f64; 3]) -> String {
     format!("[{}, {}, {}]", number(v[0]), number(v[1]), number(v[2]))
-}
-
-/// A JSON number; `null` where JSON has none (infinite bounds, NaN).
-fn number(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x}")
-    } else {
-        "null".to_owned()
-    }
 }

@@ -19,6 +19,7 @@ pub mod compile;
 pub mod cpu;
 pub mod field;
 pub mod frame;
+pub mod json;
 pub mod methods;
 pub mod model;
 

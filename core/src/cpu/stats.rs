@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::json;
 use crate::methods::{self, Method, TraceMode, TraceSettings};
 use crate::model::rng::SplitMix64;
 
@@ -189,24 +190,24 @@ impl SceneStats {
                      \"avg_steps\": {}, \"avg_evaluations\": {}, \"median_steps\": {}, \
                      \"p95_steps\": {}, \"max_steps\": {}, \"ns_per_ray\": {}, \
                      \"max_depth_error\": {}}}",
-                    json_string(&m.name),
+                    json::string(&m.name),
                     m.rays,
                     m.hits,
                     m.missed,
                     m.spurious,
-                    json_number(m.avg_steps),
-                    json_number(m.avg_evaluations),
+                    json::number(m.avg_steps),
+                    json::number(m.avg_evaluations),
                     m.median_steps,
                     m.p95_steps,
                     m.max_steps,
-                    json_number(m.ns_per_ray),
-                    json_number(m.max_depth_error)
+                    json::number(m.ns_per_ray),
+                    json::number(m.max_depth_error)
                 )
             })
             .collect();
         format!(
             "{{\"scene\": {}, \"rays\": {}, \"methods\": [\n  {}\n]}}\n",
-            json_string(&self.scene),
+            json::string(&self.scene),
             self.rays,
             methods.join(",\n  ")
         )
@@ -236,27 +237,5 @@ impl SceneStats {
             ));
         }
         out
-    }
-}
-
-fn json_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for ch in s.chars() {
-        match ch {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => out.push_str(&format!("\\u{:04x}", c as u32)),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
-fn json_number(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x}")
-    } else {
-        "null".to_owned()
     }
 }

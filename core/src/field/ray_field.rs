@@ -204,12 +204,6 @@ impl<'a> RayField<'a> {
         &self.ray
     }
 
-    /// Number of candidate primitives.
-    #[must_use]
-    pub fn candidate_count(&self) -> usize {
-        self.candidates.len()
-    }
-
     /// `(f(t), f′(t))`, as [`FieldProgram::along_ray`].
     #[must_use]
     pub fn along(&self, t: f64) -> (f64, f64) {
@@ -262,12 +256,6 @@ impl<'a> RayField<'a> {
             return self.program.summed_lipschitz(&self.ray, span);
         }
         self.program.summed_lipschitz_in(self, &self.ray, span)
-    }
-
-    /// As [`FieldProgram::directional_lipschitz`].
-    #[must_use]
-    pub fn directional_lipschitz(&self, span: Interval) -> f64 {
-        self.jet(span).d1.magnitude()
     }
 
     /// As [`FieldProgram::for_each_primitive_on_ray`].
