@@ -5,7 +5,8 @@
 mod common;
 
 use common::{
-    KERNELS, KINDS, Kind, add_primitive, every_operator, group, random_blend, random_groups, scene,
+    KERNELS, KINDS, Kind, add_primitive, assert_no_failures, every_operator, group, random_groups,
+    random_nested_scene, scene,
 };
 use glam::DVec3;
 use rayon::prelude::*;
@@ -15,7 +16,7 @@ use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::field::ray_field::RayField;
 use skeletrace_core::model::rng::SplitMix64;
-use skeletrace_core::model::scene::Blend;
+use skeletrace_core::model::scene::{Blend, Scene};
 use skeletrace_core::{FieldProgram, Interval, Ray};
 
 const SAMPLES_PER_COMBINATION: usize = 100_000;
@@ -100,27 +101,56 @@ fn check(
     Ok(())
 }
 
-fn check_combination(kind: Kind, kernel: Kernel) {
-    let violations: Vec<String> = (0..SAMPLES_PER_COMBINATION / 100)
+/// Samples `batches × 100` random queries (`random_query`), 100 on each scene `make(rng)`
+/// builds, the batch's generator seeded with `seed(batch)`; panics with the first failure of
+/// `check(program, ray, span, rng)`.
+fn sample_scenes(
+    label: &str,
+    batches: usize,
+    seed: impl Fn(u64) -> u64 + Sync,
+    make: impl Fn(&mut SplitMix64) -> Scene + Sync,
+    check: impl Fn(&FieldProgram, &Ray, Interval, &mut SplitMix64) -> Result<(), String> + Sync,
+) {
+    let failures: Vec<String> = (0..batches)
         .into_par_iter()
         .flat_map_iter(|batch| {
-            let mut rng = SplitMix64::new(batch as u64 * 7919 + kind as u64 * 31);
-            let mut g = group(kernel);
-            add_primitive(&mut g, kind, &mut rng);
-            let program = FieldProgram::new(&scene(vec![g], None));
+            let mut rng = SplitMix64::new(seed(batch as u64));
+            let scene = make(&mut rng);
+            let program = FieldProgram::new(&scene);
+            let blend = scene.blend;
+            let check = &check;
             (0..100).filter_map(move |_| {
                 let (ray, span) = random_query(&mut rng);
-                check(&program, &ray, span, &mut rng, 1e-8)
+                check(&program, &ray, span, &mut rng)
                     .err()
-                    .map(|e| format!("{kind:?} {kernel:?} ray {ray:?} span {span:?}: {e}"))
+                    .map(|e| format!("{blend:?} ray {ray:?} span {span:?}: {e}"))
             })
         })
         .collect();
-    assert!(
-        violations.is_empty(),
-        "{} violations, first: {}",
-        violations.len(),
-        violations[0]
+    assert_no_failures(&failures, &format!("{label}: violations"));
+}
+
+/// The ray-jet bounds of one query ([`check`]) at the tests' tolerance.
+fn check_jets(
+    program: &FieldProgram,
+    ray: &Ray,
+    span: Interval,
+    rng: &mut SplitMix64,
+) -> Result<(), String> {
+    check(program, ray, span, rng, 1e-8)
+}
+
+fn check_combination(kind: Kind, kernel: Kernel) {
+    sample_scenes(
+        &format!("{kind:?} {kernel:?}"),
+        SAMPLES_PER_COMBINATION / 100,
+        |batch| batch * 7919 + kind as u64 * 31,
+        |rng| {
+            let mut g = group(kernel);
+            add_primitive(&mut g, kind, rng);
+            scene(vec![g], None)
+        },
+        check_jets,
     );
 }
 
@@ -147,37 +177,6 @@ bound_tests! {
     hrbf_bounds_hold: Kind::Hrbf;
 }
 
-/// Samples `batches × 100` random queries on scenes built by `make(rng)`; panics with the first
-/// violation.
-fn check_scenes(
-    label: &str,
-    batches: usize,
-    seed: u64,
-    make: impl Fn(&mut SplitMix64) -> skeletrace_core::model::scene::Scene + Sync,
-) {
-    let failures: Vec<String> = (0..batches)
-        .into_par_iter()
-        .flat_map_iter(|batch| {
-            let mut rng = SplitMix64::new(seed * 1_000_003 + batch as u64);
-            let scene = make(&mut rng);
-            let program = FieldProgram::new(&scene);
-            let blend = scene.blend;
-            (0..100).filter_map(move |_| {
-                let (ray, span) = random_query(&mut rng);
-                check(&program, &ray, span, &mut rng, 1e-8)
-                    .err()
-                    .map(|e| format!("{blend:?} ray {ray:?} span {span:?}: {e}"))
-            })
-        })
-        .collect();
-    assert!(
-        failures.is_empty(),
-        "{label}: {} violations, first: {}",
-        failures.len(),
-        failures[0]
-    );
-}
-
 /// 100 000 queries per operator, over two random groups of every primitive type.
 #[test]
 fn bounds_hold_through_every_blend_operator() {
@@ -185,9 +184,13 @@ fn bounds_hold_through_every_blend_operator() {
         .into_iter()
         .enumerate()
     {
-        check_scenes(&format!("{blend:?}"), 1000, i as u64, |rng| {
-            scene(random_groups(rng, 2), Some(blend.clone()))
-        });
+        sample_scenes(
+            &format!("{blend:?}"),
+            1000,
+            |batch| i as u64 * 1_000_003 + batch,
+            |rng| scene(random_groups(rng, 2), Some(blend.clone())),
+            check_jets,
+        );
     }
 }
 
@@ -195,12 +198,13 @@ fn bounds_hold_through_every_blend_operator() {
 /// and new groups for every 100 queries).
 #[test]
 fn bounds_hold_through_random_nested_blend_trees() {
-    check_scenes("nested trees", 1000, 99, |rng| {
-        let n = 2 + rng.below(4);
-        let groups = random_groups(rng, n);
-        let blend = random_blend(rng, 4, n as u32);
-        scene(groups, Some(blend))
-    });
+    sample_scenes(
+        "nested trees",
+        1000,
+        |batch| 99 * 1_000_003 + batch,
+        random_nested_scene,
+        check_jets,
+    );
 }
 
 #[test]
@@ -285,35 +289,35 @@ fn check_bottom_up_and_affine(
 /// product per term), sampled densely on spans inside and across the sets' boxes.
 #[test]
 fn hrbf_affine_forms_hold() {
-    let failures: Vec<String> = (0..100)
-        .into_par_iter()
-        .flat_map_iter(|batch| {
-            let mut rng = SplitMix64::new(batch as u64 * 104_729 + 3);
+    sample_scenes(
+        "HRBF affine forms",
+        100,
+        |batch| batch * 104_729 + 3,
+        |rng| {
             let mut g = group(Kernel::CompactPolynomial {
                 degree: 6,
                 scale: 2.0,
             });
-            add_primitive(&mut g, Kind::Hrbf, &mut rng);
-            let program = FieldProgram::new(&scene(vec![g], None));
-            (0..100).filter_map(move |_| {
-                let (ray, span) = random_query(&mut rng);
-                let span = continuous_span(&program, &ray, span);
-                let range = field_form(&RayField::new(&program, &ray, span), span)?.range();
-                (0..=16).find_map(|k| {
-                    let t = span.lo + span.width() * f64::from(k) / 16.0;
-                    let f = program.along_ray(&ray, t).0;
-                    let slack = 1e-9 * (1.0 + f.abs());
-                    (f < range.lo - slack || f > range.hi + slack)
-                        .then(|| format!("{ray:?} {span:?}: f = {f} at t = {t} outside {range:?}"))
-                })
+            add_primitive(&mut g, Kind::Hrbf, rng);
+            scene(vec![g], None)
+        },
+        |program, ray, span, _| {
+            let span = continuous_span(program, ray, span);
+            let Some(form) = field_form(&RayField::new(program, ray, span), span) else {
+                return Ok(());
+            };
+            let range = form.range();
+            (0..=16).try_for_each(|k| {
+                let t = span.lo + span.width() * f64::from(k) / 16.0;
+                let f = program.along_ray(ray, t).0;
+                let slack = 1e-9 * (1.0 + f.abs());
+                if f < range.lo - slack || f > range.hi + slack {
+                    Err(format!("f = {f} at t = {t} outside {range:?}"))
+                } else {
+                    Ok(())
+                }
             })
-        })
-        .collect();
-    assert!(
-        failures.is_empty(),
-        "{} violations, first: {}",
-        failures.len(),
-        failures[0]
+        },
     );
 }
 
@@ -328,10 +332,11 @@ fn bottom_up_inclusions_and_affine_forms_hold() {
         .collect();
     for kernel in KERNELS {
         for (i, blend) in operators.iter().enumerate() {
-            let failures: Vec<String> = (0..100)
-                .into_par_iter()
-                .flat_map_iter(|batch| {
-                    let mut rng = SplitMix64::new(batch as u64 + 7 * i as u64);
+            sample_scenes(
+                &format!("{kernel:?} {blend:?}"),
+                100,
+                |batch| batch + 7 * i as u64,
+                |rng| {
                     let mut groups = vec![group(kernel), group(kernel)];
                     for g in &mut groups {
                         for _ in 0..4 {
@@ -341,23 +346,12 @@ fn bottom_up_inclusions_and_affine_forms_hold() {
                             } else {
                                 Kind::Point
                             };
-                            add_primitive(g, kind, &mut rng);
+                            add_primitive(g, kind, rng);
                         }
                     }
-                    let program = FieldProgram::new(&scene(groups, blend.clone()));
-                    (0..100).filter_map(move |_| {
-                        let (ray, span) = random_query(&mut rng);
-                        check_bottom_up_and_affine(&program, &ray, span, &mut rng)
-                            .err()
-                            .map(|e| format!("{kernel:?} {blend:?} {ray:?} {span:?}: {e}"))
-                    })
-                })
-                .collect();
-            assert!(
-                failures.is_empty(),
-                "{} violations, first: {}",
-                failures.len(),
-                failures[0]
+                    scene(groups, blend.clone())
+                },
+                check_bottom_up_and_affine,
             );
         }
     }
@@ -366,26 +360,11 @@ fn bottom_up_inclusions_and_affine_forms_hold() {
 /// The bottom-up inclusions and affine forms through random nested blend trees (depth ≤ 4).
 #[test]
 fn bottom_up_inclusions_and_affine_forms_hold_on_random_nested_trees() {
-    let failures: Vec<String> = (0..500)
-        .into_par_iter()
-        .flat_map_iter(|batch| {
-            let mut rng = SplitMix64::new(batch as u64 * 7_919 + 17);
-            let n = 2 + rng.below(4);
-            let groups = random_groups(&mut rng, n);
-            let blend = random_blend(&mut rng, 4, n as u32);
-            let program = FieldProgram::new(&scene(groups, Some(blend.clone())));
-            (0..100).filter_map(move |_| {
-                let (ray, span) = random_query(&mut rng);
-                check_bottom_up_and_affine(&program, &ray, span, &mut rng)
-                    .err()
-                    .map(|e| format!("{blend:?} {ray:?} {span:?}: {e}"))
-            })
-        })
-        .collect();
-    assert!(
-        failures.is_empty(),
-        "{} violations, first: {}",
-        failures.len(),
-        failures[0]
+    sample_scenes(
+        "nested trees",
+        500,
+        |batch| batch * 7_919 + 17,
+        random_nested_scene,
+        check_bottom_up_and_affine,
     );
 }

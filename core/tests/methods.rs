@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::{assets, every_operator, random_blend, random_groups, scene};
+use common::{
+    assert_no_failures, assets, every_operator, random_groups, random_nested_scene, scene,
+};
 use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::field::kernel::Kernel;
@@ -257,15 +259,6 @@ fn compare_with_reference(
     failures
 }
 
-fn assert_no_failures(failures: &[String]) {
-    assert!(
-        failures.is_empty(),
-        "{} failures, first: {}",
-        failures.len(),
-        failures[0]
-    );
-}
-
 /// Rays aimed at random primitives of every asset: no conservative method skips the reference's
 /// first crossing or reports one it does not have.
 #[test]
@@ -278,7 +271,7 @@ fn conservative_methods_never_skip_a_crossing_on_the_assets() {
             compare_with_reference(&program, &path.display().to_string(), 40, 23, |_| false)
         })
         .collect();
-    assert_no_failures(&failures);
+    assert_no_failures(&failures, "failures");
 }
 
 /// Every operator over random groups of every primitive type, and random blend trees of depth up
@@ -302,7 +295,7 @@ fn conservative_methods_agree_with_the_reference_through_every_operator() {
             )
         })
         .collect();
-    assert_no_failures(&failures);
+    assert_no_failures(&failures, "failures");
 }
 
 /// The methods whose steps come from enclosures of the field's derivatives over the interval
@@ -329,10 +322,9 @@ fn conservative_methods_agree_with_the_reference_on_random_nested_trees() {
         .into_par_iter()
         .flat_map_iter(|job| {
             let mut rng = SplitMix64::new(job as u64 * 15_485_863 + 1);
-            let n = 2 + rng.below(4);
-            let groups = random_groups(&mut rng, n);
-            let blend = random_blend(&mut rng, 4, n as u32);
-            let program = FieldProgram::new(&scene(groups, Some(blend.clone())));
+            let scene = random_nested_scene(&mut rng);
+            let blend = scene.blend.clone();
+            let program = FieldProgram::new(&scene);
             compare_with_reference(
                 &program,
                 &format!("{blend:?}"),
@@ -342,7 +334,7 @@ fn conservative_methods_agree_with_the_reference_on_random_nested_trees() {
             )
         })
         .collect();
-    assert_no_failures(&failures);
+    assert_no_failures(&failures, "failures");
 }
 
 macro_rules! method_suite {

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{KINDS, assets, every_operator, random_groups, scene};
+use common::{KINDS, assert_no_failures, assets, every_operator, random_groups, scene};
 use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::cpu::stats::protocol_rays;
@@ -105,12 +105,7 @@ fn candidates_answer_as_the_bvh_on_every_asset() {
             check_program(&FieldProgram::new(&scene), &path.display().to_string(), 5)
         })
         .collect();
-    assert!(
-        failures.is_empty(),
-        "{} differences, first: {}",
-        failures.len(),
-        failures[0]
-    );
+    assert_no_failures(&failures, "differences");
 }
 
 #[test]
@@ -135,10 +130,5 @@ fn candidates_answer_as_the_bvh_on_random_scenes() {
             check_program(&program, &format!("scene {job}"), job as u64)
         })
         .collect();
-    assert!(
-        failures.is_empty(),
-        "{} differences, first: {}",
-        failures.len(),
-        failures[0]
-    );
+    assert_no_failures(&failures, "differences");
 }

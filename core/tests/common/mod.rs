@@ -321,3 +321,22 @@ pub fn random_groups(rng: &mut SplitMix64, n: usize) -> Vec<Group> {
         })
         .collect()
 }
+
+/// A scene of 2–5 random groups ([`random_groups`]) under a random blend tree of depth at most 4
+/// ([`random_blend`]).
+pub fn random_nested_scene(rng: &mut SplitMix64) -> Scene {
+    let n = 2 + rng.below(4);
+    let groups = random_groups(rng, n);
+    let blend = random_blend(rng, 4, n as u32);
+    scene(groups, Some(blend))
+}
+
+/// Panics with the count and the first of `failures` (`what` names them) unless there are none.
+pub fn assert_no_failures(failures: &[String], what: &str) {
+    assert!(
+        failures.is_empty(),
+        "{} {what}, first: {}",
+        failures.len(),
+        failures[0]
+    );
+}
