@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
 use skeletrace_core::frame::{FieldShading, View};
+use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::{Scene, compile};
 
 use crate::cli::BenchArgs;
@@ -69,7 +70,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             methods: vec![method],
             view: View::Shaded(FieldShading::default()),
             shadows: false,
-            settings: compiled.settings,
+            settings: TraceSettings::for_protocol(&compiled.program, args.protocol),
             cancel: Cancel::new(),
         };
         let backend = match backends.choose(args.backend, &compiled, method, &request) {

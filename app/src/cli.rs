@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use skeletrace::backends::parse_backend_choice;
 use skeletrace_core::backend::BackendChoice;
+use skeletrace_core::methods::Protocol;
 use skeletrace_core::model::generate::GeneratorKind;
 use skeletrace_core::model::scene::SkeletonField;
 
@@ -73,6 +74,9 @@ pub struct BenchArgs {
     /// Timed frames per method (after untimed warm-up frames for at least 0.5 s).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
+    /// Settings profile: default, paper-2023 (forward inclusion) or paper-2021 (SCALIS).
+    #[arg(long, value_parser = parse_protocol, default_value = "default")]
+    pub protocol: Protocol,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -126,6 +130,9 @@ pub struct RenderArgs {
     /// Step-count colour scale.
     #[arg(long, value_enum, default_value = "log")]
     pub scale: Scale,
+    /// Settings profile: default, paper-2023 (forward inclusion) or paper-2021 (SCALIS).
+    #[arg(long, value_parser = parse_protocol, default_value = "default")]
+    pub protocol: Protocol,
     /// Cast shadow rays in the shaded view.
     #[arg(long)]
     pub shadows: bool,
@@ -170,6 +177,13 @@ pub struct StatsArgs {
     /// Seed of the ray origins.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Settings profile: default, paper-2023 (forward inclusion) or paper-2021 (SCALIS).
+    #[arg(long, value_parser = parse_protocol, default_value = "default")]
+    pub protocol: Protocol,
+    /// Trace every crossing (transparent rays, forward-inclusion 2023 Tables 3–4) instead of
+    /// the first.
+    #[arg(long)]
+    pub transparent: bool,
     /// Print the DESIGN.md JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -259,4 +273,8 @@ impl From<Field> for SkeletonField {
             Field::Distance => Self::Distance,
         }
     }
+}
+
+fn parse_protocol(name: &str) -> Result<Protocol, String> {
+    name.parse()
 }

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
 use skeletrace_core::frame::{FieldShading, Frame, StepScale, View as FrameView};
-use skeletrace_core::methods::MethodId;
+use skeletrace_core::methods::{MethodId, TraceSettings};
 use skeletrace_core::{Scene, compile};
 
 use crate::cli::{RenderArgs, Scale, View};
@@ -79,7 +79,7 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
                 ambient_occlusion: args.ao,
             }),
             shadows: args.shadows,
-            settings: compiled.settings,
+            settings: TraceSettings::for_protocol(&compiled.program, args.protocol),
             cancel: Cancel::new(),
         };
         let backend = match backends.choose(args.backend, &compiled, method, &request) {

@@ -10,8 +10,10 @@ use common::{
 };
 use glam::DVec3;
 use rayon::prelude::*;
+use skeletrace_core::cpu::stats::{self, StatsSetup};
 use skeletrace_core::field::kernel::Kernel;
-use skeletrace_core::methods::{self, Method, MethodId, TraceMode, TraceSettings};
+use skeletrace_core::methods::{self, Method, MethodId, Protocol, TraceMode, TraceSettings};
+use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{
     Blend, Blob, Camera, Group, Material, Scene, Skeleton, SkeletonField, Vertex,
@@ -206,7 +208,19 @@ fn compare_with_reference(
     seed: u64,
     must_finish: fn(MethodId) -> bool,
 ) -> Vec<String> {
-    let settings = TraceSettings::for_program(program);
+    compare_with_reference_under(program, Protocol::Default, label, rays, seed, must_finish)
+}
+
+/// [`compare_with_reference`] with the settings of `protocol`.
+fn compare_with_reference_under(
+    program: &FieldProgram,
+    protocol: Protocol,
+    label: &str,
+    rays: usize,
+    seed: u64,
+    must_finish: fn(MethodId) -> bool,
+) -> Vec<String> {
+    let settings = TraceSettings::for_protocol(program, protocol);
     let tracers: Vec<_> = methods::all()
         .iter()
         .filter(|m| m.supports(program).is_ok() && m.id() != MethodId::Reference)
@@ -259,19 +273,111 @@ fn compare_with_reference(
     failures
 }
 
-/// Rays aimed at random primitives of every asset: no conservative method skips the reference's
-/// first crossing or reports one it does not have.
+/// Rays aimed at random primitives of every asset, under every settings profile: no
+/// conservative method skips the reference's first crossing or reports one it does not have.
 #[test]
 fn conservative_methods_never_skip_a_crossing_on_the_assets() {
-    let failures: Vec<String> = assets()
+    let jobs: Vec<(std::path::PathBuf, Protocol)> = assets()
+        .into_iter()
+        .flat_map(|path| Protocol::ALL.map(|p| (path.clone(), p)))
+        .collect();
+    let failures: Vec<String> = jobs
         .par_iter()
-        .flat_map_iter(|path| {
+        .flat_map_iter(|(path, protocol)| {
             let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
             let program = FieldProgram::new(&scene);
-            compare_with_reference(&program, &path.display().to_string(), 40, 23, |_| false)
+            let label = format!("{} ({protocol})", path.display());
+            compare_with_reference_under(&program, *protocol, &label, 40, 23, |_| false)
         })
         .collect();
     assert_no_failures(&failures, "failures");
+}
+
+/// Summed compact blobs, as in the forward-inclusion paper's figure 10 (Table 1), generated from
+/// several seeds and sizes: under the paper's protocol quadratic Taylor needs at most 0.6× the
+/// average steps of segment tracing as published (the paper: 4.79 / 8.90 = 0.54), and neither
+/// misses a crossing of the reference at 10⁻⁴ of the diagonal.
+#[test]
+fn quadratic_taylor_needs_at_most_six_tenths_of_published_segment_tracings_steps() {
+    for (seed, size) in [(1, 40), (5, 12), (9, 120)] {
+        let options = GenerateOptions {
+            seed,
+            size: Some(size),
+            groups: Some(1),
+            ..GenerateOptions::default()
+        };
+        let scene = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+        let program = FieldProgram::new(&scene);
+        let setup = StatsSetup {
+            protocol: Protocol::Paper2023,
+            ..StatsSetup::opaque(3000, seed)
+        };
+        let chosen = [
+            MethodId::SegmentOriginal.method(),
+            MethodId::QuadraticTaylor.method(),
+        ];
+        let result = stats::run(&program, "summed blobs", &chosen, setup, &|_, _| {});
+        for m in &result.methods {
+            assert_eq!((m.missed, m.spurious), (0, 0), "seed {seed}: {m:?}");
+        }
+        let ratio = result.methods[1].avg_steps / result.methods[0].avg_steps;
+        assert!(ratio <= 0.6, "seed {seed}, {size} blobs: ratio {ratio:.3}");
+    }
+}
+
+/// Transparent statistics (every crossing, forward-inclusion 2023 Tables 3–4) on max-blended
+/// blobs and on the operator scene, under the default profile and the paper's: every
+/// conservative method finds each of the reference's crossings and no other, and a ray's steps
+/// are counted up to its last crossing, never more than it took.
+#[test]
+fn transparent_statistics_match_the_reference_crossing_for_crossing() {
+    let options = GenerateOptions {
+        seed: 3,
+        size: Some(40),
+        groups: Some(4),
+        ..GenerateOptions::default()
+    };
+    let blobs = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+    let operators = assets()
+        .into_iter()
+        .find(|p| p.ends_with("operators.ron"))
+        .map(|p| Scene::load(&p).unwrap_or_else(|e| panic!("{e}")))
+        .unwrap_or_else(|| panic!("no operators asset"));
+    for scene in [blobs, operators] {
+        let program = FieldProgram::new(&scene);
+        let chosen: Vec<Box<dyn Method>> = methods::all()
+            .into_iter()
+            .filter(|m| {
+                m.is_conservative()
+                    && m.supports(&program).is_ok()
+                    && bounded_by_derivatives(m.id())
+                    && m.id() != MethodId::Reference
+            })
+            .collect();
+        for protocol in [Protocol::Default, Protocol::Paper2023] {
+            let setup = StatsSetup {
+                protocol,
+                mode: TraceMode::Transparent,
+                ..StatsSetup::opaque(1200, 2)
+            };
+            let result = stats::run(&program, "transparent", &chosen, setup, &|_, _| {});
+            let opaque = stats::run(
+                &program,
+                "opaque",
+                &chosen,
+                StatsSetup {
+                    protocol,
+                    ..StatsSetup::opaque(1200, 2)
+                },
+                &|_, _| {},
+            );
+            for (t, o) in result.methods.iter().zip(&opaque.methods) {
+                assert_eq!((t.missed, t.spurious), (0, 0), "{protocol}: {t:?}");
+                assert_eq!(t.hits, o.hits, "{protocol}: {}", t.name);
+                assert!(t.avg_steps >= o.avg_steps, "{protocol}: {t:?} vs {o:?}");
+            }
+        }
+    }
 }
 
 /// Every operator over random groups of every primitive type, and random blend trees of depth up
@@ -370,6 +476,7 @@ method_suite! {
     field_inversion => "field-inversion";
     reference => "reference";
     sphere_normalized => "sphere-normalized";
+    segment_original => "segment-original";
     bottom_up_linear => "bottom-up-linear";
     bottom_up_linear_bisection => "bottom-up-linear-bisection";
     bottom_up_quadratic => "bottom-up-quadratic";
@@ -404,6 +511,7 @@ fn every_design_method_is_implemented_and_unknown_names_are_refused() {
         "sphere-enhanced",
         "sphere-accelerated",
         "sphere-normalized",
+        "segment-original",
         "segment",
         "linear-taylor",
         "quadratic-taylor",
@@ -495,12 +603,11 @@ fn the_reference_finds_a_crossing_where_the_field_rounds_to_the_isovalue() {
             "{id:?}: {first:?}, sampled entry at {entry}"
         );
     }
-    let stats = skeletrace_core::cpu::stats::run(
+    let stats = stats::run(
         &program,
         "slab",
         &[MethodId::Segment.method(), MethodId::LinearTaylor.method()],
-        600,
-        1,
+        StatsSetup::opaque(600, 1),
         &|_, _| {},
     );
     for m in &stats.methods {
@@ -533,8 +640,13 @@ fn conservative_methods_stay_close_to_segment_tracing_on_the_operator_scene() {
                 )
         })
         .collect();
-    let stats =
-        skeletrace_core::cpu::stats::run(&program, "operators", &chosen, 1200, 1, &|_, _| {});
+    let stats = stats::run(
+        &program,
+        "operators",
+        &chosen,
+        StatsSetup::opaque(1200, 1),
+        &|_, _| {},
+    );
     let segment = stats
         .methods
         .iter()

@@ -11,6 +11,7 @@ use common::{KINDS, assert_no_failures, assets, every_operator, random_groups, s
 use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::cpu::stats::protocol_rays;
+use skeletrace_core::field::program::PrimitiveSlope;
 use skeletrace_core::field::ray_field::RayField;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Scene};
@@ -54,11 +55,13 @@ fn compare(
         if field.group_jets(sub) != program.ray_group_jets(ray, sub) {
             return Some(format!("group jets on {sub:?}"));
         }
-        if !same_bits(
-            field.summed_lipschitz(sub),
-            program.summed_lipschitz(ray, sub),
-        ) {
-            return Some(format!("summed Lipschitz on {sub:?}"));
+        for slope in [PrimitiveSlope::Exact, PrimitiveSlope::Published] {
+            if !same_bits(
+                field.summed_lipschitz(sub, slope),
+                program.summed_lipschitz(ray, sub, slope),
+            ) {
+                return Some(format!("summed Lipschitz ({slope:?}) on {sub:?}"));
+            }
         }
     }
     if field.supports(span) != program.ray_supports(ray, span) {

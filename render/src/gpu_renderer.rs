@@ -622,7 +622,7 @@ impl GpuRenderer {
                 epsilon: settings.epsilon as f32,
                 min_step: settings.min_step as f32,
                 growth: settings.growth as f32,
-                initial_interval: settings.initial_interval as f32,
+                initial_interval: settings.initial_interval.min(f64::from(f32::MAX)) as f32,
                 lipschitz: scene.method.lipschitz,
                 gauss_sigma: scene.method.gauss_sigma,
                 gauss_radius: scene.method.gauss_radius,

@@ -1,10 +1,15 @@
 //! Ray statistics with the scalis 2021 protocol (§8, "Statistics"): rays along the six axis
 //! directions, origins uniform on the faces of the scene's support bounding box, equally many per
-//! direction. Every method traces the same rays in opaque mode and is compared with the reference
+//! direction; under `--protocol paper-2023` random rays around the box instead
+//! ([`rays_around_box`]), as the forward-inclusion paper's tables use. Every method traces the same rays in opaque mode and is compared with the reference
 //! tracer: a *missed* ray has a reference crossing that the method finds too late or not at all, a
 //! *spurious* one a method crossing the reference does not have (or one found too early); both use
-//! a tolerance of 10⁻³ of the box diagonal, and the depth error of the remaining hits is reported
-//! separately, relative to the diagonal.
+//! a tolerance of 10⁻⁴ of the box diagonal ([`TOLERANCE`]), and the depth error of the remaining
+//! hits is reported separately, relative to the diagonal.
+//!
+//! Transparent statistics (forward-inclusion 2023, Tables 3–4) trace every crossing, match them
+//! in order with the reference's, and count a ray's steps up to the one that found its last
+//! crossing (all its steps when it has none), as the paper counts them.
 
 use std::time::Instant;
 
@@ -15,7 +20,7 @@ use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::json;
-use crate::methods::{self, Method, TraceMode, TraceSettings};
+use crate::methods::{self, Crossing, Method, Protocol, TraceMode, TraceSettings};
 use crate::model::rng::SplitMix64;
 
 /// Statistics of one method.
@@ -56,6 +61,10 @@ pub struct SceneStats {
     pub scene: String,
     /// Rays per method.
     pub rays: usize,
+    /// Settings profile.
+    pub protocol: Protocol,
+    /// Opaque or transparent rays.
+    pub mode: TraceMode,
     /// One entry per method.
     pub methods: Vec<MethodStats>,
 }
@@ -80,6 +89,83 @@ pub fn protocol_rays(program: &FieldProgram, count: usize, seed: u64) -> Vec<(Ra
         .collect()
 }
 
+/// Random rays around the support box (forward-inclusion 2023, Tables 1, 3 and 4: "random
+/// rays around the bounding box"): origins uniform on the sphere around the box, each aimed at
+/// a uniform point inside it; the interval is the part of the ray inside the box.
+#[must_use]
+pub fn rays_around_box(program: &FieldProgram, count: usize, seed: u64) -> Vec<(Ray, Interval)> {
+    let b = program.support_bounds();
+    let extent = b.max - b.min;
+    let (center, radius) = (b.center(), 0.5 * b.diagonal());
+    let mut rng = SplitMix64::new(seed);
+    let mut out = Vec::with_capacity(count);
+    while out.len() < count {
+        let origin = center + DVec3::from_array(rng.direction()) * radius;
+        let target = b.min + extent * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+        let Some(direction) = (target - origin).try_normalize() else {
+            continue;
+        };
+        let ray = Ray { origin, direction };
+        if let Some(span) = b.ray_interval(&ray, Interval::new(0.0, f64::INFINITY)) {
+            out.push((ray, span));
+        }
+    }
+    out
+}
+
+/// The rays of a profile's statistics: around the box for the forward-inclusion paper, along
+/// the six axis directions ([`protocol_rays`]) otherwise.
+#[must_use]
+pub fn rays_of(
+    program: &FieldProgram,
+    protocol: Protocol,
+    count: usize,
+    seed: u64,
+) -> Vec<(Ray, Interval)> {
+    match protocol {
+        Protocol::Paper2023 => rays_around_box(program, count, seed),
+        Protocol::Default | Protocol::Paper2021 => protocol_rays(program, count, seed),
+    }
+}
+
+/// What `stats` traces: how many rays from which seed, under which settings profile, opaque or
+/// transparent.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StatsSetup {
+    /// Rays per method.
+    pub rays: usize,
+    /// Seed of the ray origins.
+    pub seed: u64,
+    /// Settings profile ([`Protocol`]).
+    pub protocol: Protocol,
+    /// Opaque (first crossing) or transparent (every crossing).
+    pub mode: TraceMode,
+}
+
+impl StatsSetup {
+    /// `rays` opaque rays from `seed` under the default profile.
+    #[must_use]
+    pub fn opaque(rays: usize, seed: u64) -> Self {
+        Self {
+            rays,
+            seed,
+            protocol: Protocol::Default,
+            mode: TraceMode::Opaque,
+        }
+    }
+}
+
+/// Tolerance of the comparison with the reference, relative to the box diagonal.
+pub const TOLERANCE: f64 = 1e-4;
+
+/// One traced ray, as the statistics need it.
+struct Outcome {
+    crossings: Vec<Crossing>,
+    steps: u32,
+    evaluations: u32,
+    nanoseconds: u128,
+}
+
 /// Traces the protocol's rays with each method; `progress` is called with the method name and
 /// the fraction done.
 #[must_use]
@@ -87,77 +173,75 @@ pub fn run(
     program: &FieldProgram,
     scene_name: &str,
     chosen: &[Box<dyn Method>],
-    rays: usize,
-    seed: u64,
+    setup: StatsSetup,
     progress: &(dyn Fn(&str, f64) + Sync),
 ) -> SceneStats {
-    let settings = TraceSettings::for_program(program);
+    let settings = TraceSettings::for_protocol(program, setup.protocol);
     let diagonal = program.support_bounds().diagonal();
-    let tolerance = 1e-3 * diagonal;
-    let rays = protocol_rays(program, rays, seed);
+    let tolerance = TOLERANCE * diagonal;
+    let rays = rays_of(program, setup.protocol, setup.rays, setup.seed);
     let reference_method = methods::Reference;
     let reference_tracer = reference_method.prepare(program, settings);
     progress("reference", 0.0);
-    let reference: Vec<Option<f64>> = rays
+    let reference: Vec<Vec<Crossing>> = rays
         .par_iter()
-        .map(|(ray, span)| {
-            reference_tracer
-                .trace(ray, *span, TraceMode::Opaque)
-                .first()
-                .map(|c| c.t)
-        })
+        .map(|(ray, span)| reference_tracer.trace(ray, *span, setup.mode).crossings)
         .collect();
     let mut out = Vec::new();
     for method in chosen {
         let tracer = method.prepare(program, settings);
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let results: Vec<(Option<f64>, u32, u128, u32)> = rays
+        let results: Vec<Outcome> = rays
             .par_iter()
             .map(|(ray, span)| {
                 let start = Instant::now();
-                let trace = tracer.trace(ray, *span, TraceMode::Opaque);
-                let elapsed = start.elapsed().as_nanos();
+                let trace = tracer.trace(ray, *span, setup.mode);
+                let nanoseconds = start.elapsed().as_nanos();
                 let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 if n.is_multiple_of(4096) {
                     progress(method.name(), n as f64 / rays.len() as f64);
                 }
-                (
-                    trace.first().map(|c| c.t),
-                    trace.steps,
-                    elapsed,
-                    trace.evaluations,
-                )
+                let steps = match setup.mode {
+                    TraceMode::Transparent if !trace.crossings.is_empty() => {
+                        trace.steps_to_last_crossing
+                    }
+                    _ => trace.steps,
+                };
+                Outcome {
+                    steps,
+                    evaluations: trace.evaluations,
+                    nanoseconds,
+                    crossings: trace.crossings,
+                }
             })
             .collect();
-        let mut steps: Vec<u32> = results.iter().map(|r| r.1).collect();
+        let mut steps: Vec<u32> = results.iter().map(|r| r.steps).collect();
         steps.sort_unstable();
+        let count = results.len().max(1) as f64;
         let mut stats = MethodStats {
             name: method.name().to_owned(),
             rays: rays.len(),
             hits: 0,
             missed: 0,
             spurious: 0,
-            avg_steps: steps.iter().map(|&s| f64::from(s)).sum::<f64>() / steps.len().max(1) as f64,
-            avg_evaluations: results.iter().map(|r| f64::from(r.3)).sum::<f64>()
-                / results.len().max(1) as f64,
+            avg_steps: steps.iter().map(|&s| f64::from(s)).sum::<f64>() / count,
+            avg_evaluations: results
+                .iter()
+                .map(|r| f64::from(r.evaluations))
+                .sum::<f64>()
+                / count,
             median_steps: percentile(&steps, 0.5),
             p95_steps: percentile(&steps, 0.95),
             max_steps: steps.last().copied().unwrap_or(0),
-            ns_per_ray: results.iter().map(|r| r.2 as f64).sum::<f64>() / rays.len().max(1) as f64,
+            ns_per_ray: results.iter().map(|r| r.nanoseconds as f64).sum::<f64>() / count,
             max_depth_error: 0.0,
         };
-        for ((got, _, _, _), want) in results.iter().zip(&reference) {
-            stats.hits += usize::from(got.is_some());
-            match (want, got) {
-                (Some(w), Some(g)) if *g > w + tolerance => stats.missed += 1,
-                (Some(w), Some(g)) if *g < w - tolerance => stats.spurious += 1,
-                (Some(w), Some(g)) => {
-                    stats.max_depth_error = stats.max_depth_error.max((g - w).abs() / diagonal);
-                }
-                (Some(_), None) => stats.missed += 1,
-                (None, Some(_)) => stats.spurious += 1,
-                (None, None) => {}
-            }
+        for (got, want) in results.iter().zip(&reference) {
+            stats.hits += usize::from(!got.crossings.is_empty());
+            let verdict = compare(want, &got.crossings, tolerance);
+            stats.missed += usize::from(verdict.missed);
+            stats.spurious += usize::from(verdict.spurious);
+            stats.max_depth_error = stats.max_depth_error.max(verdict.depth_error / diagonal);
         }
         progress(method.name(), 1.0);
         out.push(stats);
@@ -165,8 +249,68 @@ pub fn run(
     SceneStats {
         scene: scene_name.to_owned(),
         rays: rays.len(),
+        protocol: setup.protocol,
+        mode: setup.mode,
         methods: out,
     }
+}
+
+/// One ray's method crossings against the reference's.
+struct Verdict {
+    /// A reference crossing the method found late (beyond the tolerance) or not at all.
+    missed: bool,
+    /// A method crossing the reference does not have, or one found early.
+    spurious: bool,
+    /// Largest depth error of the matched crossings.
+    depth_error: f64,
+}
+
+/// Matches crossings in order: each reference crossing with the first unmatched method crossing
+/// of the same direction within `tolerance`. A pair of crossings closer than `tolerance` (a
+/// graze through a sliver of the volume, or of the outside, thinner than the tolerance) may be
+/// missing from either list without counting. In opaque mode both lists hold one crossing at
+/// most, and a method crossing early or late is spurious or missed.
+fn compare(want: &[Crossing], got: &[Crossing], tolerance: f64) -> Verdict {
+    let mut verdict = Verdict {
+        missed: false,
+        spurious: false,
+        depth_error: 0.0,
+    };
+    let mut used = vec![false; got.len()];
+    let mut matched = vec![false; want.len()];
+    for (j, w) in want.iter().enumerate() {
+        let found = got.iter().enumerate().position(|(i, g)| {
+            !used[i] && g.entering == w.entering && (g.t - w.t).abs() <= tolerance
+        });
+        if let Some(i) = found {
+            used[i] = true;
+            matched[j] = true;
+            verdict.depth_error = verdict.depth_error.max((got[i].t - w.t).abs());
+        }
+    }
+    verdict.missed = unmatched_outside_slivers(want, &matched, tolerance);
+    verdict.spurious = unmatched_outside_slivers(got, &used, tolerance);
+    if verdict.spurious && verdict.missed && want.len() == 1 && got.len() == 1 {
+        // Opaque: one crossing each, not matched: early is spurious, late is missed.
+        verdict.spurious = got[0].t < want[0].t;
+        verdict.missed = !verdict.spurious;
+    }
+    verdict
+}
+
+/// Whether some unmatched crossing of `crossings` is not one of an unmatched pair closer than
+/// `tolerance`.
+fn unmatched_outside_slivers(crossings: &[Crossing], matched: &[bool], tolerance: f64) -> bool {
+    (0..crossings.len()).any(|i| {
+        let sliver_with = |j: usize| {
+            !matched[j]
+                && crossings[j].entering != crossings[i].entering
+                && (crossings[j].t - crossings[i].t).abs() <= tolerance
+        };
+        !matched[i]
+            && !(i > 0 && sliver_with(i - 1))
+            && !(i + 1 < crossings.len() && sliver_with(i + 1))
+    })
 }
 
 fn percentile(sorted: &[u32], q: f64) -> u32 {
@@ -206,9 +350,12 @@ impl SceneStats {
             })
             .collect();
         format!(
-            "{{\"scene\": {}, \"rays\": {}, \"methods\": [\n  {}\n]}}\n",
+            "{{\"scene\": {}, \"rays\": {}, \"protocol\": {}, \"transparent\": {}, \
+             \"methods\": [\n  {}\n]}}\n",
             json::string(&self.scene),
             self.rays,
+            json::string(self.protocol.name()),
+            self.mode == TraceMode::Transparent,
             methods.join(",\n  ")
         )
     }
@@ -237,5 +384,39 @@ impl SceneStats {
             ));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Crossing, compare};
+
+    fn crossings(list: &[(f64, bool)]) -> Vec<Crossing> {
+        list.iter()
+            .map(|&(t, entering)| Crossing { t, entering })
+            .collect()
+    }
+
+    #[test]
+    fn crossings_match_in_order_and_slivers_thinner_than_the_tolerance_may_merge() {
+        let want = crossings(&[(1.0, true), (2.0, false), (2.00005, true), (3.0, false)]);
+        // The sliver pair at 2 is merged: neither missed nor spurious.
+        let merged = crossings(&[(1.00002, true), (3.0, false)]);
+        let v = compare(&want, &merged, 1e-4);
+        assert!(!v.missed && !v.spurious);
+        assert!((v.depth_error - 2e-5).abs() < 1e-12);
+        // A real pair left out is missed; an extra one is spurious.
+        let short = crossings(&[(1.0, true), (2.0, false)]);
+        assert!(compare(&want, &short, 1e-4).missed);
+        let extra = crossings(&[(0.5, true), (0.6, false), (1.0, true), (3.0, false)]);
+        let v = compare(&want, &extra, 1e-4);
+        assert!(v.spurious && !v.missed);
+        // Opaque: late is missed, early is spurious, never both.
+        let v = compare(&want[..1], &crossings(&[(1.1, true)]), 1e-4);
+        assert!(v.missed && !v.spurious);
+        let v = compare(&want[..1], &crossings(&[(0.9, true)]), 1e-4);
+        assert!(v.spurious && !v.missed);
+        // A direction mismatch never matches.
+        assert!(compare(&want[..1], &crossings(&[(1.0, false)]), 1e-4).missed);
     }
 }

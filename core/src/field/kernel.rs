@@ -374,13 +374,33 @@ impl KernelProfile {
     /// boundary when that comes first.
     #[must_use]
     pub fn max_slope(&self) -> f64 {
+        self.slope_at(self.steepest_x())
+    }
+
+    /// `max |d/dr K(r²)|` over `r² ∈ xs` (Galin et al. 2020's kernel bound on a distance
+    /// range): the slope `2r·|K′(r²)|` rises to its peak at [`Self::max_slope`]'s `x` and falls
+    /// after it, so the maximum is there when `xs` holds it, else at the nearer end.
+    #[must_use]
+    pub fn max_slope_on(&self, xs: Interval) -> f64 {
+        let peak = self.steepest_x();
+        let lo = xs.lo.clamp(0.0, self.support_sq);
+        let hi = xs.hi.clamp(lo, self.support_sq);
+        self.slope_at(peak.clamp(lo, hi))
+    }
+
+    /// Where `2√x·|K′(x)|` peaks inside the support.
+    fn steepest_x(&self) -> f64 {
         let s2 = 1.0 / self.inv_sigma2;
         let critical = match self.family {
             Family::Compact { m } => s2 / f64::from(2 * m - 1),
             Family::Cauchy { n } => s2 / (2.0 * n + 1.0),
             Family::Gaussian => 0.5 * s2,
         };
-        let x = critical.min(self.support_sq);
+        critical.min(self.support_sq)
+    }
+
+    /// `2√x·|K′(x)|`, the slope in `r = √x`, from inside the support.
+    fn slope_at(&self, x: f64) -> f64 {
         let (_, k1, _) = self.value_d2_inside(x);
         2.0 * x.sqrt() * k1.abs()
     }
@@ -528,6 +548,38 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(sampled <= p.max_slope() * (1.0 + 1e-12), "{kernel:?}");
             assert!(sampled >= p.max_slope() * 0.999, "{kernel:?}");
+        }
+    }
+
+    #[test]
+    fn max_slope_on_a_range_matches_dense_sampling_of_that_range() {
+        let mut rng = crate::model::rng::SplitMix64::new(7);
+        for kernel in [
+            Kernel::default(),
+            Kernel::CompactPolynomial {
+                degree: 2,
+                scale: 1.5,
+            },
+            Kernel::Cauchy {
+                degree: 3,
+                scale: 1.0,
+            },
+            Kernel::Gaussian { scale: 0.7 },
+        ] {
+            let p = KernelProfile::new(kernel);
+            for _ in 0..200 {
+                let (a, b) = (rng.unit() * p.support_sq(), rng.unit() * p.support_sq());
+                let xs = Interval::new(a.min(b), a.max(b));
+                let sampled = (0..=2000)
+                    .map(|i| {
+                        let x = xs.lo + (xs.hi - xs.lo) * f64::from(i) / 2000.0;
+                        2.0 * x.sqrt() * p.value_d2_inside(x).1.abs()
+                    })
+                    .fold(0.0, f64::max);
+                let bound = p.max_slope_on(xs);
+                assert!(sampled <= bound * (1.0 + 1e-12), "{kernel:?} {xs:?}");
+                assert!(sampled >= bound * 0.999, "{kernel:?} {xs:?}");
+            }
         }
     }
 

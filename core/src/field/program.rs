@@ -31,6 +31,16 @@ pub struct SupportSpan {
     pub primitive: u32,
 }
 
+/// How segment tracing bounds one primitive's `|f′|` on a ray interval.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimitiveSlope {
+    /// The range of the primitive's own derivative (its ray jet): `segment`.
+    Exact,
+    /// Galin et al. 2020's product bound ([`Primitive::published_slope_bound`]):
+    /// `segment-original`.
+    Published,
+}
+
 /// A scene compiled for evaluation.
 #[derive(Clone, Debug)]
 pub struct FieldProgram {
@@ -435,8 +445,8 @@ impl FieldProgram {
     /// difference: the largest). Looser than [`FieldProgram::directional_lipschitz`], which
     /// bounds the derivative of the sum itself.
     #[must_use]
-    pub fn summed_lipschitz(&self, ray: &Ray, span: Interval) -> f64 {
-        self.summed_lipschitz_in(&BvhOnRay(self, ray), ray, span)
+    pub fn summed_lipschitz(&self, ray: &Ray, span: Interval, slope: PrimitiveSlope) -> f64 {
+        self.summed_lipschitz_in(&BvhOnRay(self, ray), ray, span, slope)
     }
 
     pub(crate) fn summed_lipschitz_in(
@@ -444,11 +454,15 @@ impl FieldProgram {
         lookup: &impl RayLookup,
         ray: &Ray,
         span: Interval,
+        slope: PrimitiveSlope,
     ) -> f64 {
         self.with_group_slots(0.0, |slots| {
             lookup.on_ray(span, |i, _| {
-                let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
-                slots[self.groups_of[i as usize] as usize] += jet.d1.magnitude();
+                let (primitive, kernel) = (&self.primitives[i as usize], self.kernel_of(i));
+                slots[self.groups_of[i as usize] as usize] += match slope {
+                    PrimitiveSlope::Exact => primitive.ray_jet(ray, span, kernel).d1.magnitude(),
+                    PrimitiveSlope::Published => primitive.published_slope_bound(ray, span, kernel),
+                };
             });
             blend::lipschitz(&self.blend, slots)
         })

@@ -25,7 +25,7 @@ use crate::bounds::interval::{Interval, Jet};
 use crate::field::geometry::{Aabb, Ray};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
-use crate::field::program::{FieldProgram, PointLookup, RayLookup, SupportSpan};
+use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
 
 /// One primitive the ray may meet.
 #[derive(Clone, Copy, Debug)]
@@ -251,11 +251,12 @@ impl<'a> RayField<'a> {
 
     /// As [`FieldProgram::summed_lipschitz`].
     #[must_use]
-    pub fn summed_lipschitz(&self, span: Interval) -> f64 {
+    pub fn summed_lipschitz(&self, span: Interval, slope: PrimitiveSlope) -> f64 {
         if !self.covers(span) {
-            return self.program.summed_lipschitz(&self.ray, span);
+            return self.program.summed_lipschitz(&self.ray, span, slope);
         }
-        self.program.summed_lipschitz_in(self, &self.ray, span)
+        self.program
+            .summed_lipschitz_in(self, &self.ray, span, slope)
     }
 
     /// As [`FieldProgram::for_each_primitive_on_ray`].

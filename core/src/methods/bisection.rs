@@ -45,7 +45,7 @@ fn bisect(
         if below_lo == (field.along(i.hi).0 < c) {
             continue;
         }
-        trace.crossings.push(Crossing {
+        trace.push_crossing(Crossing {
             t: 0.5 * (i.lo + i.hi),
             entering: below_lo,
         });

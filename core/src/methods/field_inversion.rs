@@ -2,7 +2,10 @@
 //! With `F = (1 − ε)·f/N₀ + ε` (the sum of unit Gaussians, clipping undone as for one atom) `exp(−|x − a|²/(σ²ρ²))`, `D = ρ·(σ·√(−ln F) − 1)`
 //! approximates the distance to the surface (exact for an isolated atom of radius `ρ`). The march
 //! steps by `1.2·D` and reports a hit when `D < 0.0125·ρ`, with at most 32 steps per support
-//! span. Not a guaranteed bound for the blended surface: the statistics count its misses.
+//! span. Where a step overshoots into the volume (`f ≥ c`), the listing reports that sample;
+//! skeletrace by default bisects between it and the sample before, to within ε (evaluations
+//! counted, steps not), and reports the listing's sample under `--protocol paper-2023`. Not a
+//! guaranteed bound for the blended surface: the statistics count its misses.
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
@@ -104,6 +107,7 @@ impl RayTracer for Prepared<'_> {
         let field = RayField::new(self.program, ray, span);
         trace_supports(&field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
+            let mut previous = t;
             let mut in_span = 0;
             while t < part.hi && in_span < STEPS_PER_SPAN && trace.steps < s.max_steps {
                 trace.steps += 1;
@@ -113,12 +117,41 @@ impl RayTracer for Prepared<'_> {
                 // Undo the clipping as for a single atom: K = (1 − ε)·K_c + ε.
                 let unit = (f / self.norm) * (1.0 - CLIP_EPSILON) + CLIP_EPSILON;
                 let distance = self.radius * (self.sigma * (-unit.ln()).max(0.0).sqrt() - 1.0);
-                if distance < HIT_THRESHOLD * self.radius || f >= c {
-                    trace.crossings.push(Crossing { t, entering: true });
+                if f >= c && s.protocol.refines_field_inversion() {
+                    let t = self.refine(&field, (previous, t), trace);
+                    trace.push_crossing(Crossing { t, entering: true });
                     return;
                 }
+                if distance < HIT_THRESHOLD * self.radius || f >= c {
+                    trace.push_crossing(Crossing { t, entering: true });
+                    return;
+                }
+                previous = t;
                 t += STEP_FACTOR * distance;
             }
         })
+    }
+}
+
+impl Prepared<'_> {
+    /// The crossing between `outside` (the last sample outside) and `inside` (the sample that
+    /// overshot into the volume), to within ε, by bisection.
+    fn refine(
+        &self,
+        field: &RayField,
+        (mut outside, mut inside): (f64, f64),
+        trace: &mut Trace,
+    ) -> f64 {
+        let c = self.program.isovalue();
+        while inside - outside > self.settings.epsilon {
+            let mid = 0.5 * (outside + inside);
+            trace.evaluations += 1;
+            if field.along(mid).0 >= c {
+                inside = mid;
+            } else {
+                outside = mid;
+            }
+        }
+        inside
     }
 }

@@ -10,7 +10,7 @@ use super::{
     AcceleratedSphereTracing, AffineArithmetic, BottomUpLinear, BottomUpLinearBisection,
     BottomUpQuadratic, EnhancedSphereTracing, FieldInversion, LinearMixed, LinearTaylor, Method,
     NormalizedSphereTracing, QuadraticMixed, QuadraticTaylor, Reference, ScalisQuadratic,
-    SegmentTracing, Sherstyuk, SphereTracing,
+    SegmentOriginal, SegmentTracing, Sherstyuk, SphereTracing,
 };
 
 /// A root-finding method, in the order of DESIGN.md's table.
@@ -27,6 +27,9 @@ pub enum MethodId {
     SphereAccelerated,
     /// `sphere-normalized`: sphere tracing on the normalised field (2021 app. B).
     SphereNormalized,
+    /// `segment-original`: segment tracing as Galin et al. 2020 publish it (2023 Table 1's
+    /// baseline).
+    SegmentOriginal,
     /// `segment`: segment tracing with local directional Lipschitz bounds.
     Segment,
     /// `linear-taylor` (2023 §5.1).
@@ -57,11 +60,12 @@ pub enum MethodId {
 
 impl MethodId {
     /// Every method, in the order of DESIGN.md's table.
-    pub const ALL: [Self; 17] = [
+    pub const ALL: [Self; 18] = [
         Self::Sphere,
         Self::SphereEnhanced,
         Self::SphereAccelerated,
         Self::SphereNormalized,
+        Self::SegmentOriginal,
         Self::Segment,
         Self::LinearTaylor,
         Self::QuadraticTaylor,
@@ -85,6 +89,7 @@ impl MethodId {
             Self::SphereEnhanced => "sphere-enhanced",
             Self::SphereAccelerated => "sphere-accelerated",
             Self::SphereNormalized => "sphere-normalized",
+            Self::SegmentOriginal => "segment-original",
             Self::Segment => "segment",
             Self::LinearTaylor => "linear-taylor",
             Self::QuadraticTaylor => "quadratic-taylor",
@@ -109,6 +114,7 @@ impl MethodId {
             Self::SphereEnhanced => Box::new(EnhancedSphereTracing),
             Self::SphereAccelerated => Box::new(AcceleratedSphereTracing),
             Self::SphereNormalized => Box::new(NormalizedSphereTracing),
+            Self::SegmentOriginal => Box::new(SegmentOriginal),
             Self::Segment => Box::new(SegmentTracing),
             Self::LinearTaylor => Box::new(LinearTaylor),
             Self::QuadraticTaylor => Box::new(QuadraticTaylor),

@@ -48,7 +48,7 @@ pub(crate) fn march(
             && was_inside != inside
         {
             let at = bisect_sign_change(field, (t_prev, t), was_inside, settings, trace);
-            trace.crossings.push(Crossing {
+            trace.push_crossing(Crossing {
                 t: at,
                 entering: inside,
             });
@@ -85,7 +85,7 @@ pub(crate) fn march(
                     h = settings.min_step;
                     continue;
                 }
-                trace.crossings.push(Crossing {
+                trace.push_crossing(Crossing {
                     t: t + s,
                     entering: !inside,
                 });

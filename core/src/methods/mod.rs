@@ -18,10 +18,12 @@ mod linear_mixed;
 mod linear_taylor;
 mod marching;
 mod normalised_field;
+mod protocol;
 mod quadratic_mixed;
 mod quadratic_taylor;
 mod reference;
 mod scalis_quadratic;
+mod segment_original;
 mod segment_tracing;
 mod sherstyuk;
 mod sphere;
@@ -42,10 +44,12 @@ pub use field_inversion::FieldInversion;
 pub use id::MethodId;
 pub use linear_mixed::LinearMixed;
 pub use linear_taylor::LinearTaylor;
+pub use protocol::{Protocol, ScalisStop};
 pub use quadratic_mixed::QuadraticMixed;
 pub use quadratic_taylor::QuadraticTaylor;
 pub use reference::Reference;
 pub use scalis_quadratic::ScalisQuadratic;
+pub use segment_original::SegmentOriginal;
 pub use segment_tracing::SegmentTracing;
 pub use sherstyuk::Sherstyuk;
 pub use sphere::SphereTracing;
@@ -66,8 +70,10 @@ pub struct TraceSettings {
     pub max_steps: u32,
     /// Next interval length = `growth` × last safe step (forward-inclusion §4.3: k = 2).
     pub growth: f64,
-    /// First interval length of each support span.
+    /// First interval length of each support span (infinite: the whole span).
     pub initial_interval: f64,
+    /// The profile these settings follow, for the choices particular to one method.
+    pub protocol: Protocol,
 }
 
 impl TraceSettings {
@@ -75,6 +81,12 @@ impl TraceSettings {
     /// the 10⁻⁴ depth accuracy the statistics check), 2048 steps at most, k = 2.
     #[must_use]
     pub fn for_program(program: &FieldProgram) -> Self {
+        Self::for_protocol(program, Protocol::Default)
+    }
+
+    /// The settings of `protocol` ([`Protocol`]) scaled to the scene.
+    #[must_use]
+    pub fn for_protocol(program: &FieldProgram, protocol: Protocol) -> Self {
         let b = program.support_bounds();
         let diagonal = if b.is_empty() { 1.0 } else { b.diagonal() };
         Self {
@@ -82,7 +94,12 @@ impl TraceSettings {
             min_step: 1e-4 * diagonal,
             max_steps: 2048,
             growth: 2.0,
-            initial_interval: 0.05 * diagonal,
+            initial_interval: if protocol.first_interval_is_whole_part() {
+                f64::INFINITY
+            } else {
+                0.05 * diagonal
+            },
+            protocol,
         }
     }
 }
@@ -114,6 +131,9 @@ pub struct Trace {
     pub steps: u32,
     /// Point evaluations of the field (value and gradient count as one).
     pub evaluations: u32,
+    /// Loop iterations up to and including the one that found the last crossing (transparent
+    /// statistics count these, as the forward-inclusion paper's Table 3 does).
+    pub steps_to_last_crossing: u32,
     /// Every step of a marching method, when asked for ([`RayTracer::trace_logged`]).
     pub log: Option<Vec<StepRecord>>,
 }
@@ -136,6 +156,12 @@ pub struct StepRecord {
 }
 
 impl Trace {
+    /// Records a crossing found at the current step.
+    pub(crate) fn push_crossing(&mut self, crossing: Crossing) {
+        self.crossings.push(crossing);
+        self.steps_to_last_crossing = self.steps;
+    }
+
     /// The first crossing, if any.
     #[must_use]
     pub fn first(&self) -> Option<Crossing> {
@@ -250,7 +276,7 @@ pub(crate) fn trace_supports_into(
                 .last()
                 .is_none_or(|last| last.entering != jump.entering)
         {
-            trace.crossings.push(jump);
+            trace.push_crossing(jump);
             if mode == TraceMode::Opaque {
                 break;
             }

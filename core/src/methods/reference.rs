@@ -102,7 +102,7 @@ impl RayTracer for Prepared<'_> {
                             hi = mid;
                         }
                     }
-                    trace.crossings.push(Crossing {
+                    trace.push_crossing(Crossing {
                         t: 0.5 * (lo + hi),
                         entering: below_lo,
                     });

@@ -10,9 +10,10 @@
 //! Steps are Hermite evaluations (value and gradient of the field, one each). Where the field
 //! is 0 (a support boundary) `g′` is unbounded; instead of the paper's sphere-tracing step off
 //! the boundary, the derivative there is replaced by the secant of the piece (no extra
-//! evaluation). A crossing is accepted when the Newton distance `|F/F′|` is below `epsilon`,
-//! and placed one Newton step from the last estimate. Not guaranteed: the statistics count
-//! its misses.
+//! evaluation). By default a crossing is accepted when the Newton distance `|F/F′|` is below
+//! `epsilon`, and placed one Newton step from the last estimate; under `--protocol paper-2021`
+//! it is accepted where `|F|` is small, at the estimate, as the paper's algorithm 1 does
+//! ([`ScalisStop`]). Not guaranteed: the statistics count its misses.
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
@@ -23,7 +24,9 @@ use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
 use super::normalised_field::{normalised, normalising_kernel, scalis_kernel};
-use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
+use super::{
+    Crossing, Method, RayTracer, ScalisStop, Trace, TraceMode, TraceSettings, trace_supports,
+};
 
 /// Iterations of Algorithm 1 per piece (scalis 2021 §6.2).
 const ITERATIONS_PER_PIECE: u32 = 32;
@@ -218,7 +221,11 @@ impl Prepared<'_> {
                 continue;
             };
             let r = self.hermite(field, t, trace).flipped(sign);
-            if r.v.abs() <= r.d.abs() * eps || r.v == 0.0 {
+            let converged = match self.settings.protocol.scalis_stop() {
+                ScalisStop::NewtonDistance => r.v.abs() <= r.d.abs() * eps,
+                ScalisStop::Value(threshold) => r.v.abs() < threshold,
+            };
+            if converged || r.v == 0.0 {
                 return Some(r);
             }
             let rising = r.d > 0.0 && b.d < 0.0;
@@ -248,13 +255,16 @@ impl Prepared<'_> {
             else {
                 return;
             };
-            let newton = if r.d != 0.0 { r.t - r.v / r.d } else { r.t };
+            let newton = match self.settings.protocol.scalis_stop() {
+                ScalisStop::NewtonDistance if r.d != 0.0 => r.t - r.v / r.d,
+                _ => r.t,
+            };
             let t = if (b.t..=e.t).contains(&newton) {
                 newton
             } else {
                 r.t
             };
-            trace.crossings.push(Crossing {
+            trace.push_crossing(Crossing {
                 t,
                 entering: sign > 0.0,
             });

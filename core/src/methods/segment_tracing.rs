@@ -5,7 +5,7 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
-use crate::field::program::FieldProgram;
+use crate::field::program::{FieldProgram, PrimitiveSlope};
 use crate::field::ray_field::RayField;
 
 use super::marching::{Marcher, symmetric};
@@ -32,7 +32,11 @@ impl Method for SegmentTracing {
             program,
             settings,
             bound: |field: &RayField, t, f, _, h| {
-                symmetric(f, field.summed_lipschitz(Interval::new(t, t + h)), h)
+                symmetric(
+                    f,
+                    field.summed_lipschitz(Interval::new(t, t + h), PrimitiveSlope::Exact),
+                    h,
+                )
             },
         })
     }

@@ -204,7 +204,7 @@ impl Prepared<'_> {
                 d1: s[3],
             };
             for crossing in piece.crossings(c) {
-                trace.crossings.push(crossing);
+                trace.push_crossing(crossing);
                 if mode == TraceMode::Opaque {
                     return;
                 }

@@ -76,7 +76,7 @@ impl RayTracer for Prepared<'_> {
                         current = self.radius(&field, t, trace);
                         continue;
                     }
-                    trace.crossings.push(Crossing {
+                    trace.push_crossing(Crossing {
                         t,
                         entering: !inside,
                     });

@@ -85,7 +85,7 @@ impl RayTracer for Prepared<'_> {
                         previous_radius = radius;
                         continue;
                     }
-                    trace.crossings.push(Crossing {
+                    trace.push_crossing(Crossing {
                         t,
                         entering: !inside,
                     });

@@ -60,7 +60,7 @@ impl GeneratorKind {
                 "A cubic lattice truss with face diagonals and no free ends (scalis 2021, fig. 15-16)."
             }
             Self::Blobs => {
-                "Random point blobs with the degree-6 compact kernel, summed per group and combined by max (forward-inclusion 2023, fig. 1)."
+                "Random point blobs with the degree-6 compact kernel, summed per group, groups combined by max (forward-inclusion 2023, fig. 1; one group: the summed blobs of fig. 10)."
             }
             Self::Molecule => {
                 "Thousands of Gaussian atoms along a folded chain (forward-inclusion 2023, section 7.1, after Bruckner 2019)."
@@ -610,8 +610,8 @@ fn blobs(rng: &mut SplitMix64, count: usize, groups: usize) -> (Vec<Group>, Opti
             radius: rng.range(0.08, 0.2),
         });
     }
-    let blend = Blend::Max((0..groups as u32).map(Blend::Group).collect());
-    (out, Some(blend))
+    let blend = (groups > 1).then(|| Blend::Max((0..groups as u32).map(Blend::Group).collect()));
+    (out, blend)
 }
 
 fn molecule(rng: &mut SplitMix64, atoms: usize) -> Group {

@@ -106,6 +106,28 @@ impl Primitive {
         }
     }
 
+    /// Segment tracing's bound on `|f′|` over `span` as Galin et al. 2020 publish it: for a
+    /// point, the kernel's slope over the distance range times the largest cosine
+    /// ([`PointBlob::kernel_slope_times_cosine`]). For the other kernel-of-a-distance
+    /// primitives the ray jet's `f′ = K′(x)·x′` already is such a product, of the kernel
+    /// derivative's range and the distance derivative's range, each bounded on its own; SCALIS
+    /// segments and HRBF terms, which the original had no bound for, use their ray jets too.
+    #[must_use]
+    pub fn published_slope_bound(&self, ray: &Ray, span: Interval, k: &KernelProfile) -> f64 {
+        match self {
+            Self::Point(x) => {
+                let Some(inside) = x
+                    .support_interval(ray, k)
+                    .and_then(|support| span.intersect(support))
+                else {
+                    return 0.0;
+                };
+                x.kernel_slope_times_cosine(ray, inside, k)
+            }
+            _ => self.ray_jet(ray, span, k).d1.magnitude(),
+        }
+    }
+
     /// Bounding box of the support; `None` when unbounded (planes).
     #[must_use]
     pub fn support_aabb(&self, k: &KernelProfile) -> Option<Aabb> {

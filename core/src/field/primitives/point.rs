@@ -86,4 +86,27 @@ impl PointBlob {
         }
         Jet { value, d1, d2 }
     }
+
+    /// Galin et al. 2020's bound on `|f′|` over `span` (inside the support), as the 2023 paper's
+    /// appendix A describes it: the largest kernel slope over the span's distance range times
+    /// the largest `|cos|` between the ray and the direction from the centre, each bounded on
+    /// its own. `|cos| = |τ|/√(τ² + ĥ²)` grows with the distance `|τ|` from the closest point,
+    /// so it peaks at the span's end farther from it. Never below the exact bound of
+    /// [`Self::ray_jet`], which bounds the product itself.
+    #[must_use]
+    pub fn kernel_slope_times_cosine(&self, ray: &Ray, span: Interval, k: &KernelProfile) -> f64 {
+        let rho = self.radius;
+        let t_closest = (self.center - ray.origin).dot(ray.direction);
+        let h2 = (ray.at(t_closest) - self.center).length_squared() / (rho * rho);
+        let (a, b) = ((span.lo - t_closest) / rho, (span.hi - t_closest) / rho);
+        let nearest = 0.0_f64.clamp(a, b);
+        let farthest = a.abs().max(b.abs());
+        let distances = Interval::new(nearest * nearest + h2, farthest * farthest + h2);
+        let cosine = if farthest > 0.0 {
+            farthest / (farthest * farthest + h2).sqrt()
+        } else {
+            0.0
+        };
+        self.norm * k.max_slope_on(distances) * cosine / rho
+    }
 }
