@@ -8,8 +8,8 @@
 //! hits is reported separately, relative to the diagonal.
 //!
 //! Transparent statistics (forward-inclusion 2023, Tables 3–4) trace every crossing, match them
-//! in order with the reference's, and count a ray's steps up to the one that found its last
-//! crossing (all its steps when it has none), as the paper counts them.
+//! in order with the reference's, and count a ray's steps (and evaluations) up to the one that
+//! found its last crossing (all of them when it has none), as the paper counts them.
 
 use std::time::Instant;
 
@@ -201,15 +201,16 @@ pub fn run(
                 if n.is_multiple_of(4096) {
                     progress(method.name(), n as f64 / rays.len() as f64);
                 }
-                let steps = match setup.mode {
-                    TraceMode::Transparent if !trace.crossings.is_empty() => {
-                        trace.steps_to_last_crossing
-                    }
-                    _ => trace.steps,
+                let (steps, evaluations) = match setup.mode {
+                    TraceMode::Transparent if !trace.crossings.is_empty() => (
+                        trace.steps_to_last_crossing,
+                        trace.evaluations_to_last_crossing,
+                    ),
+                    _ => (trace.steps, trace.evaluations),
                 };
                 Outcome {
                     steps,
-                    evaluations: trace.evaluations,
+                    evaluations,
                     nanoseconds,
                     crossings: trace.crossings,
                 }

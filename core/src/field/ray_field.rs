@@ -43,6 +43,8 @@ struct Candidate {
 pub struct RayField<'a> {
     program: &'a FieldProgram,
     ray: Ray,
+    /// The interval it was built for.
+    span: Interval,
     /// The part of the ray the candidates cover.
     reach: Interval,
     candidates: Vec<Candidate>,
@@ -181,6 +183,7 @@ impl<'a> RayField<'a> {
         Self {
             program,
             ray: *ray,
+            span,
             reach,
             candidates,
             cells: OnceCell::new(),
@@ -190,6 +193,12 @@ impl<'a> RayField<'a> {
 
     fn covers(&self, span: Interval) -> bool {
         self.reach.lo <= span.lo && span.hi <= self.reach.hi
+    }
+
+    /// The interval of the ray it was built for.
+    #[must_use]
+    pub fn span(&self) -> Interval {
+        self.span
     }
 
     /// The program.

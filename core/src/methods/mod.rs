@@ -134,6 +134,8 @@ pub struct Trace {
     /// Loop iterations up to and including the one that found the last crossing (transparent
     /// statistics count these, as the forward-inclusion paper's Table 3 does).
     pub steps_to_last_crossing: u32,
+    /// Point evaluations up to the last crossing.
+    pub evaluations_to_last_crossing: u32,
     /// Every step of a marching method, when asked for ([`RayTracer::trace_logged`]).
     pub log: Option<Vec<StepRecord>>,
 }
@@ -160,6 +162,7 @@ impl Trace {
     pub(crate) fn push_crossing(&mut self, crossing: Crossing) {
         self.crossings.push(crossing);
         self.steps_to_last_crossing = self.steps;
+        self.evaluations_to_last_crossing = self.evaluations;
     }
 
     /// The first crossing, if any.

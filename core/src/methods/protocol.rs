@@ -9,7 +9,9 @@
 //! - `paper-2021` (SCALIS, algorithm 1): the SCALIS tracer stops when the normalised field's
 //!   value is small, `|F| < 10⁻³` (the paper names a threshold ε without its value; `F` is a
 //!   squared normalised distance minus one, so 10⁻³ is a few thousandths of a radius on a
-//!   direct ray), at the estimate itself, without the Newton correction.
+//!   direct ray), at the estimate itself, without the Newton correction; its sphere-tracing
+//!   baseline (`sphere-normalized`) takes the thinnest radius per ray, as appendix B does,
+//!   instead of per marching interval.
 //!
 //! What no profile changes: ε on the ray parameter (2·10⁻⁵ of the diagonal, the papers give none
 //! in scene units that carry over), the budget of 2048 steps per ray and the growth k = 2 of the
@@ -58,6 +60,13 @@ impl Protocol {
             Self::Paper2021 => ScalisStop::Value(1e-3),
             Self::Default | Self::Paper2023 => ScalisStop::NewtonDistance,
         }
+    }
+
+    /// Whether `sphere-normalized` bounds its field by the thinnest radius the whole ray meets
+    /// (scalis 2021 appendix B) rather than the thinnest on each marching interval.
+    #[must_use]
+    pub const fn thinnest_radius_per_ray(self) -> bool {
+        matches!(self, Self::Paper2021)
     }
 
     /// Whether field inversion refines its hit between the last two samples.

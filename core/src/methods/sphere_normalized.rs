@@ -3,7 +3,8 @@
 //! Lipschitz constant is `1/τ_min`, with `τ_min` the radius of the thinnest skeleton point whose
 //! support the ray meets — computed per ray and per primitive as appendix B describes, here on
 //! each marching interval `[t, t + h]` (`h` grows as `k ×` the last step, as for the other
-//! marching methods). The step is `|√g(f) − 1|·τ_min`.
+//! marching methods); under `--protocol paper-2021` once per ray, as the paper does. The step is
+//! `|√g(f) − 1|·τ_min`.
 //!
 //! The constant is exact for an isolated segment of constant radius, not for blended or bent
 //! skeletons, so the method is not guaranteed; the statistics count its misses.
@@ -39,11 +40,17 @@ impl Method for NormalizedSphereTracing {
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
         let kernel = normalising_kernel(program);
+        let per_ray = settings.protocol.thinnest_radius_per_ray();
         Box::new(Marcher {
             program,
             settings,
             bound: move |field: &RayField, t, f, _, h| {
-                let tau = thinnest_radius_on(field, Interval::new(t, t + h));
+                let window = if per_ray {
+                    field.span()
+                } else {
+                    Interval::new(t, t + h)
+                };
+                let tau = thinnest_radius_on(field, window);
                 if !tau.is_finite() {
                     return symmetric(f, 0.0, h);
                 }
