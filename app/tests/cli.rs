@@ -224,6 +224,75 @@ fn stats_json_follows_the_design_schema() {
     assert!(text(&bad.stderr).contains("unknown method 'warp-drive'"));
 }
 
+/// Issue 20: `stats --protocol` and `--transparent` are reported in the JSON, the profiles
+/// change the statistics where they should (segment-original does not depend on the profile;
+/// quadratic-taylor's first interval does), and an unknown profile is one clear error.
+#[test]
+fn stats_runs_each_protocol_opaque_and_transparent() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/summed-blobs.ron");
+    let scene = scene.to_str().unwrap_or_default();
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "stats",
+            scene,
+            "--methods",
+            "segment-original,quadratic-taylor",
+            "--rays",
+            "300",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let o = skeletrace(&args);
+        assert!(o.status.success(), "{extra:?}: {}", text(&o.stderr));
+        text(&o.stdout)
+    };
+    let avg = |json: &str, method: &str| -> f64 {
+        let at = json
+            .find(&format!("\"name\": \"{method}\""))
+            .unwrap_or_else(|| panic!("{method} missing from {json}"));
+        let rest = &json[at..];
+        let from = rest.find("\"avg_steps\": ").unwrap_or(0) + "\"avg_steps\": ".len();
+        let value: String = rest[from..]
+            .chars()
+            .take_while(|c| c.is_ascii_digit() || *c == '.')
+            .collect();
+        value.parse().unwrap_or(f64::NAN)
+    };
+    let default = run(&[]);
+    assert!(default.contains("\"protocol\": \"default\", \"transparent\": false"));
+    for protocol in ["paper-2023", "paper-2021"] {
+        let out = run(&["--protocol", protocol]);
+        assert!(
+            out.contains(&format!("\"protocol\": \"{protocol}\"")),
+            "{out}"
+        );
+        assert!(
+            out.contains("\"missed\": 0") && !out.contains("\"missed\": 1"),
+            "{out}"
+        );
+    }
+    // paper-2021 differs from the default only for the SCALIS tracer and its baseline.
+    let paper_2021 = run(&["--protocol", "paper-2021"]);
+    assert_eq!(
+        avg(&default, "quadratic-taylor"),
+        avg(&paper_2021, "quadratic-taylor")
+    );
+    let transparent = run(&["--transparent"]);
+    assert!(
+        transparent.contains("\"transparent\": true"),
+        "{transparent}"
+    );
+    for method in ["segment-original", "quadratic-taylor"] {
+        assert!(
+            avg(&transparent, method) >= avg(&default, method),
+            "{method}"
+        );
+    }
+    let bad = skeletrace(&["stats", scene, "--protocol", "paper-1999"]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("unknown protocol 'paper-1999'"));
+}
+
 #[test]
 fn render_compare_and_stats_json_work_on_every_asset() {
     let dir = temp_dir("compare");

@@ -308,9 +308,9 @@ fn unmatched_outside_slivers(crossings: &[Crossing], matched: &[bool], tolerance
                 && crossings[j].entering != crossings[i].entering
                 && (crossings[j].t - crossings[i].t).abs() <= tolerance
         };
-        !matched[i]
-            && !(i > 0 && sliver_with(i - 1))
-            && !(i + 1 < crossings.len() && sliver_with(i + 1))
+        let in_sliver =
+            (i > 0 && sliver_with(i - 1)) || (i + 1 < crossings.len() && sliver_with(i + 1));
+        !matched[i] && !in_sliver
     })
 }
 
