@@ -9,7 +9,8 @@
 //! - `paper-2021` (SCALIS, algorithm 1): the SCALIS tracer stops when the normalised field's
 //!   value is small, `|F| < 10⁻³` (the paper names a threshold ε without its value; `F` is a
 //!   squared normalised distance minus one, so 10⁻³ is a few thousandths of a radius on a
-//!   direct ray), at the estimate itself, without the Newton correction; its sphere-tracing
+//!   direct ray), at the estimate itself, without the Newton correction; it enters each support
+//!   part with one sphere-tracing step and evaluates nothing at the support limits; its sphere-tracing
 //!   baseline (`sphere-normalized`) takes the thinnest radius per ray, as appendix B does,
 //!   instead of per marching interval.
 //!
@@ -66,6 +67,14 @@ impl Protocol {
     /// (scalis 2021 appendix B) rather than the thinnest on each marching interval.
     #[must_use]
     pub const fn thinnest_radius_per_ray(self) -> bool {
+        matches!(self, Self::Paper2021)
+    }
+
+    /// Whether the SCALIS tracer enters each support part with the paper's sphere-tracing step,
+    /// with no evaluation at the support limits where the field is known to be 0 (scalis 2021
+    /// §7), rather than evaluating there.
+    #[must_use]
+    pub const fn scalis_support_limits_are_free(self) -> bool {
         matches!(self, Self::Paper2021)
     }
 

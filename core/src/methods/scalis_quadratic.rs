@@ -8,9 +8,11 @@
 //! middle weight 3 (§6.2, figure 9), which hugs the control polygon and catches shallow dips.
 //!
 //! Steps are Hermite evaluations (value and gradient of the field, one each). Where the field
-//! is 0 (a support boundary) `g′` is unbounded; instead of the paper's sphere-tracing step off
-//! the boundary, the derivative there is replaced by the secant of the piece (no extra
-//! evaluation). By default a crossing is accepted when the Newton distance `|F/F′|` is below
+//! is 0 (a support boundary) `g′` is unbounded; by default the part starts with an evaluation
+//! at the boundary and the derivative there is replaced by the secant of the piece. Under
+//! `--protocol paper-2021` the part starts as the paper's algorithm 2 does, one sphere-tracing
+//! step off the boundary without an evaluation, and the boundary at its end is not evaluated
+//! either (the field is known to be 0 there). By default a crossing is accepted when the Newton distance `|F/F′|` is below
 //! `epsilon`, and placed one Newton step from the last estimate; under `--protocol paper-2021`
 //! it is accepted where `|F|` is small, at the estimate, as the paper's algorithm 1 does
 //! ([`ScalisStop`]). Not guaranteed: the statistics count its misses.
@@ -23,7 +25,7 @@ use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::normalised_field::{normalised, normalising_kernel, scalis_kernel};
+use super::normalised_field::{normalised, normalising_kernel, scalis_kernel, thinnest_radius_on};
 use super::{
     Crossing, Method, RayTracer, ScalisStop, Trace, TraceMode, TraceSettings, trace_supports,
 };
@@ -277,18 +279,53 @@ impl Prepared<'_> {
     }
 }
 
+impl Prepared<'_> {
+    /// Hermite data at a support limit, where the field is 0: known without an evaluation
+    /// (scalis 2021 §7, algorithm 2).
+    fn at_support_limit(&self, t: f64) -> Hermite {
+        Hermite {
+            t,
+            v: self.kernel.support_sq() - 1.0,
+            d: 0.0,
+            flat: true,
+        }
+    }
+
+    /// The paper's entry into a support part: one sphere-tracing step off the support limit,
+    /// where the normalised distance is `σ − 1` radii and the normalised field is
+    /// `1/τ_min`-Lipschitz (appendix B), without an evaluation; `None` when it leaves the part.
+    fn sphere_step_in(&self, field: &RayField, part: Interval) -> Option<f64> {
+        let tau = thinnest_radius_on(field, part);
+        let step = (self.kernel.support_radius() - 1.0) * tau;
+        let start = part.lo + if step.is_finite() { step.max(0.0) } else { 0.0 };
+        (start < part.hi).then_some(start)
+    }
+}
+
 impl RayTracer for Prepared<'_> {
     fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
         let s = &self.settings;
+        let free_limits = s.protocol.scalis_support_limits_are_free();
         let field = RayField::new(self.program, ray, span);
         trace_supports(&field, span, mode, s.max_steps, |part, trace| {
-            let points = self.breakpoints(&field, part);
+            let mut points = self.breakpoints(&field, part);
+            if free_limits {
+                let Some(start) = self.sphere_step_in(&field, part) else {
+                    return;
+                };
+                points.retain(|&t| t > start);
+                points.insert(0, start);
+            }
             let mut b = self.hermite(&field, points[0], trace);
             for &t in &points[1..] {
                 if trace.steps >= s.max_steps {
                     return;
                 }
-                let e = self.hermite(&field, t, trace);
+                let e = if free_limits && t == part.hi {
+                    self.at_support_limit(t)
+                } else {
+                    self.hermite(&field, t, trace)
+                };
                 let found = trace.crossings.len();
                 self.trace_piece(&field, (b, e), mode, trace);
                 if mode == TraceMode::Opaque && trace.crossings.len() > found {
