@@ -5,6 +5,7 @@ pub mod backends;
 pub mod editor;
 pub mod export;
 pub mod picture;
+pub mod ray_probe;
 
 /// The scene opened when no file is given: a hand-made creature.
 pub const DEFAULT_SCENE: &str = include_str!("../../assets/scenes/creature.ron");

@@ -1,13 +1,12 @@
 //! `skeletrace trace-ray`: one pixel's camera ray traced by each method, with the step log of the
-//! marching methods (forward-inclusion 2023, algorithm 1): the point, `f` and `f′` there, the
-//! lower and upper bounds `f(t) + a·s + b·s²` on `[t, t + length]` and the advance they allow.
-//! The ray and its span are the ones the CPU renderer traces for that pixel, so the step count
-//! is the heat map's there (opaque scenes; `app/tests/cli.rs` checks it).
+//! marching methods ([`RayProbe`]): the point, `f` and `f′` there, the lower and upper bounds
+//! `f(t) + a·s + b·s²` on `[t, t + length]` and the advance they allow. The step count is the
+//! CPU heat map's at that pixel (opaque scenes; `app/tests/cli.rs` checks it).
 
-use skeletrace_core::frame::{PinholeCamera, far_distance};
+use skeletrace::ray_probe::RayProbe;
 use skeletrace_core::json::{self, number};
-use skeletrace_core::methods::{MethodId, Trace, TraceMode};
-use skeletrace_core::{Interval, Scene, compile};
+use skeletrace_core::methods::{MethodId, Trace};
+use skeletrace_core::{Scene, compile};
 
 use crate::cli::TraceRayArgs;
 use crate::render_cmd::parse_size;
@@ -19,15 +18,8 @@ pub fn run(args: &TraceRayArgs, scene: &Scene) -> Result<(), String> {
     let compiled = compile(scene);
     let program = &compiled.program;
     let methods = crate::chosen_methods(&args.methods, program)?;
-    let ray = PinholeCamera::new(&scene.camera).ray(x, y, width, height);
-    let span = Interval::new(0.0, far_distance(program, &scene.camera));
-    let traces: Vec<(MethodId, Trace)> = methods
-        .into_iter()
-        .map(|id| {
-            let tracer = id.method().prepare(program, compiled.settings);
-            (id, tracer.trace_logged(&ray, span, TraceMode::Opaque))
-        })
-        .collect();
+    let probe = RayProbe::new(&compiled, &scene.camera, (x, y), (width, height), &methods);
+    let (ray, span, traces) = (probe.ray, probe.span, &probe.traces);
     if args.json {
         let methods: Vec<String> = traces.iter().map(|(id, t)| method_json(*id, t)).collect();
         println!(
@@ -49,7 +41,7 @@ pub fn run(args: &TraceRayArgs, scene: &Scene) -> Result<(), String> {
         span.hi,
         program.isovalue()
     );
-    for (id, trace) in &traces {
+    for (id, trace) in traces {
         let hit = trace
             .first()
             .map_or_else(|| "no hit".to_owned(), |c| format!("hit at t = {:.6}", c.t));

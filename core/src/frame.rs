@@ -225,7 +225,7 @@ pub const TURBO: [[f64; 6]; 3] = [
 
 /// How step counts map onto the colour scale `[0, top]`: logarithmically by default, so that
 /// 5 and 2048 steps are both readable on one scale, or linearly.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum StepScale {
     /// `ln(1 + steps) / ln(1 + top)`.
     #[default]

@@ -483,3 +483,95 @@ fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 19: the comparison grid's colour bar says its scale (logarithmic by default), hovering
+/// a pixel of a panel finds it, and clicking it opens the ray inspector on that pixel: every
+/// panel's method is traced there with the step count its heat map shows (the same trace as
+/// `skeletrace trace-ray`), with one logged step per step for the marching methods, and the
+/// plot window is on screen. Switching to the linear scale relabels the bar without a retrace.
+#[test]
+fn clicking_a_grid_pixel_inspects_its_ray_with_the_heat_maps_step_counts() {
+    if skeletrace_tests::skip_without_gpu("clicking_a_grid_pixel_inspects_its_ray") {
+        return;
+    }
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        view: ViewMode::Compare,
+        compare_methods: vec![
+            skeletrace_core::MethodId::Segment,
+            skeletrace_core::MethodId::QuadraticTaylor,
+        ],
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    assert!(h.query_by_label("steps (log scale)").is_some());
+
+    // Scan the central area for a pixel on the surface that segment tracing needs several
+    // steps at.
+    let mut target = None;
+    'scan: for y in (120..700).step_by(20) {
+        for x in (340..1260).step_by(20) {
+            let at = Pos2::new(x as f32, y as f32);
+            h.hover_at(at);
+            h.step();
+            let Some((u, v)) = h.state().hovered_pixel() else {
+                continue;
+            };
+            let frames = h.state().shown_frames();
+            let (_, frame) = frames[0];
+            let i = v * frame.width + u;
+            if frame.is_hit(i) && frame.steps[i] >= 6 {
+                target = Some((at, (u, v)));
+                break 'scan;
+            }
+        }
+    }
+    let (at, (u, v)) = target.unwrap_or_else(|| panic!("no pixel with several steps"));
+    press(&mut h, at, true);
+    press(&mut h, at, false);
+    h.step();
+    let probe = h
+        .state()
+        .ray_probe()
+        .unwrap_or_else(|| panic!("the click opens the inspector"))
+        .clone();
+    assert_eq!(probe.pixel, (u, v));
+    let frames = h.state().shown_frames();
+    assert_eq!(probe.traces.len(), frames.len());
+    for ((id, trace), (method, frame)) in probe.traces.iter().zip(&frames) {
+        assert_eq!(id, method);
+        assert_eq!(probe.size, (frame.width, frame.height));
+        assert_eq!(
+            trace.steps,
+            frame.steps[v * frame.width + u],
+            "{id}: the inspector traces the heat map's ray"
+        );
+        let log = trace.log.as_ref().map_or(0, Vec::len);
+        assert_eq!(log, trace.steps as usize, "{id}: one logged step per step");
+    }
+    assert!(probe.samples.len() > 100 && !probe.supports.is_empty());
+    assert!(h.query_by_label("Ray inspector").is_some());
+    // `SKELETRACE_SCREENSHOTS=docs/images` keeps the window image for the README.
+    if let Some(dir) = std::env::var_os("SKELETRACE_SCREENSHOTS") {
+        h.step();
+        let image = h.render().unwrap_or_else(|e| panic!("{e}"));
+        let (w, hgt) = (image.width() as usize, image.height() as usize);
+        let mut canvas = skeletrace::picture::Canvas::new(w, hgt, [0; 4]);
+        for (x, y, p) in image.enumerate_pixels() {
+            canvas.put(x as usize, y as usize, p.0);
+        }
+        canvas
+            .save_png(&Path::new(&dir).join("ray-inspector.png"))
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+
+    // The linear scale: the bar says so, and nothing is traced again.
+    let shown = h.state().shown_frames().len();
+    h.get_by_label("linear").click();
+    h.step();
+    h.step();
+    assert!(h.query_by_label("steps (linear scale)").is_some());
+    assert_eq!(h.state().shown_frames().len(), shown);
+}

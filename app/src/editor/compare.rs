@@ -1,8 +1,10 @@
 //! The comparison grid: one panel per method of `UiState::compare_methods`, each the whole
 //! view at the viewport's aspect, on one shared step-count colour scale with its colour bar;
-//! hovering a pixel shows every panel's step count there.
+//! hovering a pixel shows every panel's step count there, clicking it opens the ray inspector
+//! on that pixel for every method of the grid.
 
 use eframe::egui;
+use skeletrace_core::frame::StepScale;
 
 use super::Editor;
 
@@ -24,7 +26,7 @@ impl Editor {
             ((grid.panel_h * ppp) as usize / 2).max(8),
         );
         self.request_frames(ui.ctx(), pixels);
-        let response = ui.allocate_rect(rect, egui::Sense::hover());
+        let response = ui.allocate_rect(rect, egui::Sense::click());
         let painter = ui.painter_at(rect);
         self.hovered_pixel = None;
         let Some(shown) = &self.frames.shown else {
@@ -60,6 +62,14 @@ impl Editor {
                 egui::FontId::monospace(11.0),
                 egui::Color32::LIGHT_GRAY,
             );
+            draw_histogram(
+                &painter,
+                egui::Rect::from_min_size(
+                    egui::pos2(x + cell_w - 4.0 - HISTOGRAM_WIDTH, y + 2.0),
+                    egui::vec2(HISTOGRAM_WIDTH, label - 6.0),
+                ),
+                &f.frame.steps,
+            );
             let image_rect = fit_rect(
                 egui::Rect::from_min_size(
                     egui::pos2(x, y + label),
@@ -81,10 +91,17 @@ impl Editor {
                 self.hovered_pixel = Some((u, v));
             }
         }
+        let mut inspect = None;
         if let Some((u, v)) = self.hovered_pixel {
             for f in &shown.frames {
                 let i = v.min(f.frame.height - 1) * f.frame.width + u.min(f.frame.width - 1);
                 hover_lines.push(format!("{}: {} steps", f.method, f.frame.steps[i]));
+            }
+            if response.clicked()
+                && let Some(f) = shown.frames.first()
+            {
+                let methods: Vec<_> = shown.frames.iter().map(|f| f.method).collect();
+                inspect = Some(((u, v), (f.frame.width, f.frame.height), methods));
             }
         }
         // Colour bar with the shared scale.
@@ -111,28 +128,131 @@ impl Editor {
             .frames
             .iter()
             .any(|f| f.frame.step_summary().max > shown.steps_max);
-        painter.text(
-            egui::pos2(bar_rect.left(), bar_rect.bottom() + 2.0),
-            egui::Align2::LEFT_TOP,
-            "0 steps (log scale)",
-            egui::FontId::proportional(12.0),
-            egui::Color32::LIGHT_GRAY,
-        );
-        painter.text(
-            egui::pos2(bar_rect.right(), bar_rect.bottom() + 2.0),
-            egui::Align2::RIGHT_TOP,
-            format!(
-                "{}{} steps",
-                if clipped { ">=" } else { "" },
-                shown.steps_max
+        let scale = shown.scale;
+        for tick in scale_ticks(scale, shown.steps_max) {
+            let x = bar_rect.left()
+                + bar_rect.width() * scale.position(f64::from(tick), shown.steps_max) as f32;
+            painter.line_segment(
+                [
+                    egui::pos2(x, bar_rect.bottom()),
+                    egui::pos2(x, bar_rect.bottom() + 3.0),
+                ],
+                egui::Stroke::new(1.0, egui::Color32::LIGHT_GRAY),
+            );
+            let top = tick == shown.steps_max;
+            painter.text(
+                egui::pos2(x, bar_rect.bottom() + 3.0),
+                if top {
+                    egui::Align2::RIGHT_TOP
+                } else {
+                    egui::Align2::CENTER_TOP
+                },
+                if top && clipped {
+                    format!(">={tick}")
+                } else {
+                    tick.to_string()
+                },
+                egui::FontId::proportional(11.0),
+                egui::Color32::LIGHT_GRAY,
+            );
+        }
+        let caption = match scale {
+            StepScale::Log => "steps (log scale)",
+            StepScale::Linear => "steps (linear scale)",
+        };
+        ui.put(
+            egui::Rect::from_min_size(
+                egui::pos2(bar_rect.center().x - 70.0, bar_rect.top() - 17.0),
+                egui::vec2(140.0, 16.0),
             ),
-            egui::FontId::proportional(12.0),
-            egui::Color32::LIGHT_GRAY,
+            egui::Label::new(
+                egui::RichText::new(caption)
+                    .small()
+                    .color(egui::Color32::WHITE),
+            ),
         );
         if !hover_lines.is_empty() {
             response.on_hover_text(hover_lines.join("\n"));
         }
+        if let Some((pixel, size, methods)) = inspect {
+            self.inspect_ray(pixel, size, &methods);
+        }
     }
+}
+
+/// Width of a panel's step histogram, in points.
+const HISTOGRAM_WIDTH: f32 = 96.0;
+
+/// Bins of the step histograms: 0 steps, then powers of two (1, 2–3, 4–7, …, 2048 and more).
+const HISTOGRAM_BINS: usize = 13;
+
+/// The histogram bin of a step count.
+fn histogram_bin(steps: u32) -> usize {
+    if steps == 0 {
+        0
+    } else {
+        (steps.ilog2() as usize + 1).min(HISTOGRAM_BINS - 1)
+    }
+}
+
+/// A panel's step histogram in `rect`: the share of pixels in each power-of-two bin of step
+/// counts (square-root heights, so rare long marches stay visible), bars in the heat colour of
+/// the bin's lower count.
+fn draw_histogram(painter: &egui::Painter, rect: egui::Rect, steps: &[u32]) {
+    let mut counts = [0_usize; HISTOGRAM_BINS];
+    for &s in steps {
+        counts[histogram_bin(s)] += 1;
+    }
+    let total = steps.len().max(1) as f32;
+    painter.rect_filled(rect, 2.0, egui::Color32::from_black_alpha(120));
+    let w = rect.width() / HISTOGRAM_BINS as f32;
+    for (k, &count) in counts.iter().enumerate() {
+        if count == 0 {
+            continue;
+        }
+        let h = rect.height() * (count as f32 / total).sqrt();
+        let low = if k == 0 { 0 } else { 1_u32 << (k - 1) };
+        let [r, g, b] = skeletrace_core::frame::heat_colour(
+            StepScale::Log.position(f64::from(low), 1 << (HISTOGRAM_BINS - 2)),
+        );
+        let byte = |c: f32| (c * 255.0 + 0.5) as u8;
+        painter.rect_filled(
+            egui::Rect::from_min_max(
+                egui::pos2(rect.left() + k as f32 * w + 0.5, rect.bottom() - h),
+                egui::pos2(rect.left() + (k + 1) as f32 * w - 0.5, rect.bottom()),
+            ),
+            0.0,
+            egui::Color32::from_rgb(byte(r), byte(g), byte(b)),
+        );
+    }
+}
+
+/// Tick values of the colour bar: 0, then 1, 2, 5, 10, 20, 50, … (log) or quarters (linear), and
+/// the top, leaving out those too close to the top to be read.
+fn scale_ticks(scale: StepScale, top: u32) -> Vec<u32> {
+    let top = top.max(1);
+    let mut ticks: Vec<u32> = match scale {
+        StepScale::Linear => (0..4).map(|k| top * k / 4).collect(),
+        StepScale::Log => {
+            let mut out = vec![0];
+            let mut decade = 1_u32;
+            while decade < top {
+                for m in [1, 2, 5] {
+                    let v = decade.saturating_mul(m);
+                    if v < top {
+                        out.push(v);
+                    }
+                }
+                decade = decade.saturating_mul(10);
+            }
+            out
+        }
+    };
+    let near_top = |v: u32| scale.position(f64::from(v), top) > 0.9;
+    ticks.retain(|&v| !near_top(v));
+    ticks.dedup();
+    ticks.push(top);
+    ticks
 }
 
 /// The comparison grid's arrangement: the number of columns that makes `n` panels of aspect
@@ -191,6 +311,37 @@ fn fit_rect(outer: egui::Rect, aspect: f32) -> egui::Rect {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn colour_bar_ticks_are_increasing_end_at_the_top_and_follow_the_scale() {
+        for top in [1, 7, 64, 100, 2048] {
+            for scale in [StepScale::Log, StepScale::Linear] {
+                let ticks = scale_ticks(scale, top);
+                assert_eq!(ticks.first(), Some(&0));
+                assert_eq!(ticks.last(), Some(&top));
+                assert!(
+                    ticks.windows(2).all(|w| w[0] < w[1]),
+                    "{scale:?} {top}: {ticks:?}"
+                );
+            }
+        }
+        assert_eq!(
+            scale_ticks(StepScale::Log, 2048),
+            vec![0, 1, 2, 5, 10, 20, 50, 100, 200, 500, 2048]
+        );
+        assert_eq!(
+            scale_ticks(StepScale::Linear, 100),
+            vec![0, 25, 50, 75, 100]
+        );
+    }
+
+    #[test]
+    fn histogram_bins_are_powers_of_two() {
+        let bins: Vec<usize> = [0, 1, 2, 3, 4, 7, 8, 1024, 2047, 2048, 100_000]
+            .map(histogram_bin)
+            .to_vec();
+        assert_eq!(bins, vec![0, 1, 2, 2, 3, 3, 4, 11, 11, 12, 12]);
+    }
 
     /// For 1, 2, 4, 9 and 16 panels in wide and tall areas, every panel keeps the viewport's
     /// aspect, the grid fits the area, and no other column count gives larger panels.

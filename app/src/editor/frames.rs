@@ -43,6 +43,8 @@ pub(super) struct Shown {
     pub skipped: Vec<String>,
     pub adapter: String,
     pub steps_max: u32,
+    /// The colour scale of the heat-map textures.
+    pub scale: StepScale,
     /// The reply was traced at full resolution.
     pub refined: bool,
 }
@@ -163,23 +165,56 @@ impl ViewportFrames {
     }
 
     /// Shows the newest reply, if one came; returns the device failure it reports, if any.
-    pub fn receive(&mut self, ctx: &egui::Context, view: ViewMode) -> Option<String> {
+    pub fn receive(
+        &mut self,
+        ctx: &egui::Context,
+        view: ViewMode,
+        scale: StepScale,
+    ) -> Option<String> {
+        self.restyle(ctx, view, scale);
         let reply = self.worker.latest()?;
-        self.show(ctx, reply, view)
+        self.show(ctx, reply, view, scale)
+    }
+
+    /// Redraws the shown heat maps' textures on `scale` when it changed (no new trace).
+    fn restyle(&mut self, ctx: &egui::Context, view: ViewMode, scale: StepScale) {
+        let Some(shown) = self.shown.as_mut().filter(|s| s.scale != scale) else {
+            return;
+        };
+        shown.scale = scale;
+        for f in &mut shown.frames {
+            let image = frame_image(&f.frame, view, shown.steps_max, scale);
+            f.texture = ctx.load_texture(
+                format!("frame-{}", f.method),
+                image,
+                egui::TextureOptions::LINEAR,
+            );
+        }
     }
 
     /// Blocks until every request sent so far is answered and shows the answer (tests: the
     /// frame then reflects the current scene); returns a reported device failure.
-    pub fn wait_for_all(&mut self, ctx: &egui::Context, view: ViewMode) -> Option<String> {
+    pub fn wait_for_all(
+        &mut self,
+        ctx: &egui::Context,
+        view: ViewMode,
+        scale: StepScale,
+    ) -> Option<String> {
         let last = self.next_request.checked_sub(1).filter(|&id| id > 0)?;
         if self.shown.as_ref().is_some_and(|s| s.id >= last) {
             return None;
         }
         let reply = self.worker.wait_for(last)?;
-        self.show(ctx, reply, view)
+        self.show(ctx, reply, view, scale)
     }
 
-    fn show(&mut self, ctx: &egui::Context, reply: Reply, view: ViewMode) -> Option<String> {
+    fn show(
+        &mut self,
+        ctx: &egui::Context,
+        reply: Reply,
+        view: ViewMode,
+        scale: StepScale,
+    ) -> Option<String> {
         // Full resolution for the viewport (or grid panel) as it is now: the layout may have
         // moved since the request, and a newer request does not make this frame a preview.
         let refined = reply
@@ -202,7 +237,7 @@ impl ViewportFrames {
             .frames
             .into_iter()
             .map(|t| {
-                let image = frame_image(&t.frame, view, steps_max);
+                let image = frame_image(&t.frame, view, steps_max, scale);
                 let texture = ctx.load_texture(
                     format!("frame-{}", t.method),
                     image,
@@ -223,6 +258,7 @@ impl ViewportFrames {
             skipped: reply.skipped,
             adapter: reply.adapter,
             steps_max,
+            scale,
             refined,
         });
         reply.device_failure
@@ -242,13 +278,18 @@ pub(super) fn adapted_divisor(divisor: usize, ms: f64, traced: usize, viewport: 
     (bounded.round() as usize).clamp(1, PREVIEW_DIVISOR_MAX)
 }
 
-/// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]`
-/// (logarithmic, as the grid's colour bar says).
-fn frame_image(frame: &Frame, view: ViewMode, steps_max: u32) -> egui::ColorImage {
+/// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]` on
+/// `scale`, as the grid's colour bar says.
+fn frame_image(
+    frame: &Frame,
+    view: ViewMode,
+    steps_max: u32,
+    scale: StepScale,
+) -> egui::ColorImage {
     let mut canvas = Canvas::new(frame.width, frame.height, [0, 0, 0, 255]);
     match view {
         ViewMode::Shaded => canvas.draw_shaded(frame, 0, 0),
-        ViewMode::Compare => canvas.draw_steps(frame, steps_max, StepScale::Log, 0, 0),
+        ViewMode::Compare => canvas.draw_steps(frame, steps_max, scale, 0, 0),
     }
     egui::ColorImage::from_rgba_unmultiplied([frame.width, frame.height], canvas.bytes())
 }

@@ -6,6 +6,7 @@
 use eframe::egui;
 use skeletrace_core::backend::BackendChoice as Backend;
 use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::frame::StepScale;
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::{Blend, Hrbf, Shape, SkeletonField};
 use skeletrace_render::GpuMethod;
@@ -291,6 +292,12 @@ impl Editor {
                     }
                 }
             });
+        ui.horizontal(|ui| {
+            ui.label("grid colour scale");
+            ui.selectable_value(&mut self.ui_state.step_scale, StepScale::Log, "log");
+            ui.selectable_value(&mut self.ui_state.step_scale, StepScale::Linear, "linear");
+        });
+        ui.weak("click a grid pixel (Alt+click the shaded view) to inspect its ray");
         ui.horizontal(|ui| {
             ui.label("backend");
             ui.selectable_value(&mut self.ui_state.backend, Backend::Auto, "auto");

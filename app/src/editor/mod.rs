@@ -13,6 +13,7 @@ mod frames;
 mod gizmo;
 mod group_tools;
 mod inspector;
+mod ray_inspector;
 mod selection;
 mod shape_tools;
 mod view;
@@ -74,6 +75,9 @@ pub struct UiState {
     /// Field soft shadows and ambient occlusion in the shaded view.
     #[serde(default)]
     pub shading: FieldShading,
+    /// Colour scale of the comparison grid's heat maps (logarithmic by default).
+    #[serde(default)]
+    pub step_scale: StepScale,
     /// Recently opened or saved files, newest first.
     pub recent: Vec<PathBuf>,
     /// Screenshot size in pixels.
@@ -94,6 +98,7 @@ impl Default for UiState {
             backend: BackendChoice::Auto,
             shadows: false,
             shading: FieldShading::default(),
+            step_scale: StepScale::Log,
             recent: Vec::new(),
             screenshot_size: (1280, 960),
         }
@@ -157,6 +162,8 @@ pub struct Editor {
     viewport_rect: Option<egui::Rect>,
     /// The methods' tags for one scene revision.
     method_tags: Option<(u64, Vec<MethodTag>)>,
+    /// The ray the inspector window shows.
+    ray_probe: Option<crate::ray_probe::RayProbe>,
 }
 
 impl Editor {
@@ -206,6 +213,7 @@ impl Editor {
             hovered_pixel: None,
             viewport_rect: None,
             method_tags: None,
+            ray_probe: None,
         }
     }
 
@@ -233,6 +241,12 @@ impl Editor {
         &self.orbit
     }
 
+    /// The pixel of the comparison grid's frames under the pointer, if any.
+    #[must_use]
+    pub fn hovered_pixel(&self) -> Option<(usize, usize)> {
+        self.hovered_pixel
+    }
+
     /// Frames currently shown, with their methods.
     #[must_use]
     pub fn shown_frames(&self) -> Vec<(MethodId, &Frame)> {
@@ -246,7 +260,9 @@ impl Editor {
     /// Blocks until the renderer has answered every request sent so far and shows the answer
     /// (tests: the frame then reflects the current scene).
     pub fn wait_for_frames(&mut self, ctx: &egui::Context) {
-        let failure = self.frames.wait_for_all(ctx, self.ui_state.view);
+        let failure = self
+            .frames
+            .wait_for_all(ctx, self.ui_state.view, self.ui_state.step_scale);
         self.report_device_failure(failure);
     }
 
@@ -323,7 +339,9 @@ impl Editor {
     /// Draws one frame of the whole window.
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
-        let failure = self.frames.receive(&ctx, self.ui_state.view);
+        let failure = self
+            .frames
+            .receive(&ctx, self.ui_state.view, self.ui_state.step_scale);
         self.report_device_failure(failure);
         self.poll_file_dialog(&ctx);
         self.poll_background_writes();
@@ -342,6 +360,7 @@ impl Editor {
             ViewMode::Shaded => self.viewport(ui),
             ViewMode::Compare => self.comparison(ui),
         });
+        self.ray_inspector(&ctx);
         self.dialogs(&ctx);
         self.autosave(&ctx);
         if ui.input(|i| i.pointer.any_released()) {
@@ -646,6 +665,7 @@ impl Editor {
             shading: self.ui_state.shading,
             cancel: skeletrace_core::backend::Cancel::new(),
         };
+        let scale = self.ui_state.step_scale;
         let what = format!("screenshot {}", path.display());
         self.write_in_background(ctx, what, move || {
             let offscreen = RenderWorker::start(|| {});
@@ -665,7 +685,7 @@ impl Editor {
                     let clipped = named.iter().any(|(_, f)| f.step_summary().max > steps_max);
                     Panels::Steps {
                         steps_max,
-                        scale: StepScale::Log,
+                        scale,
                         clipped,
                     }
                 }

@@ -211,7 +211,11 @@ impl Editor {
             self.doc.end_gesture();
             self.touch();
         }
-        if response.clicked() {
+        let alt = ui.input(|i| i.modifiers.alt);
+        if response.clicked() && alt {
+            let at = response.interact_pointer_pos().unwrap_or_default();
+            self.inspect_viewport_pixel(at, rect);
+        } else if response.clicked() {
             let at = response.interact_pointer_pos().unwrap_or_default();
             if self.sketch && hovered.is_none() {
                 let anchor = selection::centroid(self.doc.scene(), &self.selection)
