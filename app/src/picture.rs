@@ -1,18 +1,27 @@
-//! Images the command line writes: panels of rendered frames, text labels (the public-domain
-//! 8×8 font of `font8x8`), the step-count colour bar, and atomic PNG output.
+//! Images the command line writes: panels of rendered frames, text labels set in the editor's
+//! own typeface (egui's Ubuntu Light, rasterised with `ab_glyph`, antialiased), the step-count
+//! colour bar, and atomic PNG output.
 
 use std::fs;
 use std::io::BufWriter;
 use std::path::Path;
+use std::sync::LazyLock;
 
+use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
 use skeletrace_core::frame::{Frame, StepScale, StepSummary, heat_colour, srgb8};
 
-/// Text scale: 8×8 glyphs drawn at 2×.
-const TEXT_SCALE: usize = 2;
-/// Panels at least this wide get their labels at 2× on two lines; narrower ones at 1× on three.
+/// Text size of labels and the colour bar, in pixels.
+const TEXT_PX: usize = 18;
+/// Text size of the labels of narrow panels.
+const SMALL_TEXT_PX: usize = 12;
+/// Panels at least this wide get their labels large on two lines; narrower ones small on three.
 const WIDE_PANEL: usize = 400;
 /// Height of the colour bar strip, tick labels included.
-pub const BAR_HEIGHT: usize = 20 + 8 * TEXT_SCALE + 12;
+pub const BAR_HEIGHT: usize = 26 + TEXT_PX + 10;
+
+/// The editor's proportional typeface.
+static TYPEFACE: LazyLock<Option<FontRef<'static>>> =
+    LazyLock::new(|| FontRef::try_from_slice(epaint_default_fonts::UBUNTU_LIGHT).ok());
 
 /// An sRGB RGBA8 image.
 pub struct Canvas {
@@ -79,34 +88,56 @@ impl Canvas {
         }
     }
 
-    /// Width in pixels of `text` when drawn.
+    /// Width in pixels of `text` when drawn at the labels' size.
     #[must_use]
     pub fn text_width(text: &str) -> usize {
-        text.chars().count() * 8 * TEXT_SCALE
+        text_width_px(text, TEXT_PX)
     }
 
-    /// Draws `text` (ASCII; other characters as `?`) with its top-left corner at `(x, y)`.
+    /// Draws `text` at the labels' size with its top-left corner at `(x, y)`.
     pub fn text(&mut self, x: usize, y: usize, text: &str, colour: [u8; 4]) {
-        self.text_scaled(x, y, text, colour, TEXT_SCALE);
+        self.text_px(x, y, text, colour, TEXT_PX);
     }
 
-    fn text_scaled(&mut self, x: usize, y: usize, text: &str, colour: [u8; 4], scale: usize) {
-        for (i, ch) in text.chars().enumerate() {
-            let code = if ch.is_ascii() {
-                ch as usize
-            } else {
-                '?' as usize
-            };
-            let glyph = font8x8::legacy::BASIC_LEGACY[code];
-            for (row, bits) in glyph.iter().enumerate() {
-                for col in 0..8 {
-                    if bits >> col & 1 == 1 {
-                        let gx = x + (i * 8 + col) * scale;
-                        let gy = y + row * scale;
-                        self.fill(gx, gy, scale, scale, colour);
-                    }
-                }
+    /// Draws `text` `px` pixels high (the typeface's ascent to descent) with its top-left corner
+    /// at `(x, y)`, blending each glyph's coverage over the canvas.
+    fn text_px(&mut self, x: usize, y: usize, text: &str, colour: [u8; 4], px: usize) {
+        let Some(font) = TYPEFACE.as_ref() else {
+            return;
+        };
+        let scaled = font.as_scaled(PxScale::from(px as f32));
+        let mut caret = point(x as f32, y as f32 + scaled.ascent());
+        let mut previous = None;
+        for ch in text.chars() {
+            let id = scaled.glyph_id(ch);
+            if let Some(p) = previous {
+                caret.x += scaled.kern(p, id);
             }
+            previous = Some(id);
+            let glyph = id.with_scale_and_position(px as f32, caret);
+            caret.x += scaled.h_advance(id);
+            let Some(outline) = font.outline_glyph(glyph) else {
+                continue;
+            };
+            let bounds = outline.px_bounds();
+            outline.draw(|gx, gy, coverage| {
+                let (px, py) = (bounds.min.x + gx as f32, bounds.min.y + gy as f32);
+                if px >= 0.0 && py >= 0.0 {
+                    self.blend(px as usize, py as usize, colour, coverage);
+                }
+            });
+        }
+    }
+
+    /// Blends `colour` over a pixel with opacity `alpha`, ignoring coordinates outside.
+    fn blend(&mut self, x: usize, y: usize, colour: [u8; 4], alpha: f32) {
+        if x >= self.width || y >= self.height {
+            return;
+        }
+        let a = alpha.clamp(0.0, 1.0);
+        let p = &mut self.pixels[y * self.width + x];
+        for k in 0..3 {
+            p[k] = (f32::from(p[k]) * (1.0 - a) + f32::from(colour[k]) * a).round() as u8;
         }
     }
 
@@ -114,25 +145,26 @@ impl Canvas {
     #[must_use]
     pub fn label_height(width: usize) -> usize {
         if width >= WIDE_PANEL {
-            2 * (8 * TEXT_SCALE + 4) + 4
+            2 * (TEXT_PX + 6) + 6
         } else {
-            3 * (8 + 4) + 4
+            3 * (SMALL_TEXT_PX + 4) + 6
         }
     }
 
     /// A method's label strip: its name, then its average, median and maximum steps (two
-    /// lines at 2× on wide panels, three at 1× on narrow ones).
+    /// large lines on wide panels, three small ones on narrow ones).
     pub fn label(&mut self, x: usize, y: usize, width: usize, name: &str, s: StepSummary) {
         self.fill(x, y, width, Self::label_height(width), [24, 26, 30, 255]);
         let average = format!("avg {:.2}", s.average);
         let rest = format!("med {}  max {}", s.median, s.max);
-        let (scale, lines) = if width >= WIDE_PANEL {
+        let (px, gap, lines) = if width >= WIDE_PANEL {
             (
-                TEXT_SCALE,
+                TEXT_PX,
+                6,
                 vec![name.to_owned(), format!("{average}  {rest}")],
             )
         } else {
-            (1, vec![name.to_owned(), average, rest])
+            (SMALL_TEXT_PX, 4, vec![name.to_owned(), average, rest])
         };
         for (i, line) in lines.iter().enumerate() {
             let colour = if i == 0 {
@@ -140,7 +172,7 @@ impl Canvas {
             } else {
                 [190, 195, 205, 255]
             };
-            self.text_scaled(x + 6, y + 4 + i * (8 * scale + 4), line, colour, scale);
+            self.text_px(x + 6, y + 4 + i * (px + gap), line, colour, px);
         }
     }
 
@@ -168,7 +200,7 @@ impl Canvas {
         let bar_w = (x + width).saturating_sub(bar_x + 16).max(1);
         for i in 0..bar_w {
             let c = heat_rgba(i as f64 / (bar_w - 1).max(1) as f64);
-            self.fill(bar_x + i, y + 6, 1, 14, c);
+            self.fill(bar_x + i, y + 8, 1, 14, c);
         }
         let top = steps_max.max(1);
         let mut values: Vec<u32> = match scale {
@@ -193,7 +225,7 @@ impl Canvas {
             };
             let position = scale.position(f64::from(value), top);
             let tick = bar_x + ((bar_w - 1) as f64 * position).round() as usize;
-            self.fill(tick, y + 20, 1, 4, white);
+            self.fill(tick, y + 22, 1, 4, white);
             let w = Self::text_width(&text);
             let tx = tick
                 .saturating_sub(w / 2)
@@ -201,7 +233,7 @@ impl Canvas {
                 .max(x + 2);
             let overlaps = placed.iter().any(|&(a, b)| tx < b + 8 && a < tx + w + 8);
             if !overlaps {
-                self.text(tx, y + 26, &text, white);
+                self.text(tx, y + 27, &text, white);
                 placed.push((tx, tx + w));
             }
         }
@@ -240,6 +272,25 @@ impl Canvas {
         }
         result
     }
+}
+
+/// Width in pixels of `text` set `px` pixels high in the labels' typeface.
+fn text_width_px(text: &str, px: usize) -> usize {
+    let Some(font) = TYPEFACE.as_ref() else {
+        return 0;
+    };
+    let scaled = font.as_scaled(PxScale::from(px as f32));
+    let mut width = 0.0;
+    let mut previous = None;
+    for ch in text.chars() {
+        let id = scaled.glyph_id(ch);
+        if let Some(p) = previous {
+            width += scaled.kern(p, id);
+        }
+        width += scaled.h_advance(id);
+        previous = Some(id);
+    }
+    width.ceil() as usize
 }
 
 /// Heat-map colour as RGBA8.
@@ -335,4 +386,44 @@ pub fn compose(frames: &[(&str, Frame)], panels: Panels) -> Canvas {
         );
     }
     canvas
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Labels are set in the editor's typeface: antialiased (coverage between 0 and 1 gives
+    /// intermediate greys), proportional (an `i` is narrower than an `m`), within the box
+    /// `text_width × TEXT_PX` below the given corner, and characters beyond ASCII (`≥`, `σ`)
+    /// are drawn rather than replaced.
+    #[test]
+    fn labels_are_antialiased_proportional_and_stay_in_their_box() {
+        let font = TYPEFACE.as_ref();
+        assert!(font.is_some(), "the typeface loads");
+        assert!(text_width_px("iiii", TEXT_PX) < text_width_px("mmmm", TEXT_PX));
+        let text = "quadratic-taylor ≥ σ";
+        let width = Canvas::text_width(text);
+        let mut canvas = Canvas::new(width + 40, TEXT_PX + 40, [0, 0, 0, 255]);
+        canvas.text(20, 20, text, [255, 255, 255, 255]);
+        let mut lit = 0;
+        let mut grey = 0;
+        for y in 0..canvas.height {
+            for x in 0..canvas.width {
+                let v = canvas.pixels[y * canvas.width + x][0];
+                if v > 0 {
+                    lit += 1;
+                    assert!(
+                        (18..=22 + width).contains(&x) && (18..=24 + TEXT_PX).contains(&y),
+                        "ink at ({x}, {y}) outside the text box"
+                    );
+                }
+                grey += usize::from(v > 20 && v < 235);
+            }
+        }
+        assert!(lit > 100 && grey > 20, "{lit} lit, {grey} grey pixels");
+        // The two symbols alone leave ink too.
+        let mut symbols = Canvas::new(60, 40, [0, 0, 0, 255]);
+        symbols.text(4, 4, "≥σ", [255, 255, 255, 255]);
+        assert!(symbols.pixels.iter().filter(|p| p[0] > 128).count() > 10);
+    }
 }

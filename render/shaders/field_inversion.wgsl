@@ -1,6 +1,8 @@
 // Field inversion for Gaussian blobs (Bruckner 2019; core: methods/field_inversion.rs):
-// D = ρ(σ√(−ln F) − 1), steps of 1.2·D, hit when D < 0.0125ρ or inside, 32 steps per part.
-// globals.method: (unused, σ, smallest radius ρ, N0).
+// D = ρ(σ√(−ln F) − 1), steps of 1.2·D, hit when D < 0.0125ρ or inside, 32 steps per part; a
+// step that lands inside is refined by bisection with the sample before it, to within ε, as the
+// CPU's default profile does (the unrefined hit of `--protocol paper-2023` is CPU only).
+// globals: σ, smallest radius ρ, N0 (gauss_*).
 
 // Traced in one dispatch: never suspends (`resume` is unused; parts.wgsl).
 fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
@@ -16,6 +18,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             break;
         }
         var t = part.x;
+        var previous = t;
         var in_span = 0u;
         while t < part.y && in_span < 32u && trace.steps < globals.max_steps {
             trace.steps += 1u;
@@ -23,12 +26,29 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             let f = along_ray(sp, ray, t).x;
             let unit = (f / norm) * (1.0 - 0.005) + 0.005;
             let distance = radius * (sigma * sqrt(max(-log(unit), 0.0)) - 1.0);
-            if distance < 0.0125 * radius || f >= c {
+            if f >= c {
+                var outside = previous;
+                var inside = t;
+                while inside - outside > globals.epsilon {
+                    let mid = 0.5 * (outside + inside);
+                    if along_ray(sp, ray, mid).x >= c {
+                        inside = mid;
+                    } else {
+                        outside = mid;
+                    }
+                }
+                trace.t = inside;
+                trace.hit = true;
+                trace.entering = true;
+                return trace;
+            }
+            if distance < 0.0125 * radius {
                 trace.t = t;
                 trace.hit = true;
                 trace.entering = true;
                 return trace;
             }
+            previous = t;
             t += 1.2 * distance;
         }
         start_at = part.y;
