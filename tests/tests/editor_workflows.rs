@@ -575,3 +575,67 @@ fn clicking_a_grid_pixel_inspects_its_ray_with_the_heat_maps_step_counts() {
     assert!(h.query_by_label("steps (linear scale)").is_some());
     assert_eq!(h.state().shown_frames().len(), shown);
 }
+
+/// Issue 19: the comparison grid keeps the viewport's aspect for 1, 2, 4 and 9 panels: every
+/// chosen method gets a panel, each panel has the aspect of the grid's area (the whole view,
+/// not a strip of it), and the panels lie inside the area without overlapping.
+#[test]
+fn the_comparison_grid_keeps_the_views_aspect_for_one_to_nine_panels() {
+    if skeletrace_tests::skip_without_gpu("the_comparison_grid_keeps_the_views_aspect") {
+        return;
+    }
+    use skeletrace_core::MethodId;
+    let nine = [
+        MethodId::Segment,
+        MethodId::SegmentOriginal,
+        MethodId::LinearTaylor,
+        MethodId::QuadraticTaylor,
+        MethodId::BottomUpLinear,
+        MethodId::BottomUpQuadratic,
+        MethodId::LinearMixed,
+        MethodId::QuadraticMixed,
+        MethodId::SphereAccelerated,
+    ];
+    for n in [1, 2, 4, 9] {
+        let ui_state = UiState {
+            backend: BackendChoice::Cpu,
+            view: ViewMode::Compare,
+            compare_methods: nine[..n].to_vec(),
+            ..UiState::default()
+        };
+        let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+        let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+        settle(&mut h);
+        let (area, panels) = h
+            .state()
+            .compare_layout()
+            .cloned()
+            .unwrap_or_else(|| panic!("{n} panels: the grid is drawn"));
+        assert_eq!(panels.len(), n, "every method has its panel");
+        let aspect = area.width() / area.height();
+        for (k, p) in panels.iter().enumerate() {
+            let own = p.width() / p.height();
+            assert!(
+                (own / aspect - 1.0).abs() < 0.04,
+                "{n} panels: panel {k} has aspect {own:.3}, the view {aspect:.3}"
+            );
+            assert!(
+                area.expand(1.0).contains_rect(*p),
+                "{n} panels: {p:?} outside {area:?}"
+            );
+            for q in &panels[k + 1..] {
+                assert!(
+                    !p.shrink(1.0).intersects(q.shrink(1.0)),
+                    "{n} panels overlap: {p:?} {q:?}"
+                );
+            }
+        }
+        // Panels use the space: together they cover a good part of the area.
+        let covered: f32 = panels.iter().map(|p| p.area()).sum();
+        assert!(
+            covered > 0.3 * area.area(),
+            "{n} panels cover {covered} of {}",
+            area.area()
+        );
+    }
+}

@@ -40,6 +40,7 @@ impl Editor {
             return;
         };
         let mut hover_lines = Vec::new();
+        let mut panels = Vec::with_capacity(shown.frames.len());
         for (i, f) in shown.frames.iter().enumerate() {
             let x = rect.left() + (i % columns) as f32 * cell_w;
             let y = rect.top() + (i / columns) as f32 * (cell_h + label);
@@ -75,8 +76,11 @@ impl Editor {
                     egui::pos2(x, y + label),
                     egui::vec2(cell_w - 4.0, cell_h),
                 ),
-                f.frame.width as f32 / f.frame.height.max(1) as f32,
+                // The panel keeps the grid's aspect whatever the resolution traced (a preview
+                // rounds its size), so the layout does not move when the full frame arrives.
+                grid.panel_w / grid.panel_h,
             );
+            panels.push(image_rect);
             painter.image(
                 f.texture.id(),
                 image_rect,
@@ -91,6 +95,10 @@ impl Editor {
                 self.hovered_pixel = Some((u, v));
             }
         }
+        self.compare_layout = Some((
+            egui::Rect::from_min_size(rect.min, egui::vec2(rect.width(), area_h)),
+            panels,
+        ));
         let mut inspect = None;
         if let Some((u, v)) = self.hovered_pixel {
             for f in &shown.frames {

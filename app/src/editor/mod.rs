@@ -164,6 +164,9 @@ pub struct Editor {
     method_tags: Option<(u64, Vec<MethodTag>)>,
     /// The ray the inspector window shows.
     ray_probe: Option<crate::ray_probe::RayProbe>,
+    /// Where the comparison grid was last drawn: its area (less the colour bar) and each
+    /// panel's image.
+    compare_layout: Option<(egui::Rect, Vec<egui::Rect>)>,
 }
 
 impl Editor {
@@ -214,6 +217,7 @@ impl Editor {
             viewport_rect: None,
             method_tags: None,
             ray_probe: None,
+            compare_layout: None,
         }
     }
 
@@ -239,6 +243,13 @@ impl Editor {
     #[must_use]
     pub fn orbit(&self) -> &OrbitCamera {
         &self.orbit
+    }
+
+    /// Where the comparison grid was last drawn: its area less the colour bar, and each
+    /// panel's image (window points).
+    #[must_use]
+    pub fn compare_layout(&self) -> Option<&(egui::Rect, Vec<egui::Rect>)> {
+        self.compare_layout.as_ref()
     }
 
     /// The pixel of the comparison grid's frames under the pointer, if any.
