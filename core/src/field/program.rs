@@ -272,8 +272,9 @@ impl FieldProgram {
         span: Interval,
         slots: &mut [Jet],
     ) {
-        lookup.on_ray(span, |i, _| {
-            let jet = self.primitives[i as usize].ray_jet(ray, span, self.kernel_of(i));
+        lookup.on_ray(span, |i, inside| {
+            let jet =
+                self.primitives[i as usize].ray_jet_inside(ray, span, inside, self.kernel_of(i));
             let slot = &mut slots[self.groups_of[i as usize] as usize];
             *slot = *slot + jet;
         });
@@ -457,10 +458,13 @@ impl FieldProgram {
         slope: PrimitiveSlope,
     ) -> f64 {
         self.with_group_slots(0.0, |slots| {
-            lookup.on_ray(span, |i, _| {
+            lookup.on_ray(span, |i, inside| {
                 let (primitive, kernel) = (&self.primitives[i as usize], self.kernel_of(i));
                 slots[self.groups_of[i as usize] as usize] += match slope {
-                    PrimitiveSlope::Exact => primitive.ray_jet(ray, span, kernel).d1.magnitude(),
+                    PrimitiveSlope::Exact => primitive
+                        .ray_jet_inside(ray, span, inside, kernel)
+                        .d1
+                        .magnitude(),
                     PrimitiveSlope::Published => primitive.published_slope_bound(ray, span, kernel),
                 };
             });

@@ -164,6 +164,19 @@ impl Primitive {
         let Some(inside) = span.intersect(support) else {
             return Jet::ZERO;
         };
+        self.ray_jet_inside(ray, span, inside, k)
+    }
+
+    /// [`Primitive::ray_jet`] where `inside`, the part of `span` inside the support, is already
+    /// known (a ray's gathered candidates carry their support intervals).
+    #[must_use]
+    pub fn ray_jet_inside(
+        &self,
+        ray: &Ray,
+        span: Interval,
+        inside: Interval,
+        k: &KernelProfile,
+    ) -> Jet {
         let jet = match self {
             Self::Point(x) => x.ray_jet(ray, inside, k),
             Self::Distance(x) => x.ray_jet(ray, inside, k),

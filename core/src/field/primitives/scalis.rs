@@ -153,11 +153,26 @@ impl ScalisSegment {
         let ds = c.length / pieces as f64;
         let w_origin = u.dot(ray.origin - c.start);
         let uv = u.dot(c.axis);
+        let (chord, chord_sq) = (ray_b - ray_a, (ray_b - ray_a).length_squared());
+        let reach = k.support_radius() * (1.0 + 1e-9);
         let mut jet = Jet::ZERO;
         for piece in 0..pieces {
             let (sa, sb) = (piece as f64 * ds, (piece + 1) as f64 * ds);
             let (qa, qb) = (c.start + sa * c.axis, c.start + sb * c.axis);
             let (tau_a, tau_b) = (c.radius + c.slope * sa, c.radius + c.slope * sb);
+            // A piece whose midpoint lies farther from the ray's chord than half its length
+            // plus its support radius (with a margin far above rounding) has `x.lo` beyond the
+            // support: skipped as below, without the segment–segment distance.
+            let mid = 0.5 * (qa + qb);
+            let along = if chord_sq > 0.0 {
+                ((mid - ray_a).dot(chord) / chord_sq).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let gap = (mid - (ray_a + along * chord)).length() - 0.5 * ds;
+            if gap > reach * tau_b {
+                continue;
+            }
             let d_min = segment_segment_distance_sq(ray_a, ray_b, qa, qb);
             let d_max = [(ray_a, qa), (ray_a, qb), (ray_b, qa), (ray_b, qb)]
                 .iter()
