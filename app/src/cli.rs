@@ -74,7 +74,8 @@ pub struct BenchArgs {
     /// Timed frames per method (after untimed warm-up frames for at least 0.5 s).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
-    /// Settings profile: default, paper-2023 (forward inclusion) or paper-2021 (SCALIS).
+    /// Settings profile: default, paper-2023 (forward inclusion), paper-2021 (SCALIS) or
+    /// paper-2014 (numerical ray tracing notes).
     #[arg(long, value_parser = parse_protocol, default_value = "default")]
     pub protocol: Protocol,
     /// Print JSON instead of a table.
@@ -130,7 +131,8 @@ pub struct RenderArgs {
     /// Step-count colour scale.
     #[arg(long, value_enum, default_value = "log")]
     pub scale: Scale,
-    /// Settings profile: default, paper-2023 (forward inclusion) or paper-2021 (SCALIS).
+    /// Settings profile: default, paper-2023 (forward inclusion), paper-2021 (SCALIS) or
+    /// paper-2014 (numerical ray tracing notes).
     #[arg(long, value_parser = parse_protocol, default_value = "default")]
     pub protocol: Protocol,
     /// Cast shadow rays in the shaded view.
@@ -177,7 +179,8 @@ pub struct StatsArgs {
     /// Seed of the ray origins.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Settings profile: default, paper-2023 (forward inclusion) or paper-2021 (SCALIS).
+    /// Settings profile: default, paper-2023 (forward inclusion), paper-2021 (SCALIS) or
+    /// paper-2014 (numerical ray tracing notes).
     #[arg(long, value_parser = parse_protocol, default_value = "default")]
     pub protocol: Protocol,
     /// Trace every crossing (transparent rays, forward-inclusion 2023 Tables 3–4) instead of

@@ -124,7 +124,9 @@ pub fn rays_of(
 ) -> Vec<(Ray, Interval)> {
     match protocol {
         Protocol::Paper2023 => rays_around_box(program, count, seed),
-        Protocol::Default | Protocol::Paper2021 => protocol_rays(program, count, seed),
+        Protocol::Default | Protocol::Paper2021 | Protocol::Paper2014 => {
+            protocol_rays(program, count, seed)
+        }
     }
 }
 

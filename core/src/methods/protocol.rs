@@ -6,6 +6,9 @@
 //! - `paper-2023` (forward inclusion, algorithm 1): the first interval of each support part is
 //!   the whole part, so a quadratic bound may discard it in one step; field inversion reports the
 //!   sample where it stopped, unrefined, as Bruckner's listing does.
+//! - `paper-2014` (numerical ray tracing notes §12.1): over-relaxed sphere tracing with
+//!   `ω = 1.2`, the value the notes quote from Keinert et al. (skeletrace's default is 1.6, inside
+//!   their range [1.2, 1.9]).
 //! - `paper-2021` (SCALIS, algorithm 1): the SCALIS tracer stops when the normalised field's
 //!   value is small, `|F| < 10⁻³` (the paper names a threshold ε without its value; `F` is a
 //!   squared normalised distance minus one, so 10⁻³ is a few thousandths of a radius on a
@@ -13,6 +16,10 @@
 //!   part with one sphere-tracing step and evaluates nothing at the support limits; its sphere-tracing
 //!   baseline (`sphere-normalized`) takes the thinnest radius per ray, as appendix B does,
 //!   instead of per marching interval.
+//!
+//! The GPU backend takes a profile's trace settings (first interval, ε, budget, growth) but
+//! runs each method's own choices as the default profile does: the per-method choices above
+//! are the CPU's, which is what `stats` runs.
 //!
 //! What no profile changes: ε on the ray parameter (2·10⁻⁵ of the diagonal, the papers give none
 //! in scene units that carry over), the budget of 2048 steps per ray and the growth k = 2 of the
@@ -30,13 +37,20 @@ pub enum Protocol {
     Default,
     /// Forward inclusion 2023.
     Paper2023,
+    /// Numerical ray tracing notes 2014.
+    Paper2014,
     /// SCALIS 2021.
     Paper2021,
 }
 
 impl Protocol {
     /// Every profile.
-    pub const ALL: [Self; 3] = [Self::Default, Self::Paper2023, Self::Paper2021];
+    pub const ALL: [Self; 4] = [
+        Self::Default,
+        Self::Paper2023,
+        Self::Paper2021,
+        Self::Paper2014,
+    ];
 
     /// The command-line name.
     #[must_use]
@@ -45,6 +59,7 @@ impl Protocol {
             Self::Default => "default",
             Self::Paper2023 => "paper-2023",
             Self::Paper2021 => "paper-2021",
+            Self::Paper2014 => "paper-2014",
         }
     }
 
@@ -59,7 +74,7 @@ impl Protocol {
     pub const fn scalis_stop(self) -> ScalisStop {
         match self {
             Self::Paper2021 => ScalisStop::Value(1e-3),
-            Self::Default | Self::Paper2023 => ScalisStop::NewtonDistance,
+            Self::Default | Self::Paper2023 | Self::Paper2014 => ScalisStop::NewtonDistance,
         }
     }
 
@@ -76,6 +91,15 @@ impl Protocol {
     #[must_use]
     pub const fn scalis_support_limits_are_free(self) -> bool {
         matches!(self, Self::Paper2021)
+    }
+
+    /// The over-relaxation factor `ω` of `sphere-enhanced`.
+    #[must_use]
+    pub const fn over_relaxation(self) -> f64 {
+        match self {
+            Self::Paper2014 => 1.2,
+            Self::Default | Self::Paper2023 | Self::Paper2021 => 1.6,
+        }
     }
 
     /// Whether field inversion refines its hit between the last two samples.

@@ -1,5 +1,6 @@
 //! Over-relaxed ("enhanced") sphere tracing (numerical ray tracing notes 2014 §12.1; Keinert et
-//! al. 2014; MATH.md §6): steps of `ω·r` with `ω = 1.6`, where `r = |f − c|/L` is the unbounding
+//! al. 2014; MATH.md §6): steps of `ω·r` with `ω = 1.6` (`1.2`, the value the notes quote, under
+//! `--protocol paper-2014`), where `r = |f − c|/L` is the unbounding
 //! sphere radius. When the spheres at the old and new points do not overlap
 //! (`r + r_prev < step`), the over-relaxed step may have skipped a crossing: the march goes back
 //! to the previous point and continues with `ω = 1` (plain sphere tracing), so no crossing is
@@ -13,9 +14,6 @@ use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
-
-/// Over-relaxation factor (Keinert et al. use values in [1.2, 1.9]; 1.6 is their example).
-const OMEGA: f64 = 1.6;
 
 /// `sphere-enhanced`.
 pub struct EnhancedSphereTracing;
@@ -55,7 +53,8 @@ impl RayTracer for Prepared<'_> {
         let field = RayField::new(self.program, ray, span);
         trace_supports(&field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
-            let mut omega = OMEGA;
+            let relaxed = s.protocol.over_relaxation();
+            let mut omega = relaxed;
             let (mut previous_radius, mut step) = (0.0, 0.0);
             let mut side: Option<bool> = None;
             while t < part.hi && trace.steps < s.max_steps {
@@ -93,7 +92,7 @@ impl RayTracer for Prepared<'_> {
                         return;
                     }
                     t += radius + s.min_step;
-                    omega = OMEGA;
+                    omega = relaxed;
                     previous_radius = 0.0;
                     step = 0.0;
                     side = None;
