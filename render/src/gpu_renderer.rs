@@ -278,6 +278,24 @@ impl MethodConstants {
     }
 }
 
+/// What the renderer asks of a device: the adapter's own limits (the trace passes bind more
+/// storage buffers than wgpu's defaults allow) and pass timestamps where the adapter has them.
+/// The editor opens eframe's device with it, so that the viewport can trace on that device.
+#[must_use]
+pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
+    let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    wgpu::DeviceDescriptor {
+        label: Some("skeletrace"),
+        required_features: if timestamps {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        },
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }
+}
+
 impl GpuRenderer {
     /// Opens the first GPU adapter (any backend wgpu was built with: Vulkan, including Mesa's
     /// lavapipe).
@@ -295,24 +313,17 @@ impl GpuRenderer {
         }))
         .map_err(|e| BackendError::DeviceFailed(format!("no GPU adapter: {e}")))?;
         let info = adapter.get_info();
-        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("skeletrace"),
-            required_features: if timestamps {
-                wgpu::Features::TIMESTAMP_QUERY
-            } else {
-                wgpu::Features::empty()
-            },
-            required_limits: adapter.limits(),
-            ..Default::default()
-        }))
+        let (device, queue) = pollster::block_on(
+            adapter.request_device(&device_descriptor(&adapter)),
+        )
         .map_err(|e| {
             BackendError::DeviceFailed(format!("GPU adapter '{}' gave no device: {e}", info.name))
         })?;
         Self::with_device(device, queue, &info)
     }
 
-    /// A renderer on a device opened elsewhere (the editor shares eframe's), with the adapter's
+    /// A renderer on a device opened elsewhere (the editor shares eframe's, opened with
+    /// [`device_descriptor`]), with the adapter's
     /// `info` (name, and whether it is a software rasteriser).
     ///
     /// # Errors
@@ -329,7 +340,12 @@ impl GpuRenderer {
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             if let Ok(mut v) = sink.lock() {
                 v.push(match e {
-                    wgpu::Error::Validation { description, .. } => description,
+                    wgpu::Error::Validation {
+                        description,
+                        source,
+                    } => {
+                        format!("{description}: {source:?}")
+                    }
                     other => other.to_string(),
                 });
             }
@@ -515,6 +531,63 @@ impl GpuRenderer {
         (width, height): (u32, u32),
         view: View,
     ) -> Result<Vec<Frame>, BackendError> {
+        let compiled = self.ready_for(methods, view)?;
+        let geometry = FrameGeometry::new(camera, width, height);
+        self.trace_frames(&compiled.program, methods, &geometry, settings, view)
+            .map_err(BackendError::DeviceFailed)
+    }
+
+    /// Records the trace of `method` through `camera` into `encoder` without reading anything
+    /// back: the frame stays in the colour output ([`GpuRenderer::colour_output`], packed sRGB8
+    /// per pixel, row-major), which the editor's viewport draws from directly. Only the tile
+    /// binning submits work of its own and reads back its per-tile counts (to size the tile
+    /// lists).
+    ///
+    /// # Errors
+    /// As [`GpuRenderer::render`].
+    pub fn encode_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        method: GpuMethod,
+        camera: &Camera,
+        settings: &TraceSettings,
+        (width, height): (u32, u32),
+        view: View,
+    ) -> Result<(), BackendError> {
+        let compiled = self.ready_for(&[method], view)?;
+        let geometry = FrameGeometry::new(camera, width, height);
+        self.encode_trace(
+            encoder,
+            &compiled.program,
+            &[method],
+            &geometry,
+            settings,
+            view,
+            None,
+        )
+        .map_err(BackendError::DeviceFailed)
+    }
+
+    /// The colour output of the last frame traced or encoded (packed sRGB8, panels side by
+    /// side), with its size in pixels.
+    #[must_use]
+    pub fn colour_output(&self) -> Option<(&wgpu::Buffer, (u64, u32))> {
+        self.outputs.as_ref().map(|o| (&o.written[0], o.size))
+    }
+
+    /// The device the renderer traces on.
+    #[must_use]
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// The uploaded scene, after checking that `methods` and `view` apply to it; builds the
+    /// methods' pipelines.
+    fn ready_for(
+        &mut self,
+        methods: &[GpuMethod],
+        view: View,
+    ) -> Result<Arc<Compiled>, BackendError> {
         let compiled = self
             .scene
             .as_ref()
@@ -530,9 +603,7 @@ impl GpuRenderer {
         for &m in methods {
             self.trace_pipeline(m);
         }
-        let geometry = FrameGeometry::new(camera, width, height);
-        self.trace_frames(program, methods, &geometry, settings, view)
-            .map_err(BackendError::DeviceFailed)
+        Ok(compiled)
     }
 
     /// Fills the tile lists, runs one trace pass per method (each marching method in
@@ -554,6 +625,87 @@ impl GpuRenderer {
                 count: 2 * passes,
             })
         });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        self.encode_trace(
+            &mut encoder,
+            program,
+            methods,
+            geometry,
+            settings,
+            view,
+            queries.as_ref(),
+        )?;
+        let d = &self.device;
+        let (width, height) = (geometry.width, geometry.height);
+        let pixels = u64::from(width * methods.len() as u32) * u64::from(height);
+        let outputs = self.outputs.as_ref().ok_or("no output buffers")?;
+        for (source, target) in outputs.written.iter().zip(&outputs.read) {
+            encoder.copy_buffer_to_buffer(source, 0, target, 0, pixels * 4);
+        }
+        let stamps_read = queries.as_ref().map(|query_set| {
+            let bytes = u64::from(2 * passes) * wgpu::QUERY_SIZE as u64;
+            let resolved = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            encoder.resolve_query_set(query_set, 0..2 * passes, &resolved, 0);
+            let target = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass timestamps readback"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            encoder.copy_buffer_to_buffer(&resolved, 0, &target, 0, bytes);
+            target
+        });
+        self.queue.submit([encoder.finish()]);
+        // Mapped, then unmapped on every path, the failing ones included.
+        let frames = map_for_reading(d, &outputs.read.iter().collect::<Vec<_>>())
+            .and_then(|()| {
+                outputs
+                    .read
+                    .iter()
+                    .map(|b| b.slice(..).get_mapped_range())
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|e| format!("GPU readback failed: {e}"))
+            })
+            .map(|views| {
+                split_panels(
+                    [&views[0], &views[1], &views[2]],
+                    (width as usize, height as usize),
+                    methods.len(),
+                )
+            });
+        for buffer in &outputs.read {
+            buffer.unmap();
+        }
+        let frames = frames?;
+        let period_ns = f64::from(self.queue.get_timestamp_period());
+        self.last_pass_times = stamps_read
+            .map(|buffer| read_back::<u64>(d, &buffer).map(|t| pass_times(&t, period_ns)))
+            .transpose()?;
+        self.check()?;
+        Ok(frames)
+    }
+
+    /// Bins the primitives into the tile lists (a submit of its own, reading back the per-tile
+    /// counts) and records one trace pass per method into `encoder`, writing the output
+    /// buffers (panels side by side).
+    #[allow(clippy::too_many_arguments)]
+    fn encode_trace(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        program: &FieldProgram,
+        methods: &[GpuMethod],
+        geometry: &FrameGeometry,
+        settings: &TraceSettings,
+        view: View,
+        queries: Option<&wgpu::QuerySet>,
+    ) -> Result<(), String> {
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let n_prims = scene.packed.primitives.len() as u32;
         let tile_lists = self.binning.bin(
@@ -562,7 +714,7 @@ impl GpuRenderer {
             &scene.primitives,
             n_prims,
             geometry,
-            queries.as_ref(),
+            queries,
         )?;
         self.check()?;
         self.last_tile_items = u64::from(tile_lists.total);
@@ -584,7 +736,6 @@ impl GpuRenderer {
         let d = &self.device;
         let panels = methods.len() as u32;
         let out_width = width * panels;
-        let pixels = u64::from(out_width) * u64::from(height);
         let size = (u64::from(width) * u64::from(height), panels);
         if self.outputs.as_ref().is_none_or(|o| o.size != size) {
             self.outputs = Some(OutputBuffers::new(d, size));
@@ -598,9 +749,7 @@ impl GpuRenderer {
         };
         let shading_flags =
             u32::from(shading.soft_shadows) | (u32::from(shading.ambient_occlusion) << 1);
-        let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        self.binning
-            .fill(&mut encoder, &tile_lists, queries.as_ref());
+        self.binning.fill(encoder, &tile_lists, queries);
         for (panel, method) in methods.iter().enumerate() {
             let globals = GpuGlobals {
                 origin: f3(origin),
@@ -671,7 +820,7 @@ impl GpuRenderer {
             encoder.clear_buffer(&outputs.suspensions, 0, None);
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(method.name()),
-                timestamp_writes: timestamp_writes(queries.as_ref(), 2 + panel as u32),
+                timestamp_writes: timestamp_writes(queries, 2 + panel as u32),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
@@ -679,55 +828,7 @@ impl GpuRenderer {
                 pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
             }
         }
-        for (source, target) in outputs.written.iter().zip(&outputs.read) {
-            encoder.copy_buffer_to_buffer(source, 0, target, 0, pixels * 4);
-        }
-        let stamps_read = queries.as_ref().map(|query_set| {
-            let bytes = u64::from(2 * passes) * wgpu::QUERY_SIZE as u64;
-            let resolved = d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("pass timestamps"),
-                size: bytes,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            encoder.resolve_query_set(query_set, 0..2 * passes, &resolved, 0);
-            let target = d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("pass timestamps readback"),
-                size: bytes,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            encoder.copy_buffer_to_buffer(&resolved, 0, &target, 0, bytes);
-            target
-        });
-        self.queue.submit([encoder.finish()]);
-        // Mapped, then unmapped on every path, the failing ones included.
-        let frames = map_for_reading(d, &outputs.read.iter().collect::<Vec<_>>())
-            .and_then(|()| {
-                outputs
-                    .read
-                    .iter()
-                    .map(|b| b.slice(..).get_mapped_range())
-                    .collect::<Result<Vec<_>, _>>()
-                    .map_err(|e| format!("GPU readback failed: {e}"))
-            })
-            .map(|views| {
-                split_panels(
-                    [&views[0], &views[1], &views[2]],
-                    (width as usize, height as usize),
-                    methods.len(),
-                )
-            });
-        for buffer in &outputs.read {
-            buffer.unmap();
-        }
-        let frames = frames?;
-        let period_ns = f64::from(self.queue.get_timestamp_period());
-        self.last_pass_times = stamps_read
-            .map(|buffer| read_back::<u64>(d, &buffer).map(|t| pass_times(&t, period_ns)))
-            .transpose()?;
-        self.check()?;
-        Ok(frames)
+        Ok(())
     }
 }
 

@@ -12,6 +12,7 @@ pub mod gpu_renderer;
 pub mod shaders;
 pub mod shared;
 pub mod tile_binning;
+pub mod viewport;
 
 pub use gpu_backend::GpuBackend;
 pub use gpu_renderer::GpuRenderer;

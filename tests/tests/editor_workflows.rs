@@ -639,3 +639,148 @@ fn the_comparison_grid_keeps_the_views_aspect_for_one_to_nine_panels() {
         );
     }
 }
+
+/// Issue 19: the shaded viewport traced on the window's own device through an `egui_wgpu` paint
+/// callback (taken on lavapipe here as `SKELETRACE_GPU_VIEWPORT=1` would): the window shows the
+/// same picture as the GPU renderer's read-back frame of that view, hovering traces nothing
+/// again, and orbiting traces once per new view without uploading the scene again.
+#[test]
+fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
+    if skeletrace_tests::skip_without_gpu("the_gpu_viewport_paints_the_traced_frame") {
+        return;
+    }
+    const PPP: f32 = 0.3;
+    // kittest's software adapter, with the device the editor asks eframe for.
+    let mut setup = egui_kittest::wgpu::default_wgpu_setup();
+    if let eframe::egui_wgpu::WgpuSetup::CreateNew(new) = &mut setup {
+        new.device_descriptor = std::sync::Arc::new(|adapter: &eframe::wgpu::Adapter| {
+            skeletrace_render::gpu_renderer::device_descriptor(adapter)
+        });
+    }
+    let render_state = egui_kittest::wgpu::create_render_state(
+        setup,
+        eframe::egui_wgpu::RendererOptions::PREDICTABLE,
+    );
+    let ui_state = UiState {
+        backend: BackendChoice::Auto,
+        shaded_method: skeletrace_core::MethodId::QuadraticTaylor,
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let mut editor = Editor::new(doc, ui_state, None, || {});
+    editor
+        .enable_gpu_viewport(&render_state)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut h = Harness::builder()
+        // Few pixels: lavapipe must trace the whole viewport within kittest's 10 s wait.
+        .with_size(egui::vec2(720.0, 480.0))
+        .with_pixels_per_point(PPP)
+        .renderer(egui_kittest::wgpu::WgpuTestRenderer::from_render_state(
+            render_state,
+        ))
+        .build_ui_state(|ui, editor: &mut Editor| editor.ui(ui), editor);
+    h.step();
+    h.step();
+    let image = h.render().unwrap_or_else(|e| panic!("{e}"));
+    let (traced, uploaded, adapter) = h
+        .state()
+        .gpu_viewport_counts()
+        .unwrap_or_else(|| panic!("the GPU viewport is on"));
+    assert!(
+        traced >= 1,
+        "the viewport was traced on {adapter} ({:?})",
+        h.state().notice()
+    );
+    assert!(
+        h.state().shown_frames().is_empty(),
+        "nothing went through the render thread"
+    );
+
+    // The same view read back from a renderer of its own: the window shows its colours.
+    let rect = h
+        .state()
+        .viewport_rect()
+        .unwrap_or_else(|| panic!("the viewport is drawn"));
+    let size = ((rect.width() * PPP) as u32, (rect.height() * PPP) as u32);
+    let compiled = h.state().document().compiled();
+    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    reference
+        .set_scene(&compiled)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let frame = reference
+        .render(
+            &[skeletrace_render::GpuMethod::QuadraticTaylor],
+            &h.state().orbit().camera(),
+            &compiled.settings,
+            size,
+            skeletrace_core::frame::View::Shaded(h.state().ui_state().shading),
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+        .remove(0);
+    let (x0, y0) = (
+        (rect.left() * PPP).round() as u32,
+        (rect.top() * PPP).round() as u32,
+    );
+    let (mut same, mut total) = (0, 0);
+    for y in (0..size.1).step_by(3) {
+        for x in (0..size.0).step_by(3) {
+            let want = frame.colour[(y * size.0 + x) as usize].map(skeletrace_core::frame::srgb8);
+            let got = image.get_pixel(x0 + x, y0 + y).0;
+            total += 1;
+            same += usize::from((0..3).all(|k| want[k].abs_diff(got[k]) <= 3));
+        }
+    }
+    // The blobs' handles (the overlay) cover about a fifth of this small viewport; the rest is
+    // the traced frame.
+    assert!(
+        same as f64 > 0.7 * total as f64,
+        "{same} of {total} viewport pixels match the read-back frame"
+    );
+
+    // Hovering redraws the window, not the frame.
+    h.hover_at(rect.center());
+    h.step();
+    let _ = h.render();
+    assert_eq!(h.state().gpu_viewport_counts().map(|c| c.0), Some(traced));
+
+    // Orbiting from the background: a new view is traced; the scene is not uploaded again.
+    let start = rect.left_top() + egui::vec2(12.0, 12.0);
+    press(&mut h, start, true);
+    for k in 1..=3 {
+        h.hover_at(start + egui::vec2(15.0 * k as f32, 0.0));
+        h.step();
+    }
+    press(&mut h, start + egui::vec2(45.0, 0.0), false);
+    let _ = h.render();
+    let (orbited, uploaded_orbit, _) = h.state().gpu_viewport_counts().unwrap_or_default();
+    assert!(
+        orbited > traced,
+        "orbiting traces the new view: {traced} -> {orbited}"
+    );
+    assert_eq!(uploaded_orbit, uploaded, "orbiting uploads nothing");
+
+    // Dragging a blob is an edit: traced again, and only that blob's primitive is uploaded.
+    let item = Item::Blob { group: 0, blob: 0 };
+    let at = h
+        .state()
+        .screen_position(item)
+        .unwrap_or_else(|| panic!("the blob's handle is on screen"));
+    h.hover_at(at);
+    h.step();
+    press(&mut h, at, true);
+    for k in 1..=3 {
+        h.hover_at(at + egui::vec2(0.0, 6.0 * k as f32));
+        h.step();
+    }
+    press(&mut h, at + egui::vec2(0.0, 18.0), false);
+    let _ = h.render();
+    let (edited, uploaded_edit, _) = h.state().gpu_viewport_counts().unwrap_or_default();
+    assert!(h.state().document().is_dirty(), "the drag moved the blob");
+    assert!(edited > orbited, "the edit is traced");
+    let one = std::mem::size_of::<skeletrace_render::buffers::GpuPrimitive>() as u64;
+    assert_eq!(
+        uploaded_edit - uploaded_orbit,
+        one,
+        "an edit of one blob uploads one primitive"
+    );
+}

@@ -725,7 +725,17 @@ impl Editor {
 
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
-            if let Some(shown) = &self.frames.shown {
+            let gpu = (self.viewport_on_gpu && self.ui_state.view == ViewMode::Shaded)
+                .then(|| self.gpu_viewport_counts())
+                .flatten();
+            if let Some((traced, _, adapter)) = gpu {
+                ui.monospace(format!(
+                    "{} on the window's GPU ({traced} frames traced, no readback)",
+                    self.ui_state.shaded_method
+                ));
+                ui.separator();
+                ui.weak(adapter);
+            } else if let Some(shown) = &self.frames.shown {
                 for f in &shown.frames {
                     let backend = if f.on_gpu { "GPU" } else { "CPU" };
                     ui.monospace(format!(

@@ -11,6 +11,7 @@ mod document;
 mod files;
 mod frames;
 mod gizmo;
+pub mod gpu_viewport;
 mod group_tools;
 mod inspector;
 mod ray_inspector;
@@ -167,6 +168,11 @@ pub struct Editor {
     /// Where the comparison grid was last drawn: its area (less the colour bar) and each
     /// panel's image.
     compare_layout: Option<(egui::Rect, Vec<egui::Rect>)>,
+    /// The window's wgpu state when the shaded viewport is traced on its device
+    /// (`gpu_viewport.rs`).
+    gpu_viewport: Option<eframe::egui_wgpu::RenderState>,
+    /// The shaded viewport was last drawn by the GPU viewport.
+    viewport_on_gpu: bool,
 }
 
 impl Editor {
@@ -218,6 +224,8 @@ impl Editor {
             method_tags: None,
             ray_probe: None,
             compare_layout: None,
+            gpu_viewport: None,
+            viewport_on_gpu: false,
         }
     }
 
@@ -250,6 +258,12 @@ impl Editor {
     #[must_use]
     pub fn compare_layout(&self) -> Option<&(egui::Rect, Vec<egui::Rect>)> {
         self.compare_layout.as_ref()
+    }
+
+    /// Where the shaded viewport was last drawn (window points).
+    #[must_use]
+    pub fn viewport_rect(&self) -> Option<egui::Rect> {
+        self.viewport_rect
     }
 
     /// The pixel of the comparison grid's frames under the pointer, if any.
@@ -762,6 +776,7 @@ pub fn run(path: Option<&Path>) -> Result<(), String> {
             .with_title("skeletrace")
             .with_inner_size([1280.0, 800.0])
             .with_drag_and_drop(true),
+        wgpu_options: gpu_viewport::wgpu_configuration(),
         ..Default::default()
     };
     eframe::run_native(
@@ -776,6 +791,14 @@ pub fn run(path: Option<&Path>) -> Result<(), String> {
             let mut editor = Editor::new(doc, ui_state, recovery_file(), move || {
                 ctx.request_repaint();
             });
+            if let Some(state) = cc
+                .wgpu_render_state
+                .as_ref()
+                .filter(|s| gpu_viewport::wanted(s))
+                && let Err(why) = editor.enable_gpu_viewport(state)
+            {
+                editor.complain(format!("GPU viewport unavailable: {why}"));
+            }
             if let Some(p) = path_recent(&editor) {
                 editor.path_field = p;
             }

@@ -42,15 +42,21 @@ impl Editor {
     }
 
     /// Opens the inspector on the shaded view's pixel under `at` (window points in `rect`), for
-    /// the shaded view's method, in the frame shown.
-    pub(super) fn inspect_viewport_pixel(&mut self, at: egui::Pos2, rect: egui::Rect) {
-        let Some((width, height)) = self
+    /// the shaded view's method, in the frame shown: the GPU viewport's (`gpu_pixels`) or the
+    /// render thread's.
+    pub(super) fn inspect_viewport_pixel(
+        &mut self,
+        at: egui::Pos2,
+        rect: egui::Rect,
+        gpu_pixels: Option<(usize, usize)>,
+    ) {
+        let shown = self
             .frames
             .shown
             .as_ref()
             .and_then(|s| s.frames.first())
-            .map(|f| (f.frame.width, f.frame.height))
-        else {
+            .map(|f| (f.frame.width, f.frame.height));
+        let Some((width, height)) = gpu_pixels.or(shown).filter(|&(w, h)| w > 0 && h > 0) else {
             return;
         };
         let u = ((at.x - rect.left()) / rect.width() * width as f32) as usize;

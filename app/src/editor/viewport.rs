@@ -61,17 +61,24 @@ impl Editor {
         let rect = ui.available_rect_before_wrap();
         self.viewport_rect = Some(rect);
         let ppp = ui.ctx().pixels_per_point();
-        self.request_frames(
-            ui.ctx(),
-            (
-                (rect.width() * ppp) as usize,
-                (rect.height() * ppp) as usize,
-            ),
+        let pixels = (
+            (rect.width() * ppp) as usize,
+            (rect.height() * ppp) as usize,
         );
+        // On the window's GPU where it can (no render thread, no readback); else the render
+        // thread's frames.
+        let gpu_frame = self.gpu_viewport_frame((pixels.0 as u32, pixels.1 as u32));
+        let on_gpu = gpu_frame.is_some();
+        self.viewport_on_gpu = on_gpu;
+        if gpu_frame.is_none() {
+            self.request_frames(ui.ctx(), pixels);
+        }
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
-        if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
+        if let Some(frame) = gpu_frame {
+            Self::paint_gpu_viewport(&painter, rect, frame);
+        } else if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
             painter.image(
                 f.texture.id(),
                 rect,
@@ -214,7 +221,7 @@ impl Editor {
         let alt = ui.input(|i| i.modifiers.alt);
         if response.clicked() && alt {
             let at = response.interact_pointer_pos().unwrap_or_default();
-            self.inspect_viewport_pixel(at, rect);
+            self.inspect_viewport_pixel(at, rect, on_gpu.then_some(pixels));
         } else if response.clicked() {
             let at = response.interact_pointer_pos().unwrap_or_default();
             if self.sketch && hovered.is_none() {
