@@ -784,3 +784,35 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
         "an edit of one blob uploads one primitive"
     );
 }
+
+/// Issue 19: an edit made in the window, then no input at all: within the autosave period (and
+/// a little) the recovery file holds the edited scene.
+#[test]
+fn an_edit_followed_by_idleness_leaves_a_recovery_file() {
+    if skeletrace_tests::skip_without_gpu("an_edit_followed_by_idleness_leaves_a_recovery_file") {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("skeletrace-idle-kittest-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let recovery = dir.join("recovery.ron");
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = harness(Editor::new(doc, ui_state, Some(recovery.clone()), || {}));
+    settle(&mut h);
+    h.get_by_label("end-point correctors").click();
+    h.step();
+    assert!(h.state().document().is_dirty(), "the click edits the scene");
+    let edited = h.state().document().scene().clone();
+    let start = std::time::Instant::now();
+    while !recovery.exists() && start.elapsed() < std::time::Duration::from_secs(40) {
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        h.step();
+    }
+    let restored = skeletrace_core::Scene::load(&recovery)
+        .unwrap_or_else(|e| panic!("no recovery file after {:?}: {e}", start.elapsed()));
+    assert_eq!(restored, edited);
+    let _ = std::fs::remove_dir_all(&dir);
+}
