@@ -12,10 +12,10 @@
 //! - `paper-2021` (SCALIS, algorithm 1): the SCALIS tracer stops when the normalised field's
 //!   value is small, `|F| < 10⁻³` (the paper names a threshold ε without its value; `F` is a
 //!   squared normalised distance minus one, so 10⁻³ is a few thousandths of a radius on a
-//!   direct ray), at the estimate itself, without the Newton correction; it enters each support
-//!   part with one sphere-tracing step and evaluates nothing at the support limits; its sphere-tracing
-//!   baseline (`sphere-normalized`) takes the thinnest radius per ray, as appendix B does,
-//!   instead of per marching interval.
+//!   direct ray), at the estimate itself, without the Newton correction; it enters each
+//!   support part with one sphere-tracing step (§7) and evaluates nothing at the support
+//!   limits; its sphere-tracing baseline (`sphere-normalized`) takes the thinnest radius per
+//!   ray, as appendix B does, instead of per marching interval.
 //!
 //! The GPU backend takes a profile's trace settings (first interval, ε, budget, growth) but
 //! runs each method's own choices as the default profile does: the per-method choices above
