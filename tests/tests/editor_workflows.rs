@@ -637,6 +637,24 @@ fn the_comparison_grid_keeps_the_views_aspect_for_one_to_nine_panels() {
             "{n} panels cover {covered} of {}",
             area.area()
         );
+        // `SKELETRACE_SCREENSHOTS=…/docs/images` keeps the four-panel grid for the README.
+        if let Some(dir) = std::env::var_os("SKELETRACE_SCREENSHOTS").filter(|_| n == 4) {
+            // The full-resolution frames follow the previews once the view is still.
+            std::thread::sleep(std::time::Duration::from_millis(400));
+            settle(&mut h);
+            let image = h.render().unwrap_or_else(|e| panic!("{e}"));
+            let mut canvas = skeletrace::picture::Canvas::new(
+                image.width() as usize,
+                image.height() as usize,
+                [0; 4],
+            );
+            for (x, y, p) in image.enumerate_pixels() {
+                canvas.put(x as usize, y as usize, p.0);
+            }
+            canvas
+                .save_png(&Path::new(&dir).join("compare-grid.png"))
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
     }
 }
 
