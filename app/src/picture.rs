@@ -105,17 +105,9 @@ impl Canvas {
         let Some(font) = TYPEFACE.as_ref() else {
             return;
         };
-        let scaled = font.as_scaled(PxScale::from(px as f32));
-        let mut caret = point(x as f32, y as f32 + scaled.ascent());
-        let mut previous = None;
-        for ch in text.chars() {
-            let id = scaled.glyph_id(ch);
-            if let Some(p) = previous {
-                caret.x += scaled.kern(p, id);
-            }
-            previous = Some(id);
-            let glyph = id.with_scale_and_position(px as f32, caret);
-            caret.x += scaled.h_advance(id);
+        let ascent = font.as_scaled(PxScale::from(px as f32)).ascent();
+        let (glyphs, _) = lay_out(font, text, px, (x as f32, y as f32 + ascent));
+        for glyph in glyphs {
             let Some(outline) = font.outline_glyph(glyph) else {
                 continue;
             };
@@ -276,21 +268,36 @@ impl Canvas {
 
 /// Width in pixels of `text` set `px` pixels high in the labels' typeface.
 fn text_width_px(text: &str, px: usize) -> usize {
-    let Some(font) = TYPEFACE.as_ref() else {
-        return 0;
-    };
+    TYPEFACE.as_ref().map_or(0, |font| {
+        lay_out(font, text, px, (0.0, 0.0)).1.ceil() as usize
+    })
+}
+
+/// `text`'s glyphs set `px` pixels high with the baseline starting at `origin` (advances and
+/// kerning), and the caret's x after the last one.
+fn lay_out(
+    font: &FontRef<'static>,
+    text: &str,
+    px: usize,
+    origin: (f32, f32),
+) -> (Vec<ab_glyph::Glyph>, f32) {
     let scaled = font.as_scaled(PxScale::from(px as f32));
-    let mut width = 0.0;
+    let mut caret = point(origin.0, origin.1);
     let mut previous = None;
-    for ch in text.chars() {
-        let id = scaled.glyph_id(ch);
-        if let Some(p) = previous {
-            width += scaled.kern(p, id);
-        }
-        width += scaled.h_advance(id);
-        previous = Some(id);
-    }
-    width.ceil() as usize
+    let glyphs = text
+        .chars()
+        .map(|ch| {
+            let id = scaled.glyph_id(ch);
+            if let Some(p) = previous {
+                caret.x += scaled.kern(p, id);
+            }
+            previous = Some(id);
+            let glyph = id.with_scale_and_position(px as f32, caret);
+            caret.x += scaled.h_advance(id);
+            glyph
+        })
+        .collect();
+    (glyphs, caret.x)
 }
 
 /// Heat-map colour as RGBA8.

@@ -64,6 +64,17 @@ fn click_to_select(h: &mut Harness<'static, Editor>, item: Item) -> Pos2 {
     at
 }
 
+/// Renders the window and writes it as a PNG (the README's screenshots).
+fn save_window_image(h: &mut Harness<'static, Editor>, path: &Path) {
+    let image = h.render().unwrap_or_else(|e| panic!("{e}"));
+    let mut canvas =
+        skeletrace::picture::Canvas::new(image.width() as usize, image.height() as usize, [0; 4]);
+    for (x, y, p) in image.enumerate_pixels() {
+        canvas.put(x as usize, y as usize, p.0);
+    }
+    canvas.save_png(path).unwrap_or_else(|e| panic!("{e}"));
+}
+
 fn hit_fraction(editor: &Editor) -> f64 {
     let frames = editor.shown_frames();
     let Some((_, frame)) = frames.first() else {
@@ -556,15 +567,7 @@ fn clicking_a_grid_pixel_inspects_its_ray_with_the_heat_maps_step_counts() {
     // `SKELETRACE_SCREENSHOTS=docs/images` keeps the window image for the README.
     if let Some(dir) = std::env::var_os("SKELETRACE_SCREENSHOTS") {
         h.step();
-        let image = h.render().unwrap_or_else(|e| panic!("{e}"));
-        let (w, hgt) = (image.width() as usize, image.height() as usize);
-        let mut canvas = skeletrace::picture::Canvas::new(w, hgt, [0; 4]);
-        for (x, y, p) in image.enumerate_pixels() {
-            canvas.put(x as usize, y as usize, p.0);
-        }
-        canvas
-            .save_png(&Path::new(&dir).join("ray-inspector.png"))
-            .unwrap_or_else(|e| panic!("{e}"));
+        save_window_image(&mut h, &Path::new(&dir).join("ray-inspector.png"));
     }
 
     // The linear scale: the bar says so, and nothing is traced again.
@@ -642,18 +645,7 @@ fn the_comparison_grid_keeps_the_views_aspect_for_one_to_nine_panels() {
             // The full-resolution frames follow the previews once the view is still.
             std::thread::sleep(std::time::Duration::from_millis(400));
             settle(&mut h);
-            let image = h.render().unwrap_or_else(|e| panic!("{e}"));
-            let mut canvas = skeletrace::picture::Canvas::new(
-                image.width() as usize,
-                image.height() as usize,
-                [0; 4],
-            );
-            for (x, y, p) in image.enumerate_pixels() {
-                canvas.put(x as usize, y as usize, p.0);
-            }
-            canvas
-                .save_png(&Path::new(&dir).join("compare-grid.png"))
-                .unwrap_or_else(|e| panic!("{e}"));
+            save_window_image(&mut h, &Path::new(&dir).join("compare-grid.png"));
         }
     }
 }

@@ -125,9 +125,16 @@ impl Editor {
             self.gpu_viewport = None;
             return None;
         }
+        let shaded = self.ui_state.shaded_method;
+        if !self
+            .method_tags()
+            .iter()
+            .any(|t| t.id == shaded && t.on_gpu)
+        {
+            return None;
+        }
+        let method = GpuMethod::from_id(shaded)?;
         let compiled = self.doc.compiled();
-        let method = GpuMethod::from_id(self.ui_state.shaded_method)
-            .filter(|m| m.supports(&compiled.program).is_ok())?;
         let settings = compiled.settings;
         Some(ViewportFrame {
             compiled,

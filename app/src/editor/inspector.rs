@@ -212,37 +212,33 @@ impl Editor {
         self.scene_panel(ui);
     }
 
-    fn methods_panel(&mut self, ui: &mut egui::Ui) {
-        ui.heading("Methods");
+    /// Which methods apply to the scene, on the CPU and on the GPU: found once per revision,
+    /// on the document's compiled scene (the checks visit every primitive).
+    pub(super) fn method_tags(&mut self) -> &[MethodTag] {
         let revision = self.doc.revision();
         if self
             .method_tags
             .as_ref()
             .is_none_or(|(r, _)| *r != revision)
         {
-            // Which methods apply depends only on the scene: found once per revision, on the
-            // document's compiled scene.
             let compiled = self.doc.compiled();
             let program = &compiled.program;
             let tags = MethodId::ALL
                 .into_iter()
-                .map(|id| {
-                    let applies = id.method().supports(program).is_ok();
-                    let gpu = GpuMethod::from_id(id).is_some_and(|g| g.supports(program).is_ok());
-                    MethodTag {
-                        id,
-                        applies,
-                        on_gpu: gpu,
-                    }
+                .map(|id| MethodTag {
+                    id,
+                    applies: id.method().supports(program).is_ok(),
+                    on_gpu: GpuMethod::from_id(id).is_some_and(|g| g.supports(program).is_ok()),
                 })
                 .collect();
             self.method_tags = Some((revision, tags));
         }
-        let names = self
-            .method_tags
-            .as_ref()
-            .map(|(_, tags)| tags.clone())
-            .unwrap_or_default();
+        self.method_tags.as_ref().map_or(&[], |(_, tags)| tags)
+    }
+
+    fn methods_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Methods");
+        let names = self.method_tags().to_vec();
         let tag = |gpu: bool| if gpu { "GPU+CPU" } else { "CPU only" };
         egui::ComboBox::from_label("shaded view")
             .selected_text(self.ui_state.shaded_method.name())

@@ -523,22 +523,29 @@ mod tests {
         assert!((n4 - 0.962_250_4).abs() < 1e-7, "{n4}");
     }
 
+    /// One kernel of each family and shape the slope bounds distinguish: smooth compact,
+    /// kinked compact (degree 2), clipped Cauchy, clipped Gaussian.
+    const SLOPE_KERNELS: [Kernel; 4] = [
+        Kernel::CompactPolynomial {
+            degree: 6,
+            scale: 2.0,
+        },
+        Kernel::CompactPolynomial {
+            degree: 2,
+            scale: 1.5,
+        },
+        Kernel::Cauchy {
+            degree: 3,
+            scale: 1.0,
+        },
+        Kernel::Gaussian { scale: 0.7 },
+    ];
+
     #[test]
     fn max_slope_matches_the_closed_form_and_dense_sampling() {
         let compact = KernelProfile::new(Kernel::default());
         assert!((compact.max_slope() - 0.858_65).abs() < 1e-5);
-        for kernel in [
-            Kernel::default(),
-            Kernel::CompactPolynomial {
-                degree: 2,
-                scale: 1.5,
-            },
-            Kernel::Cauchy {
-                degree: 3,
-                scale: 1.0,
-            },
-            Kernel::Gaussian { scale: 0.7 },
-        ] {
+        for kernel in SLOPE_KERNELS {
             let p = KernelProfile::new(kernel);
             let sampled = (1..100_000)
                 .map(|i| {
@@ -554,18 +561,7 @@ mod tests {
     #[test]
     fn max_slope_on_a_range_matches_dense_sampling_of_that_range() {
         let mut rng = crate::model::rng::SplitMix64::new(7);
-        for kernel in [
-            Kernel::default(),
-            Kernel::CompactPolynomial {
-                degree: 2,
-                scale: 1.5,
-            },
-            Kernel::Cauchy {
-                degree: 3,
-                scale: 1.0,
-            },
-            Kernel::Gaussian { scale: 0.7 },
-        ] {
+        for kernel in SLOPE_KERNELS {
             let p = KernelProfile::new(kernel);
             for _ in 0..200 {
                 let (a, b) = (rng.unit() * p.support_sq(), rng.unit() * p.support_sq());
