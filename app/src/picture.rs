@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::LazyLock;
 
 use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
-use skeletrace_core::frame::{Frame, StepScale, StepSummary, heat_colour, srgb8};
+use skeletrace_core::frame::{Frame, StepScale, StepSummary, heat_colour, shared_step_top, srgb8};
 
 /// Text size of labels and the colour bar, in pixels.
 const TEXT_PX: usize = 18;
@@ -311,15 +311,8 @@ fn heat_rgba(x: f64) -> [u8; 4] {
 /// step counts of pixels whose ray met a support (a single outlier pixel would otherwise
 /// darken every panel; counts above it are drawn in the top colour and the bar says so).
 pub fn shared_scale(frames: &[(&str, Frame)]) -> u32 {
-    frames
-        .iter()
-        .map(|(_, f)| {
-            let mut worked: Vec<u32> = f.steps.iter().copied().filter(|&s| s > 0).collect();
-            worked.sort_unstable();
-            worked.get(worked.len() * 99 / 100).copied().unwrap_or(1)
-        })
-        .max()
-        .unwrap_or(1)
+    let histograms: Vec<_> = frames.iter().map(|(_, f)| f.step_histogram()).collect();
+    shared_step_top(&histograms)
 }
 
 /// Panels per row of a composed picture.

@@ -99,19 +99,120 @@ pub struct StepSummary {
     pub max: u32,
 }
 
+/// How many pixels of a frame took each step count: `counts[s]` pixels took `s` steps. The
+/// statistics of the comparison grid come from it, whether the frame is on the CPU
+/// ([`StepHistogram::of`]) or stays on the GPU and only its histogram is read back.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct StepHistogram {
+    counts: Vec<u64>,
+}
+
+impl StepHistogram {
+    /// The histogram of `steps`.
+    #[must_use]
+    pub fn of(steps: &[u32]) -> Self {
+        let top = steps.iter().copied().max().unwrap_or(0) as usize;
+        let mut counts = vec![0; top + 1];
+        for &s in steps {
+            counts[s as usize] += 1;
+        }
+        Self { counts }
+    }
+
+    /// The histogram with `counts[s]` pixels of `s` steps (trailing empty counts dropped).
+    #[must_use]
+    pub fn from_counts(mut counts: Vec<u64>) -> Self {
+        while counts.last() == Some(&0) {
+            counts.pop();
+        }
+        Self { counts }
+    }
+
+    /// Pixels of each step count, from 0 steps up to the largest count taken.
+    #[must_use]
+    pub fn counts(&self) -> &[u64] {
+        &self.counts
+    }
+
+    /// Pixels counted.
+    #[must_use]
+    pub fn pixels(&self) -> u64 {
+        self.counts.iter().sum()
+    }
+
+    /// The step count of the `rank`-th pixel (from 0) in increasing order of steps.
+    fn ranked(&self, rank: u64, from: usize) -> u32 {
+        let mut seen = 0;
+        for (s, &c) in self.counts.iter().enumerate().skip(from) {
+            seen += c;
+            if seen > rank {
+                return s as u32;
+            }
+        }
+        self.counts.len().saturating_sub(1) as u32
+    }
+
+    /// Average, median, 95th percentile and maximum, over every pixel.
+    #[must_use]
+    pub fn summary(&self) -> StepSummary {
+        let n = self.pixels();
+        if n == 0 {
+            return StepSummary {
+                average: 0.0,
+                median: 0,
+                p95: 0,
+                max: 0,
+            };
+        }
+        let total: f64 = self
+            .counts
+            .iter()
+            .enumerate()
+            .map(|(s, &c)| s as f64 * c as f64)
+            .sum();
+        StepSummary {
+            average: total / n as f64,
+            median: self.ranked(n / 2, 0),
+            p95: self.ranked(n * 95 / 100, 0),
+            max: self.counts.len().saturating_sub(1) as u32,
+        }
+    }
+
+    /// The 99th percentile of the pixels that took at least one step (1 when none did): a
+    /// panel's share of the grid's colour scale, which no single outlier pixel sets.
+    #[must_use]
+    pub fn worked_p99(&self) -> u32 {
+        let worked: u64 = self.counts.iter().skip(1).sum();
+        if worked == 0 {
+            return 1;
+        }
+        self.ranked(worked * 99 / 100, 1)
+    }
+}
+
+/// The top of a comparison's shared colour scale: the largest of the panels'
+/// [`StepHistogram::worked_p99`] (1 without panels). Counts above it take the top colour.
+#[must_use]
+pub fn shared_step_top<'a>(panels: impl IntoIterator<Item = &'a StepHistogram>) -> u32 {
+    panels
+        .into_iter()
+        .map(StepHistogram::worked_p99)
+        .max()
+        .unwrap_or(1)
+        .max(1)
+}
+
 impl Frame {
     /// Average, median, 95th percentile and maximum steps.
     #[must_use]
     pub fn step_summary(&self) -> StepSummary {
-        let mut sorted = self.steps.clone();
-        sorted.sort_unstable();
-        let n = sorted.len().max(1);
-        StepSummary {
-            average: sorted.iter().map(|&s| f64::from(s)).sum::<f64>() / n as f64,
-            median: sorted.get(sorted.len() / 2).copied().unwrap_or(0),
-            p95: sorted.get(sorted.len() * 95 / 100).copied().unwrap_or(0),
-            max: sorted.last().copied().unwrap_or(0),
-        }
+        self.step_histogram().summary()
+    }
+
+    /// How many pixels took each step count.
+    #[must_use]
+    pub fn step_histogram(&self) -> StepHistogram {
+        StepHistogram::of(&self.steps)
     }
 
     /// Whether pixel `i` hit the surface.
@@ -285,5 +386,47 @@ mod tests {
         assert!(gap(StepScale::Log) > 0.05, "{}", gap(StepScale::Log));
         assert!(gap(StepScale::Linear) < 0.004);
         assert_eq!(StepScale::default(), StepScale::Log);
+    }
+
+    /// The histogram's statistics are those of the sorted list of step counts, on random
+    /// lists of every size from empty up.
+    #[test]
+    fn histogram_statistics_equal_those_of_the_sorted_counts() {
+        let mut state = 0x9e37_79b9_u64;
+        for n in 0..300 {
+            let steps: Vec<u32> = (0..n)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1);
+                    let r = (state >> 33) as u32;
+                    if r.is_multiple_of(7) {
+                        0
+                    } else {
+                        r % (1 + n as u32 % 50)
+                    }
+                })
+                .collect();
+            let mut sorted = steps.clone();
+            sorted.sort_unstable();
+            let h = StepHistogram::of(&steps);
+            let s = h.summary();
+            assert_eq!(h.pixels(), n as u64);
+            if n == 0 {
+                assert_eq!(s.max, 0);
+                assert_eq!(h.worked_p99(), 1);
+                continue;
+            }
+            let mean = sorted.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64;
+            assert!((s.average - mean).abs() < 1e-9);
+            assert_eq!(s.median, sorted[n / 2]);
+            assert_eq!(s.p95, sorted[n * 95 / 100]);
+            assert_eq!(s.max, sorted[n - 1]);
+            let worked: Vec<u32> = sorted.iter().copied().filter(|&v| v > 0).collect();
+            let p99 = worked.get(worked.len() * 99 / 100).copied().unwrap_or(1);
+            assert_eq!(h.worked_p99(), p99, "{steps:?}");
+            let counts = h.counts().to_vec();
+            assert_eq!(StepHistogram::from_counts([counts, vec![0; 3]].concat()), h);
+        }
     }
 }

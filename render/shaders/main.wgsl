@@ -79,18 +79,6 @@ fn background(dir: vec3<f32>) -> vec3<f32> {
     return mix(vec3<f32>(0.16, 0.17, 0.20), vec3<f32>(0.42, 0.47, 0.55), up);
 }
 
-fn turbo_channel(x: f32, c: array<f32, 6>) -> f32 {
-    return clamp(c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5])))), 0.0, 1.0);
-}
-
-fn heat_colour(x_in: f32) -> vec3<f32> {
-    let x = clamp(x_in, 0.0, 1.0);
-    return vec3<f32>(
-        turbo_channel(x, TURBO_RED),
-        turbo_channel(x, TURBO_GREEN),
-        turbo_channel(x, TURBO_BLUE));
-}
-
 fn srgb(c: f32) -> f32 {
     let v = clamp(c, 0.0, 1.0);
     return select(1.055 * pow(v, 1.0 / 2.4) - 0.055, 12.92 * v, v <= 0.0031308);

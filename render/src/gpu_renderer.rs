@@ -537,29 +537,29 @@ impl GpuRenderer {
             .map_err(BackendError::DeviceFailed)
     }
 
-    /// Records the trace of `method` through `camera` into `encoder` without reading anything
-    /// back: the frame stays in the colour output ([`GpuRenderer::colour_output`], packed sRGB8
-    /// per pixel, row-major), which the editor's viewport draws from directly. Only the tile
-    /// binning submits work of its own and reads back its per-tile counts (to size the tile
-    /// lists).
+    /// Records the trace of `methods` (side by side) through `camera` into `encoder` without
+    /// reading anything back: the frame stays in the output buffers
+    /// ([`GpuRenderer::output_buffers`]), which the editor's viewport draws from directly.
+    /// Only the tile binning submits work of its own and reads back its per-tile counts (to
+    /// size the tile lists).
     ///
     /// # Errors
     /// As [`GpuRenderer::render`].
     pub fn encode_frame(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
-        method: GpuMethod,
+        methods: &[GpuMethod],
         camera: &Camera,
         settings: &TraceSettings,
         (width, height): (u32, u32),
         view: View,
     ) -> Result<(), BackendError> {
-        let compiled = self.ready_for(&[method], view)?;
+        let compiled = self.ready_for(methods, view)?;
         let geometry = FrameGeometry::new(camera, width, height);
         self.encode_trace(
             encoder,
             &compiled.program,
-            &[method],
+            methods,
             &geometry,
             settings,
             view,
@@ -568,11 +568,13 @@ impl GpuRenderer {
         .map_err(BackendError::DeviceFailed)
     }
 
-    /// The colour output of the last frame traced or encoded (packed sRGB8, panels side by
-    /// side), with its size in pixels.
+    /// The colour output (packed sRGB8) and step counts of the last frame traced or encoded,
+    /// panels side by side: pixel `x, y` of panel `p` of `n` is at `(y·n + p)·width + x`.
     #[must_use]
-    pub fn colour_output(&self) -> Option<(&wgpu::Buffer, (u64, u32))> {
-        self.outputs.as_ref().map(|o| (&o.written[0], o.size))
+    pub fn output_buffers(&self) -> Option<(&wgpu::Buffer, &wgpu::Buffer)> {
+        self.outputs
+            .as_ref()
+            .map(|o| (&o.written[0], &o.written[2]))
     }
 
     /// The device the renderer traces on.

@@ -11,6 +11,7 @@ pub mod gpu_backend;
 pub mod gpu_renderer;
 pub mod shaders;
 pub mod shared;
+pub mod step_statistics;
 pub mod tile_binning;
 pub mod viewport;
 

@@ -18,13 +18,29 @@ const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
 const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
 const SCALIS: &str = include_str!("../shaders/scalis.wgsl");
 const FIELD_INVERSION: &str = include_str!("../shaders/field_inversion.wgsl");
+const HEAT: &str = include_str!("../shaders/heat.wgsl");
 const MAIN: &str = include_str!("../shaders/main.wgsl");
+const BLIT: &str = include_str!("../shaders/viewport_blit.wgsl");
+const STEP_STATISTICS: &str = include_str!("../shaders/step_statistics.wgsl");
 const BINNING: &str = include_str!("../shaders/binning.wgsl");
 
 /// The tile-binning passes: the shared constants and binning.wgsl.
 #[must_use]
 pub fn binning_source() -> String {
     format!("{}\n{BINNING}", wgsl_constants())
+}
+
+/// The viewport's blit (shaded frames and heat maps): the shared constants, heat.wgsl and
+/// viewport_blit.wgsl.
+#[must_use]
+pub fn blit_source() -> String {
+    format!("{}\n{HEAT}\n{BLIT}", wgsl_constants())
+}
+
+/// The step statistics of a comparison on the GPU (step_statistics.wgsl).
+#[must_use]
+pub fn step_statistics_source() -> String {
+    STEP_STATISTICS.to_owned()
 }
 
 /// A method with a GPU implementation.
@@ -169,7 +185,7 @@ impl GpuMethod {
             Self::ScalisQuadratic => SCALIS.to_owned(),
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
-        format!("{}\n{PRELUDE}\n{family}\n{MAIN}", wgsl_constants())
+        format!("{}\n{PRELUDE}\n{family}\n{HEAT}\n{MAIN}", wgsl_constants())
     }
 }
 
@@ -350,5 +366,7 @@ mod tests {
             validate(method.name(), &method.source());
         }
         validate("binning", &binning_source());
+        validate("blit", &blit_source());
+        validate("step statistics", &step_statistics_source());
     }
 }

@@ -1,44 +1,45 @@
 //! The editor's GPU viewport (issue 19): frames traced on the window's own device and drawn
-//! straight from the trace's colour output by a render pass, with no readback and no CPU copy.
+//! straight from the trace's outputs by a render pass, with no readback and no CPU copy.
 //! [`ViewportPainter`] lives in egui_wgpu's callback resources; the editor's paint callback asks
 //! it to [`ViewportPainter::prepare`] a frame (uploading only what an edit changed, tracing only
-//! when the camera, the scene, the size or the method changed) and to [`ViewportPainter::paint`]
-//! it into the viewport's rectangle (`shaders/viewport_blit.wgsl`).
+//! when the camera, the scene, the size or the methods changed) and to
+//! [`ViewportPainter::paint`] it into the viewport's rectangle, or each method's heat map into
+//! its panel of the comparison grid (`shaders/viewport_blit.wgsl`). A grid's step statistics
+//! are counted on the GPU and only they are read back ([`crate::step_statistics`]).
 
 use std::sync::Arc;
 
 use skeletrace_core::backend::BackendError;
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::frame::View;
+use skeletrace_core::frame::{StepScale, View};
 use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::model::scene::Camera;
 
 use crate::gpu_renderer::{GpuRenderer, entry};
-use crate::shaders::GpuMethod;
-
-const BLIT: &str = include_str!("../shaders/viewport_blit.wgsl");
+use crate::shaders::{GpuMethod, blit_source};
+use crate::step_statistics::{GridStatistics, StatisticsShape, StatisticsTag, StepStatistics};
 
 /// What a viewport frame depends on: the same key traces nothing again.
 #[derive(Clone, Debug)]
 pub struct ViewportFrame {
     /// The compiled scene (compared by identity: one compile per edit).
     pub compiled: Arc<Compiled>,
-    /// Method of the shaded view.
-    pub method: GpuMethod,
+    /// The shaded view's method, or the grid's methods (panels side by side).
+    pub methods: Vec<GpuMethod>,
     /// The camera.
     pub camera: Camera,
     /// Trace settings.
     pub settings: TraceSettings,
     /// Frame size in pixels.
     pub size: (u32, u32),
-    /// Shaded or steps.
+    /// Shaded, or the step counts of a comparison.
     pub view: View,
 }
 
 impl ViewportFrame {
     fn same_as(&self, other: &Self) -> bool {
         Arc::ptr_eq(&self.compiled, &other.compiled)
-            && self.method == other.method
+            && self.methods == other.methods
             && self.camera == other.camera
             && self.settings == other.settings
             && self.size == other.size
@@ -52,12 +53,18 @@ pub struct ViewportPainter {
     renderer: GpuRenderer,
     blit: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
+    /// Bound as the colour scale's top while no comparison was counted.
+    no_top: wgpu::Buffer,
     bind_group: Option<wgpu::BindGroup>,
     srgb_target: bool,
+    statistics: StepStatistics,
     last: Option<ViewportFrame>,
     traced: u64,
     failure: Option<String>,
 }
+
+/// Bytes of the blit's uniforms (viewport_blit.wgsl `Blit`).
+const BLIT_UNIFORM_BYTES: u64 = 32;
 
 impl ViewportPainter {
     /// A painter on `device`, drawing into targets of `format`.
@@ -73,7 +80,7 @@ impl ViewportPainter {
         let renderer = GpuRenderer::with_device(device.clone(), queue.clone(), info)?;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("viewport blit"),
-            source: wgpu::ShaderSource::Wgsl(BLIT.into()),
+            source: wgpu::ShaderSource::Wgsl(blit_source().into()),
         });
         let blit = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("viewport blit"),
@@ -102,14 +109,22 @@ impl ViewportPainter {
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("viewport blit"),
-            size: 16,
+            size: BLIT_UNIFORM_BYTES,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let no_top = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("no step top"),
+            size: 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         Ok(Self {
+            statistics: StepStatistics::new(device),
             renderer,
             blit,
             uniforms,
+            no_top,
             bind_group: None,
             srgb_target: format.is_srgb(),
             last: None,
@@ -120,26 +135,60 @@ impl ViewportPainter {
 
     /// Records the trace of `frame` into `encoder` unless the last frame was the same; uploads
     /// the scene first when it is not the one on the device (only the primitives an edit
-    /// changed are written). A failure is kept for [`ViewportPainter::failure`] and nothing is
-    /// drawn until the next frame that succeeds.
+    /// changed are written). A comparison's heat maps are drawn on `scale`, and its statistics
+    /// (with the counts at pixel `probe` of a panel) are read back over the next frames
+    /// ([`ViewportPainter::statistics`]). A failure is kept for [`ViewportPainter::failure`]
+    /// and nothing is drawn until the next frame that succeeds.
     pub fn prepare(
         &mut self,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         frame: &ViewportFrame,
+        scale: StepScale,
+        probe: Option<(u32, u32)>,
     ) {
-        if self.last.as_ref().is_some_and(|l| l.same_as(frame)) && self.bind_group.is_some() {
-            return;
-        }
-        self.bind_group = None;
-        self.last = None;
-        match self.trace(queue, encoder, frame) {
-            Ok(()) => {
-                self.failure = None;
-                self.last = Some(frame.clone());
-                self.traced += 1;
+        self.statistics.poll(self.renderer.device());
+        let same = self.last.as_ref().is_some_and(|l| l.same_as(frame));
+        if !same || self.bind_group.is_none() {
+            self.bind_group = None;
+            self.last = None;
+            match self.trace(queue, encoder, frame) {
+                Ok(()) => {
+                    self.failure = None;
+                    self.last = Some(frame.clone());
+                    self.traced += 1;
+                }
+                Err(e) => {
+                    self.failure = Some(e.to_string());
+                    return;
+                }
             }
-            Err(e) => self.failure = Some(e.to_string()),
+        }
+        let mode = match (frame.view, scale) {
+            (View::Shaded(_), _) => 0_u32,
+            (View::Steps { .. }, StepScale::Log) => 1,
+            (View::Steps { .. }, StepScale::Linear) => 2,
+        };
+        let panels = frame.methods.len() as u32;
+        let uniforms = [
+            frame.size.0,
+            frame.size.1,
+            panels,
+            mode,
+            u32::from(self.srgb_target),
+            0,
+            0,
+            0,
+        ];
+        queue.write_buffer(&self.uniforms, 0, bytemuck::cast_slice(&uniforms));
+        if matches!(frame.view, View::Steps { .. })
+            && let Some((_, steps)) = self.renderer.output_buffers()
+        {
+            let tag = StatisticsTag {
+                frame: self.traced,
+                probe,
+            };
+            self.statistics.request(encoder, steps, tag);
         }
     }
 
@@ -158,35 +207,75 @@ impl ViewportPainter {
         }
         self.renderer.encode_frame(
             encoder,
-            frame.method,
+            &frame.methods,
             &frame.camera,
             &frame.settings,
             frame.size,
             frame.view,
         )?;
-        let (colour, _) = self
+        let (colour, steps) = self
             .renderer
-            .colour_output()
-            .ok_or_else(|| BackendError::DeviceFailed("no colour output".to_owned()))?;
-        let uniforms = [frame.size.0, frame.size.1, u32::from(self.srgb_target), 0];
-        queue.write_buffer(&self.uniforms, 0, bytemuck::cast_slice(&uniforms));
+            .output_buffers()
+            .ok_or_else(|| BackendError::DeviceFailed("no trace output".to_owned()))?;
+        let top = if matches!(frame.view, View::Steps { .. }) {
+            let shape = StatisticsShape {
+                width: frame.size.0,
+                height: frame.size.1,
+                panels: frame.methods.len() as u32,
+                bins: frame.settings.max_steps + 1,
+            };
+            let device = self.renderer.device();
+            self.statistics.encode(device, queue, encoder, steps, shape);
+            self.statistics.top_buffer().unwrap_or(&self.no_top)
+        } else {
+            &self.no_top
+        };
         self.bind_group = Some(self.renderer.device().create_bind_group(
             &wgpu::BindGroupDescriptor {
                 label: Some("viewport blit"),
                 layout: &self.blit.get_bind_group_layout(0),
-                entries: &[entry(0, &self.uniforms), entry(1, colour)],
+                entries: &[
+                    entry(0, &self.uniforms),
+                    entry(1, colour),
+                    entry(2, steps),
+                    entry(3, top),
+                ],
             },
         ));
         Ok(())
     }
 
-    /// Draws the last prepared frame over the render pass's viewport.
-    pub fn paint(&self, pass: &mut wgpu::RenderPass<'static>) {
-        if let Some(group) = &self.bind_group {
-            pass.set_pipeline(&self.blit);
-            pass.set_bind_group(0, group, &[]);
-            pass.draw(0..3, 0..1);
+    /// Draws the last prepared frame: panel `k` into `panels[k]`, a rectangle `[x, y, width,
+    /// height]` in physical pixels of the render target (the shaded view is one panel).
+    pub fn paint(&self, pass: &mut wgpu::RenderPass<'static>, panels: &[[f32; 4]]) {
+        let Some(group) = &self.bind_group else {
+            return;
+        };
+        let count = self.last.as_ref().map_or(0, |f| f.methods.len());
+        pass.set_pipeline(&self.blit);
+        pass.set_bind_group(0, group, &[]);
+        for (k, &[x, y, w, h]) in panels.iter().enumerate().take(count) {
+            if w >= 1.0 && h >= 1.0 {
+                pass.set_viewport(x, y, w, h, 0.0, 1.0);
+                pass.draw(0..3, k as u32..k as u32 + 1);
+            }
         }
+    }
+
+    /// The latest step statistics of a comparison read back, and whether they describe the
+    /// frame on screen with the probe asked for (if not, newer ones are on their way: keep
+    /// repainting).
+    #[must_use]
+    pub fn statistics(&self, probe: Option<(u32, u32)>) -> (Option<&GridStatistics>, bool) {
+        let published = self.statistics.published();
+        let current = published.is_some_and(|p| {
+            p.tag
+                == StatisticsTag {
+                    frame: self.traced,
+                    probe,
+                }
+        });
+        (published, current)
     }
 
     /// Frames traced so far (a frame whose key did not change is not traced again).

@@ -650,17 +650,10 @@ fn the_comparison_grid_keeps_the_views_aspect_for_one_to_nine_panels() {
     }
 }
 
-/// Issue 19: the shaded viewport traced on the window's own device through an `egui_wgpu` paint
-/// callback (taken on lavapipe here as `SKELETRACE_GPU_VIEWPORT=1` would): the window shows the
-/// same picture as the GPU renderer's read-back frame of that view, hovering traces nothing
-/// again, and orbiting traces once per new view without uploading the scene again.
-#[test]
-fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
-    if skeletrace_tests::skip_without_gpu("the_gpu_viewport_paints_the_traced_frame") {
-        return;
-    }
-    const PPP: f32 = 0.3;
-    // kittest's software adapter, with the device the editor asks eframe for.
+/// The editor in a window rendered by kittest's software adapter, with the device the editor
+/// asks eframe for and the GPU viewport on it (taken on lavapipe as `SKELETRACE_GPU_VIEWPORT=1`
+/// would); `ppp` small, for lavapipe must trace the whole view within kittest's 10 s wait.
+fn gpu_viewport_harness(mut editor: Editor, ppp: f32) -> Harness<'static, Editor> {
     let mut setup = egui_kittest::wgpu::default_wgpu_setup();
     if let eframe::egui_wgpu::WgpuSetup::CreateNew(new) = &mut setup {
         new.device_descriptor = std::sync::Arc::new(|adapter: &eframe::wgpu::Adapter| {
@@ -671,24 +664,35 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
         setup,
         eframe::egui_wgpu::RendererOptions::PREDICTABLE,
     );
+    editor
+        .enable_gpu_viewport(&render_state)
+        .unwrap_or_else(|e| panic!("{e}"));
+    Harness::builder()
+        .with_size(egui::vec2(720.0, 480.0))
+        .with_pixels_per_point(ppp)
+        .renderer(egui_kittest::wgpu::WgpuTestRenderer::from_render_state(
+            render_state,
+        ))
+        .build_ui_state(|ui, editor: &mut Editor| editor.ui(ui), editor)
+}
+
+/// Issue 19: the shaded viewport traced on the window's own device through an `egui_wgpu` paint
+/// callback (taken on lavapipe here as `SKELETRACE_GPU_VIEWPORT=1` would): the window shows the
+/// same picture as the GPU renderer's read-back frame of that view, hovering traces nothing
+/// again, and orbiting traces once per new view without uploading the scene again.
+#[test]
+fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
+    if skeletrace_tests::skip_without_gpu("the_gpu_viewport_paints_the_traced_frame") {
+        return;
+    }
+    const PPP: f32 = 0.3;
     let ui_state = UiState {
         backend: BackendChoice::Auto,
         shaded_method: skeletrace_core::MethodId::QuadraticTaylor,
         ..UiState::default()
     };
     let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
-    let mut editor = Editor::new(doc, ui_state, None, || {});
-    editor
-        .enable_gpu_viewport(&render_state)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut h = Harness::builder()
-        // Few pixels: lavapipe must trace the whole viewport within kittest's 10 s wait.
-        .with_size(egui::vec2(720.0, 480.0))
-        .with_pixels_per_point(PPP)
-        .renderer(egui_kittest::wgpu::WgpuTestRenderer::from_render_state(
-            render_state,
-        ))
-        .build_ui_state(|ui, editor: &mut Editor| editor.ui(ui), editor);
+    let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
     h.step();
     h.step();
     let image = h.render().unwrap_or_else(|e| panic!("{e}"));
@@ -793,6 +797,144 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
         one,
         "an edit of one blob uploads one primitive"
     );
+}
+
+/// Issue 19: the comparison grid on the window's GPU. The heat maps are traced and coloured
+/// there (the render thread traces nothing) and only the statistics come back: each panel's
+/// histogram equals that of the same frame read back from a renderer of its own, the shared
+/// top is the CPU's rule applied to those frames, the window shows each frame's heat colours
+/// on that top, the hovered pixel's counts are the frames' counts there, and switching to the
+/// linear scale recolours the panels without tracing again.
+#[test]
+fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
+    if skeletrace_tests::skip_without_gpu("the_comparison_grid_on_the_gpu") {
+        return;
+    }
+    use skeletrace_core::MethodId;
+    use skeletrace_core::frame::{StepScale, heat_colour, shared_step_top};
+    use skeletrace_render::GpuMethod;
+    const PPP: f32 = 0.3;
+    let methods = [
+        MethodId::Segment,
+        MethodId::QuadraticTaylor,
+        MethodId::BottomUpQuadratic,
+    ];
+    let ui_state = UiState {
+        backend: BackendChoice::Auto,
+        view: ViewMode::Compare,
+        compare_methods: methods.to_vec(),
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
+    // A frame traces and records the copy, the next maps it, a later one reads it.
+    let current = |h: &mut Harness<'static, Editor>| {
+        for _ in 0..20 {
+            h.step();
+            let image = h.render().unwrap_or_else(|e| panic!("{e}"));
+            if let Some((s, true)) = h.state().gpu_grid_statistics() {
+                return (s, image);
+            }
+        }
+        panic!("the grid's statistics never came back")
+    };
+    let (stats, image) = current(&mut h);
+    assert!(
+        h.state().shown_frames().is_empty(),
+        "nothing went through the render thread"
+    );
+    let traced = h.state().gpu_viewport_counts().map(|c| c.0);
+    let size = (stats.shape.width, stats.shape.height);
+    assert_eq!(stats.histograms.len(), methods.len());
+
+    // The same frames read back from a renderer of its own.
+    let compiled = h.state().document().compiled();
+    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    reference
+        .set_scene(&compiled)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let gpu_methods: Vec<GpuMethod> = methods
+        .iter()
+        .map(|&m| GpuMethod::from_id(m).unwrap_or_else(|| panic!("{m} runs on the GPU")))
+        .collect();
+    let frames = reference
+        .render(
+            &gpu_methods,
+            &h.state().orbit().camera(),
+            &compiled.settings,
+            size,
+            skeletrace_core::frame::View::Steps {
+                steps_max: compiled.settings.max_steps,
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let histograms: Vec<_> = frames.iter().map(|f| f.step_histogram()).collect();
+    for (k, (got, want)) in stats.histograms.iter().zip(&histograms).enumerate() {
+        assert_eq!(got.pixels(), u64::from(size.0 * size.1));
+        assert_eq!(got, want, "{}: the GPU's histogram", methods[k]);
+    }
+    assert_eq!(stats.top, shared_step_top(&histograms));
+
+    // The window's panels show the frames' heat colours on that top, log scale first, at the
+    // pixels whose ray met a support.
+    let (_, panels) = h
+        .state()
+        .compare_layout()
+        .cloned()
+        .unwrap_or_else(|| panic!("the grid is drawn"));
+    let shows = |image: &image::RgbaImage, scale: StepScale| {
+        let (mut same, mut total) = (0, 0);
+        for (panel, frame) in panels.iter().zip(&frames) {
+            let (x0, y0) = (panel.left() * PPP, panel.top() * PPP);
+            for y in (1..size.1 - 1).step_by(3) {
+                for x in (1..size.0 - 1).step_by(3) {
+                    let s = frame.steps[(y * size.0 + x) as usize];
+                    if s == 0 {
+                        // Rays that meet no support: one colour, which proves little.
+                        continue;
+                    }
+                    let want = heat_colour(scale.position(f64::from(s), stats.top))
+                        .map(|c| (c * 255.0 + 0.5) as u8);
+                    let got = image
+                        .get_pixel((x0 + x as f32 + 0.5) as u32, (y0 + y as f32 + 0.5) as u32)
+                        .0;
+                    total += 1;
+                    same += usize::from((0..3).all(|k| want[k].abs_diff(got[k]) <= 3));
+                }
+            }
+        }
+        same as f64 / total as f64
+    };
+    let log = shows(&image, StepScale::Log);
+    assert!(
+        log > 0.9,
+        "{log:.3} of the sampled pixels show the log heat colour"
+    );
+
+    // Hovering a pixel of the second panel reads back every panel's count there.
+    h.hover_at(panels[1].center());
+    let (probed, _) = current(&mut h);
+    let (u, v) = h
+        .state()
+        .hovered_pixel()
+        .unwrap_or_else(|| panic!("a grid pixel is hovered"));
+    let at = v * size.0 as usize + u;
+    let want: Vec<u32> = frames.iter().map(|f| f.steps[at]).collect();
+    assert_eq!(probed.probe_steps, want, "the counts at pixel {u}, {v}");
+    assert!(
+        want.iter().any(|&s| s > 0),
+        "the centre's ray meets a support"
+    );
+    assert_eq!(h.state().gpu_viewport_counts().map(|c| c.0), traced);
+
+    // The linear scale: recoloured on the GPU, not traced again.
+    h.get_by_label("linear").click();
+    h.hover_at(Pos2::new(2.0, 2.0));
+    let (_, image) = current(&mut h);
+    assert!(h.query_by_label("steps (linear scale)").is_some());
+    let linear = shows(&image, StepScale::Linear);
+    assert!(linear > 0.9, "{linear:.3} show the linear heat colour");
+    assert_eq!(h.state().gpu_viewport_counts().map(|c| c.0), traced);
 }
 
 /// Issue 19: an edit made in the window, then no input at all: within the autosave period (and

@@ -1,35 +1,81 @@
 //! The comparison grid: one panel per method of `UiState::compare_methods`, each the whole
 //! view at the viewport's aspect, on one shared step-count colour scale with its colour bar;
 //! hovering a pixel shows every panel's step count there, clicking it opens the ray inspector
-//! on that pixel for every method of the grid.
+//! on that pixel for every method of the grid. The heat maps come from the window's GPU where
+//! it runs every method (`gpu_viewport.rs`: traced and coloured there, only the statistics read
+//! back), else from the render thread's frames.
 
 use eframe::egui;
-use skeletrace_core::frame::StepScale;
+use skeletrace_core::frame::{StepHistogram, StepScale, View};
+use skeletrace_core::methods::MethodId;
 
 use super::Editor;
+
+/// What the grid knows of one panel.
+struct PanelInfo {
+    method: MethodId,
+    on_gpu: bool,
+    /// Its step counts' histogram, once known.
+    histogram: Option<StepHistogram>,
+    /// Its step count at the hovered pixel, once known.
+    hovered_steps: Option<u32>,
+}
 
 impl Editor {
     pub(super) fn comparison(&mut self, ui: &mut egui::Ui) {
         let rect = ui.available_rect_before_wrap();
-        let n = self.ui_state.compare_methods.len().max(1);
         let bar = 44.0;
         let label = 34.0;
         // Every panel shows the whole view at the aspect the viewport has in this area.
         let area_h = (rect.height() - bar).max(16.0);
         let aspect = rect.width() / area_h;
-        let grid = GridLayout::new(n, rect.width(), area_h, label, aspect);
-        let (columns, cell_w, cell_h) = (grid.columns, grid.cell_w, grid.panel_h);
         let ppp = ui.ctx().pixels_per_point();
-        // Heat maps trace every chosen method: half resolution keeps the grid responsive.
-        let pixels = (
-            ((grid.panel_w * ppp) as usize / 2).max(8),
-            ((grid.panel_h * ppp) as usize / 2).max(8),
+        let methods = self.ui_state.compare_methods.clone();
+        let layout = GridLayout::new(methods.len(), rect.width(), area_h, label, aspect);
+        let full = (
+            ((layout.panel_w * ppp) as u32).max(8),
+            ((layout.panel_h * ppp) as u32).max(8),
         );
-        self.request_frames(ui.ctx(), pixels);
+        let steps_view = View::Steps {
+            steps_max: self.doc.compiled().settings.max_steps,
+        };
+        let gpu_frame = self.gpu_viewport_frame(&methods, steps_view, full);
+        self.viewport_on_gpu = gpu_frame.is_some();
+        if gpu_frame.is_none() {
+            // Heat maps trace every chosen method: half resolution keeps the grid responsive.
+            self.request_frames(ui.ctx(), ((full.0 / 2) as usize, (full.1 / 2) as usize));
+        }
         let response = ui.allocate_rect(rect, egui::Sense::click());
         let painter = ui.painter_at(rect);
-        self.hovered_pixel = None;
-        let Some(shown) = &self.frames.shown else {
+        // The panels, their frames' size and what is known of each.
+        let (size, mut infos, top) = if gpu_frame.is_some() {
+            let infos: Vec<PanelInfo> = methods
+                .iter()
+                .map(|&method| PanelInfo {
+                    method,
+                    on_gpu: true,
+                    histogram: None,
+                    hovered_steps: None,
+                })
+                .collect();
+            (full, infos, None)
+        } else if let Some(shown) = &self.frames.shown {
+            let size = shown
+                .frames
+                .first()
+                .map_or((1, 1), |f| (f.frame.width as u32, f.frame.height as u32));
+            let infos: Vec<PanelInfo> = shown
+                .frames
+                .iter()
+                .map(|f| PanelInfo {
+                    method: f.method,
+                    on_gpu: f.on_gpu,
+                    histogram: Some(f.histogram.clone()),
+                    hovered_steps: None,
+                })
+                .collect();
+            (size, infos, Some(shown.steps_max))
+        } else {
             painter.text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,
@@ -39,80 +85,157 @@ impl Editor {
             );
             return;
         };
-        let mut hover_lines = Vec::new();
-        let mut panels = Vec::with_capacity(shown.frames.len());
-        for (i, f) in shown.frames.iter().enumerate() {
-            let x = rect.left() + (i % columns) as f32 * cell_w;
-            let y = rect.top() + (i / columns) as f32 * (cell_h + label);
-            let s = f.frame.step_summary();
-            let backend = if f.on_gpu { "GPU" } else { "CPU" };
+        let panels: Vec<egui::Rect> = (0..infos.len())
+            .map(|i| {
+                let x = rect.left() + (i % layout.columns) as f32 * layout.cell_w;
+                let y = rect.top() + (i / layout.columns) as f32 * (layout.panel_h + label);
+                fit_rect(
+                    egui::Rect::from_min_size(
+                        egui::pos2(x, y + label),
+                        egui::vec2(layout.cell_w - 4.0, layout.panel_h),
+                    ),
+                    // The panel keeps the grid's aspect whatever the resolution traced (a
+                    // preview rounds its size), so the layout does not move when the full
+                    // frame arrives.
+                    layout.panel_w / layout.panel_h,
+                )
+            })
+            .collect();
+        self.hovered_pixel = response.hover_pos().and_then(|p| {
+            let image = panels.iter().find(|r| r.contains(p))?;
+            let u = (p.x - image.left()) / image.width() * size.0 as f32;
+            let v = (p.y - image.top()) / image.height() * size.1 as f32;
+            Some((
+                (u as usize).min(size.0 as usize - 1),
+                (v as usize).min(size.1 as usize - 1),
+            ))
+        });
+        let top = if let Some(frame) = gpu_frame {
+            let probe = self.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
+            Self::paint_gpu_viewport(
+                &painter,
+                rect,
+                frame,
+                panels.clone(),
+                (self.ui_state.step_scale, probe),
+            );
+            let statistics = self.gpu_grid_statistics();
+            if !statistics.as_ref().is_some_and(|(_, current)| *current) {
+                // The statistics of this frame are on their way from the GPU.
+                ui.ctx().request_repaint();
+            }
+            match statistics.filter(|(s, _)| s.histograms.len() == infos.len()) {
+                Some((s, current)) => {
+                    for (k, info) in infos.iter_mut().enumerate() {
+                        info.histogram = Some(s.histograms[k].clone());
+                        if current && probe.is_some() {
+                            info.hovered_steps = s.probe_steps.get(k).copied();
+                        }
+                    }
+                    Some(s.top)
+                }
+                None => None,
+            }
+        } else {
+            if let (Some(shown), Some((u, v))) = (&self.frames.shown, self.hovered_pixel) {
+                for (info, f) in infos.iter_mut().zip(&shown.frames) {
+                    info.hovered_steps = Some(f.frame.steps[v * f.frame.width + u]);
+                }
+            }
+            for (f, image_rect) in self
+                .frames
+                .shown
+                .iter()
+                .flat_map(|s| &s.frames)
+                .zip(&panels)
+            {
+                painter.image(
+                    f.texture.id(),
+                    *image_rect,
+                    egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0)),
+                    egui::Color32::WHITE,
+                );
+            }
+            top
+        };
+        for (i, info) in infos.iter().enumerate() {
+            let x = rect.left() + (i % layout.columns) as f32 * layout.cell_w;
+            let y = rect.top() + (i / layout.columns) as f32 * (layout.panel_h + label);
+            let backend = if info.on_gpu { "GPU" } else { "CPU" };
             painter.text(
                 egui::pos2(x + 4.0, y + 2.0),
                 egui::Align2::LEFT_TOP,
-                format!("{} ({backend})", f.method),
+                format!("{} ({backend})", info.method),
                 egui::FontId::proportional(14.0),
                 egui::Color32::WHITE,
+            );
+            let summary = info.histogram.as_ref().map_or_else(
+                || "counting…".to_owned(),
+                |h| {
+                    let s = h.summary();
+                    format!(
+                        "avg {:.2}  median {}  p95 {}  max {}",
+                        s.average, s.median, s.p95, s.max
+                    )
+                },
             );
             painter.text(
                 egui::pos2(x + 4.0, y + 18.0),
                 egui::Align2::LEFT_TOP,
-                format!(
-                    "avg {:.2}  median {}  p95 {}  max {}",
-                    s.average, s.median, s.p95, s.max
-                ),
+                summary,
                 egui::FontId::monospace(11.0),
                 egui::Color32::LIGHT_GRAY,
             );
-            draw_histogram(
-                &painter,
-                egui::Rect::from_min_size(
-                    egui::pos2(x + cell_w - 4.0 - HISTOGRAM_WIDTH, y + 2.0),
-                    egui::vec2(HISTOGRAM_WIDTH, label - 6.0),
-                ),
-                &f.frame.steps,
-            );
-            let image_rect = fit_rect(
-                egui::Rect::from_min_size(
-                    egui::pos2(x, y + label),
-                    egui::vec2(cell_w - 4.0, cell_h),
-                ),
-                // The panel keeps the grid's aspect whatever the resolution traced (a preview
-                // rounds its size), so the layout does not move when the full frame arrives.
-                grid.panel_w / grid.panel_h,
-            );
-            panels.push(image_rect);
-            painter.image(
-                f.texture.id(),
-                image_rect,
-                egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0)),
-                egui::Color32::WHITE,
-            );
-            if let Some(p) = response.hover_pos().filter(|p| image_rect.contains(*p)) {
-                let u = ((p.x - image_rect.left()) / image_rect.width() * f.frame.width as f32)
-                    as usize;
-                let v = ((p.y - image_rect.top()) / image_rect.height() * f.frame.height as f32)
-                    as usize;
-                self.hovered_pixel = Some((u, v));
+            if let Some(h) = &info.histogram {
+                draw_histogram(
+                    &painter,
+                    egui::Rect::from_min_size(
+                        egui::pos2(x + layout.cell_w - 4.0 - HISTOGRAM_WIDTH, y + 2.0),
+                        egui::vec2(HISTOGRAM_WIDTH, label - 6.0),
+                    ),
+                    h,
+                );
             }
         }
         self.compare_layout = Some((
             egui::Rect::from_min_size(rect.min, egui::vec2(rect.width(), area_h)),
             panels,
         ));
-        let mut inspect = None;
-        if let Some((u, v)) = self.hovered_pixel {
-            for f in &shown.frames {
-                let i = v.min(f.frame.height - 1) * f.frame.width + u.min(f.frame.width - 1);
-                hover_lines.push(format!("{}: {} steps", f.method, f.frame.steps[i]));
-            }
-            if response.clicked()
-                && let Some(f) = shown.frames.first()
-            {
-                let methods: Vec<_> = shown.frames.iter().map(|f| f.method).collect();
-                inspect = Some(((u, v), (f.frame.width, f.frame.height), methods));
-            }
+        let hover_lines: Vec<String> = infos
+            .iter()
+            .filter_map(|i| Some(format!("{}: {} steps", i.method, i.hovered_steps?)))
+            .collect();
+        let inspect = self
+            .hovered_pixel
+            .filter(|_| response.clicked())
+            .map(|pixel| {
+                let methods: Vec<MethodId> = infos.iter().map(|i| i.method).collect();
+                (pixel, (size.0 as usize, size.1 as usize), methods)
+            });
+        if let Some(top) = top {
+            let clipped = infos
+                .iter()
+                .any(|i| i.histogram.as_ref().is_some_and(|h| h.summary().max > top));
+            self.colour_bar(ui, &painter, rect, bar, (top, clipped));
         }
-        // Colour bar with the shared scale.
+        if !hover_lines.is_empty() {
+            response.on_hover_text(hover_lines.join("\n"));
+        }
+        if let Some((pixel, size, methods)) = inspect {
+            self.inspect_ray(pixel, size, &methods);
+        }
+    }
+
+    /// The colour bar of the shared scale `[0, top]` along the bottom `bar` points of `rect`,
+    /// with its ticks and caption; `clipped` when some pixel took more than `top` steps.
+    fn colour_bar(
+        &self,
+        ui: &mut egui::Ui,
+        painter: &egui::Painter,
+        rect: egui::Rect,
+        bar: f32,
+        (top, clipped): (u32, bool),
+    ) {
         let bar_rect = egui::Rect::from_min_size(
             egui::pos2(rect.left() + 8.0, rect.bottom() - bar + 6.0),
             egui::vec2(rect.width() - 16.0, 14.0),
@@ -132,14 +255,10 @@ impl Editor {
                 egui::Color32::from_rgb(byte(r), byte(g), byte(b)),
             );
         }
-        let clipped = shown
-            .frames
-            .iter()
-            .any(|f| f.frame.step_summary().max > shown.steps_max);
-        let scale = shown.scale;
-        for tick in scale_ticks(scale, shown.steps_max) {
-            let x = bar_rect.left()
-                + bar_rect.width() * scale.position(f64::from(tick), shown.steps_max) as f32;
+        let scale = self.ui_state.step_scale;
+        for tick in scale_ticks(scale, top) {
+            let x =
+                bar_rect.left() + bar_rect.width() * scale.position(f64::from(tick), top) as f32;
             painter.line_segment(
                 [
                     egui::pos2(x, bar_rect.bottom()),
@@ -147,15 +266,15 @@ impl Editor {
                 ],
                 egui::Stroke::new(1.0, egui::Color32::LIGHT_GRAY),
             );
-            let top = tick == shown.steps_max;
+            let at_top = tick == top;
             painter.text(
                 egui::pos2(x, bar_rect.bottom() + 3.0),
-                if top {
+                if at_top {
                     egui::Align2::RIGHT_TOP
                 } else {
                     egui::Align2::CENTER_TOP
                 },
-                if top && clipped {
+                if at_top && clipped {
                     format!(">={tick}")
                 } else {
                     tick.to_string()
@@ -179,12 +298,6 @@ impl Editor {
                     .color(egui::Color32::WHITE),
             ),
         );
-        if !hover_lines.is_empty() {
-            response.on_hover_text(hover_lines.join("\n"));
-        }
-        if let Some((pixel, size, methods)) = inspect {
-            self.inspect_ray(pixel, size, &methods);
-        }
     }
 }
 
@@ -206,12 +319,12 @@ fn histogram_bin(steps: u32) -> usize {
 /// A panel's step histogram in `rect`: the share of pixels in each power-of-two bin of step
 /// counts (square-root heights, so rare long marches stay visible), bars in the heat colour of
 /// the bin's lower count.
-fn draw_histogram(painter: &egui::Painter, rect: egui::Rect, steps: &[u32]) {
-    let mut counts = [0_usize; HISTOGRAM_BINS];
-    for &s in steps {
-        counts[histogram_bin(s)] += 1;
+fn draw_histogram(painter: &egui::Painter, rect: egui::Rect, histogram: &StepHistogram) {
+    let mut counts = [0_u64; HISTOGRAM_BINS];
+    for (steps, &n) in histogram.counts().iter().enumerate() {
+        counts[histogram_bin(steps as u32)] += n;
     }
-    let total = steps.len().max(1) as f32;
+    let total = histogram.pixels().max(1) as f32;
     painter.rect_filled(rect, 2.0, egui::Color32::from_black_alpha(120));
     let w = rect.width() / HISTOGRAM_BINS as f32;
     for (k, &count) in counts.iter().enumerate() {

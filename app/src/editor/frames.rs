@@ -31,6 +31,8 @@ pub(super) const REFINE_AFTER: Duration = Duration::from_millis(250);
 pub(super) struct ShownFrame {
     pub method: MethodId,
     pub frame: Frame,
+    /// Its step counts' histogram (the grid's statistics).
+    pub histogram: skeletrace_core::frame::StepHistogram,
     pub texture: egui::TextureHandle,
     pub on_gpu: bool,
     pub ms: f64,
@@ -245,6 +247,7 @@ impl ViewportFrames {
                 );
                 ShownFrame {
                     method: t.method,
+                    histogram: t.frame.step_histogram(),
                     frame: t.frame,
                     texture,
                     on_gpu: t.on_gpu,

@@ -1,24 +1,35 @@
-//! The shaded viewport traced on the window's own GPU (issue 19): an `egui_wgpu` paint callback
-//! asks the [`ViewportPainter`] in the renderer's callback resources to trace the frame into its
-//! output buffer and draw it into the viewport's rectangle, with no readback and no texture
-//! upload; an edit uploads only the primitives it changed. Taken on a hardware adapter when
-//! the GPU runs the shaded method on the scene and the backend choice allows it; the render
-//! thread (the CPU, or a GPU frame read back) serves everything else: software adapters, the
-//! comparison grid, shadow rays, methods the GPU lacks. `SKELETRACE_GPU_VIEWPORT=1` takes the
-//! path on a software adapter too (tests on lavapipe).
+//! The viewport and the comparison grid traced on the window's own GPU (issue 19): an
+//! `egui_wgpu` paint callback asks the [`ViewportPainter`] in the renderer's callback resources
+//! to trace the frame into its output buffers and draw it into the viewport's rectangle, or each
+//! method's heat map into its grid panel, with no readback of a frame and no texture upload; an
+//! edit uploads only the primitives it changed. The grid's step statistics and the hovered
+//! pixel's counts are counted on the GPU and read back a frame or two later (a few kilobytes).
+//! Taken on a hardware adapter when the GPU runs every method shown on the scene and the
+//! backend choice allows it; the render thread (the CPU, or a GPU frame read back) serves
+//! everything else: software adapters, shadow rays, methods the GPU lacks.
+//! `SKELETRACE_GPU_VIEWPORT=1` takes the path on a software adapter too (tests on lavapipe).
 
 use eframe::egui;
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, RenderState};
 use eframe::wgpu;
 use skeletrace_core::backend::BackendChoice;
-use skeletrace_core::frame::View;
+use skeletrace_core::frame::{StepScale, View};
+use skeletrace_core::methods::MethodId;
 use skeletrace_render::GpuMethod;
+use skeletrace_render::step_statistics::GridStatistics;
 use skeletrace_render::viewport::{ViewportFrame, ViewportPainter};
 
 use super::Editor;
 
-/// The paint callback of one viewport frame.
-struct ViewportCallback(ViewportFrame);
+/// The paint callback of one viewport frame or comparison grid.
+struct ViewportCallback {
+    frame: ViewportFrame,
+    /// Where each panel goes, in window points (the shaded view is one panel).
+    panels: Vec<egui::Rect>,
+    scale: StepScale,
+    /// The hovered pixel of a grid panel, whose counts are read back.
+    probe: Option<(u32, u32)>,
+}
 
 impl CallbackTrait for ViewportCallback {
     fn prepare(
@@ -30,19 +41,34 @@ impl CallbackTrait for ViewportCallback {
         resources: &mut CallbackResources,
     ) -> Vec<wgpu::CommandBuffer> {
         if let Some(painter) = resources.get_mut::<ViewportPainter>() {
-            painter.prepare(queue, encoder, &self.0);
+            painter.prepare(queue, encoder, &self.frame, self.scale, self.probe);
         }
         Vec::new()
     }
 
     fn paint(
         &self,
-        _info: egui::PaintCallbackInfo,
+        info: egui::PaintCallbackInfo,
         pass: &mut wgpu::RenderPass<'static>,
         resources: &CallbackResources,
     ) {
+        let ppp = info.pixels_per_point;
+        let [screen_w, screen_h] = info.screen_size_px.map(|v| v as f32);
+        // Physical pixels, inside the render target as wgpu's viewports must be.
+        let panels: Vec<[f32; 4]> = self
+            .panels
+            .iter()
+            .map(|r| {
+                let (x0, y0) = ((r.left() * ppp).max(0.0), (r.top() * ppp).max(0.0));
+                let (x1, y1) = (
+                    (r.right() * ppp).min(screen_w),
+                    (r.bottom() * ppp).min(screen_h),
+                );
+                [x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0)]
+            })
+            .collect();
         if let Some(painter) = resources.get::<ViewportPainter>() {
-            painter.paint(pass);
+            painter.paint(pass, &panels);
         }
     }
 }
@@ -106,12 +132,21 @@ impl Editor {
         ))
     }
 
-    /// The GPU viewport's frame for the viewport as it is, when it takes this frame: a GPU
-    /// viewport exists, the backend choice is not the CPU, no shadow rays are asked for, the
-    /// GPU runs the shaded method on the scene and its last frame did not fail.
-    pub(super) fn gpu_viewport_frame(&mut self, size: (u32, u32)) -> Option<ViewportFrame> {
+    /// The GPU viewport's frame of `methods` in `view` at `size`, when it takes this frame: a
+    /// GPU viewport exists, the backend choice is not the CPU, no shadow rays are asked for in
+    /// the shaded view, the GPU runs every method on the scene and its last frame did not fail.
+    pub(super) fn gpu_viewport_frame(
+        &mut self,
+        methods: &[MethodId],
+        view: View,
+        size: (u32, u32),
+    ) -> Option<ViewportFrame> {
         let state = self.gpu_viewport.as_ref()?;
-        if self.ui_state.backend == BackendChoice::Cpu || self.ui_state.shadows {
+        let shaded = matches!(view, View::Shaded(_));
+        if self.ui_state.backend == BackendChoice::Cpu
+            || (shaded && self.ui_state.shadows)
+            || methods.is_empty()
+        {
             return None;
         }
         let failure = state
@@ -125,36 +160,55 @@ impl Editor {
             self.gpu_viewport = None;
             return None;
         }
-        let shaded = self.ui_state.shaded_method;
-        if !self
-            .method_tags()
-            .iter()
-            .any(|t| t.id == shaded && t.on_gpu)
-        {
+        let tags = self.method_tags();
+        let on_gpu = |m: &MethodId| tags.iter().any(|t| t.id == *m && t.on_gpu);
+        if !methods.iter().all(on_gpu) {
             return None;
         }
-        let method = GpuMethod::from_id(shaded)?;
+        let methods = methods
+            .iter()
+            .map(|&m| GpuMethod::from_id(m))
+            .collect::<Option<Vec<_>>>()?;
         let compiled = self.doc.compiled();
         let settings = compiled.settings;
         Some(ViewportFrame {
             compiled,
-            method,
+            methods,
             camera: self.orbit.camera(),
             settings,
             size: (size.0.max(1), size.1.max(1)),
-            view: View::Shaded(self.ui_state.shading),
+            view,
         })
     }
 
-    /// Adds the paint callback of `frame` over `rect`.
+    /// The comparison grid's statistics the GPU viewport read back last, and whether they are
+    /// those of the frame on screen with the hovered pixel's counts.
+    #[must_use]
+    pub fn gpu_grid_statistics(&self) -> Option<(GridStatistics, bool)> {
+        let probe = self.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
+        let state = self.gpu_viewport.as_ref()?;
+        let renderer = state.renderer.read();
+        let painter = renderer.callback_resources.get::<ViewportPainter>()?;
+        let (published, current) = painter.statistics(probe);
+        published.map(|p| (p.clone(), current))
+    }
+
+    /// Adds the paint callback of `frame` over `area`, panel `k` drawn into `panels[k]`.
     pub(super) fn paint_gpu_viewport(
         painter: &egui::Painter,
-        rect: egui::Rect,
+        area: egui::Rect,
         frame: ViewportFrame,
+        panels: Vec<egui::Rect>,
+        (scale, probe): (StepScale, Option<(u32, u32)>),
     ) {
         painter.add(egui_wgpu::Callback::new_paint_callback(
-            rect,
-            ViewportCallback(frame),
+            area,
+            ViewportCallback {
+                frame,
+                panels,
+                scale,
+                probe,
+            },
         ));
     }
 }

@@ -721,13 +721,19 @@ impl Editor {
 
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
-            let gpu = (self.viewport_on_gpu && self.ui_state.view == ViewMode::Shaded)
+            let gpu = self
+                .viewport_on_gpu
                 .then(|| self.gpu_viewport_counts())
                 .flatten();
             if let Some((traced, _, adapter)) = gpu {
+                let what = match self.ui_state.view {
+                    ViewMode::Shaded => self.ui_state.shaded_method.to_string(),
+                    ViewMode::Compare => {
+                        format!("{} heat maps", self.ui_state.compare_methods.len())
+                    }
+                };
                 ui.monospace(format!(
-                    "{} on the window's GPU ({traced} frames traced, no readback)",
-                    self.ui_state.shaded_method
+                    "{what} on the window's GPU ({traced} frames traced, no frame read back)"
                 ));
                 ui.separator();
                 ui.weak(adapter);

@@ -171,7 +171,7 @@ pub struct Editor {
     /// The window's wgpu state when the shaded viewport is traced on its device
     /// (`gpu_viewport.rs`).
     gpu_viewport: Option<eframe::egui_wgpu::RenderState>,
-    /// The shaded viewport was last drawn by the GPU viewport.
+    /// The shaded viewport or the comparison grid was last drawn by the GPU viewport.
     viewport_on_gpu: bool,
 }
 

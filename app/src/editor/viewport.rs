@@ -6,6 +6,7 @@
 //! (left drag orbit, right or middle drag pan, wheel zoom).
 
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, StrokeKind, Vec2};
+use skeletrace_core::frame::{StepScale, View};
 
 use super::gizmo::{Gizmo, Handle};
 use super::selection::{self, Item, Selection};
@@ -67,7 +68,11 @@ impl Editor {
         );
         // On the window's GPU where it can (no render thread, no readback); else the render
         // thread's frames.
-        let gpu_frame = self.gpu_viewport_frame((pixels.0 as u32, pixels.1 as u32));
+        let gpu_frame = self.gpu_viewport_frame(
+            &[self.ui_state.shaded_method],
+            View::Shaded(self.ui_state.shading),
+            (pixels.0 as u32, pixels.1 as u32),
+        );
         let on_gpu = gpu_frame.is_some();
         self.viewport_on_gpu = on_gpu;
         if gpu_frame.is_none() {
@@ -77,7 +82,7 @@ impl Editor {
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
         if let Some(frame) = gpu_frame {
-            Self::paint_gpu_viewport(&painter, rect, frame);
+            Self::paint_gpu_viewport(&painter, rect, frame, vec![rect], (StepScale::Log, None));
         } else if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
             painter.image(
                 f.texture.id(),
