@@ -190,6 +190,14 @@ pub struct StatsArgs {
     /// Print the DESIGN.md JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Tracing backend: cpu, gpu (millions of rays in batches; opaque only), or auto (the GPU
+    /// on a hardware adapter).
+    #[arg(long, value_parser = parse_backend_choice, default_value = "cpu")]
+    pub backend: BackendChoice,
+    /// On the GPU: how many of the rays (the first ones) are compared with the reference
+    /// tracer, which runs on the CPU; missed and spurious count among them.
+    #[arg(long, default_value_t = 20_000)]
+    pub compared: usize,
 }
 
 /// Arguments of `generate`.

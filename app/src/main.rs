@@ -13,10 +13,12 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use clap::Parser;
+use skeletrace_core::backend::{BackendChoice, DeviceKind};
 use skeletrace_core::cpu::stats;
 use skeletrace_core::methods::{Method, MethodId, TraceMode};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::{FieldProgram, Scene};
+use skeletrace_render::{GpuMethod, GpuRenderer};
 
 use cli::{Cli, Command};
 
@@ -163,9 +165,31 @@ fn chosen_methods(list: &str, program: &FieldProgram) -> Result<Vec<MethodId>, S
     Ok(ids)
 }
 
+/// The GPU methods of `chosen` (`all`: those the GPU runs on this scene, the others reported on
+/// standard error; a named method without a GPU implementation is an error).
+fn gpu_methods(
+    list: &str,
+    chosen: &[Box<dyn Method>],
+    program: &FieldProgram,
+) -> Result<Vec<GpuMethod>, String> {
+    let mut out = Vec::new();
+    for method in chosen {
+        let id = MethodId::parse_list(method.name())?[0];
+        let gpu = GpuMethod::from_id(id)
+            .ok_or_else(|| "no GPU implementation".to_owned())
+            .and_then(|g| g.supports(program).map(|()| g));
+        match gpu {
+            Ok(g) => out.push(g),
+            Err(why) if list == "all" => eprintln!("skeletrace: skipping {id} on the GPU: {why}"),
+            Err(why) => return Err(format!("method '{id}' does not run on the GPU: {why}")),
+        }
+    }
+    Ok(out)
+}
+
 fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let scene = load(Some(&args.scene))?;
-    let compiled = skeletrace_core::compile(&scene);
+    let compiled = std::sync::Arc::new(skeletrace_core::compile(&scene));
     let program = &compiled.program;
     let chosen: Vec<Box<dyn Method>> = chosen_methods(&args.methods, program)?
         .into_iter()
@@ -188,7 +212,34 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
             TraceMode::Opaque
         },
     };
-    let stats = stats::run(program, &name, &chosen, setup, &progress);
+    let on_gpu = match args.backend {
+        BackendChoice::Cpu => None,
+        BackendChoice::Gpu => Some(GpuRenderer::new().map_err(|e| e.to_string())?),
+        BackendChoice::Auto => GpuRenderer::new()
+            .ok()
+            .filter(|g| g.device_kind() == DeviceKind::HardwareGpu),
+    };
+    let stats = match on_gpu {
+        None => stats::run(program, &name, &chosen, setup, &progress),
+        Some(mut gpu) => {
+            let methods = gpu_methods(&args.methods, &chosen, program)?;
+            eprintln!(
+                "skeletrace: {} rays per method on {}; the first {} compared with the reference on the CPU",
+                setup.rays,
+                gpu.adapter_name(),
+                args.compared.min(setup.rays)
+            );
+            skeletrace_render::gpu_stats::run(
+                &mut gpu,
+                &compiled,
+                &name,
+                &methods,
+                (setup, args.compared),
+                &progress,
+            )
+            .map_err(|e| e.to_string())?
+        }
+    };
     if terminal {
         eprint!("\r{:40}\r", "");
     }

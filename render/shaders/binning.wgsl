@@ -1,8 +1,10 @@
 // Screen-tile binning of primitive supports (the analogue of the scalis 2021 A-buffer, §7):
 // each primitive's support bounding sphere is projected to a rectangle of tiles; a first pass
-// counts the primitives per tile and stores each rectangle, the host turns counts into ranges
-// (exclusive prefix sum), a second pass writes the primitive indices into the stored
-// rectangles. Storing them matters: the two entry points are compiled separately and may round
+// counts the primitives per tile and stores each rectangle, a one-workgroup pass turns the
+// counts into ranges (exclusive prefix sum) and the total, a last pass writes the primitive
+// indices into the stored rectangles. Nothing is read back in between: the items buffer is as
+// large as the host last needed (tile_binning.rs); lists past its end are cut short, and the
+// host, reading the total later, grows it and traces again. Storing them matters: the two entry points are compiled separately and may round
 // the projection differently, and a rectangle one tile larger in the second pass would write
 // past its tile's range. Unbounded supports (planes) go to every tile.
 //
@@ -49,7 +51,7 @@ struct Primitive {
 @group(0) @binding(0) var<uniform> binning: Binning;
 @group(0) @binding(1) var<storage, read> primitives: array<Primitive>;
 @group(0) @binding(2) var<storage, read_write> tile_counts: array<atomic<u32>>;
-@group(0) @binding(3) var<storage, read> tile_ranges: array<vec2<u32>>;
+@group(0) @binding(3) var<storage, read_write> tile_ranges: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> tile_items: array<u32>;
 @group(0) @binding(5) var<storage, read_write> rects: array<vec4<i32>>;
 // Per tile: the least occluding depth d as !bitcast<u32>(d), so that zeroed means none and
@@ -59,6 +61,8 @@ struct Primitive {
 // around the eye), written by the count pass and read by the fill pass, so that both passes
 // leave out the same primitives.
 @group(0) @binding(7) var<storage, read_write> nearest: array<f32>;
+// The (primitive, tile) pairs of all lists, for the host to size the items buffer.
+@group(0) @binding(8) var<storage, read_write> list_total: array<u32>;
 
 const INF: f32 = 3.0e38;
 
@@ -279,7 +283,44 @@ fn count_tiles(
     }
 }
 
-// Third pass: tile_counts has been reset to 0 and is used as each tile's cursor; the same
+const SCAN_GROUP: u32 = 256u;
+var<workgroup> chunk_ends: array<u32, SCAN_GROUP>;
+
+// Third pass, one workgroup: each tile's range from the counts (exclusive prefix sum), each
+// thread over a contiguous chunk of tiles, and the total.
+@compute @workgroup_size(256, 1, 1)
+fn scan_tiles(@builtin(local_invocation_index) lid: u32) {
+    let tiles = binning.tiles_x * binning.tiles_y;
+    let chunk = (tiles + SCAN_GROUP - 1u) / SCAN_GROUP;
+    let begin = min(lid * chunk, tiles);
+    let end = min(begin + chunk, tiles);
+    var sum = 0u;
+    for (var t = begin; t < end; t++) {
+        sum += atomicLoad(&tile_counts[t]);
+    }
+    chunk_ends[lid] = sum;
+    workgroupBarrier();
+    for (var offset = 1u; offset < SCAN_GROUP; offset *= 2u) {
+        var before = 0u;
+        if lid >= offset {
+            before = chunk_ends[lid - offset];
+        }
+        workgroupBarrier();
+        chunk_ends[lid] += before;
+        workgroupBarrier();
+    }
+    var start = chunk_ends[lid] - sum;
+    for (var t = begin; t < end; t++) {
+        let next = start + atomicLoad(&tile_counts[t]);
+        tile_ranges[t] = vec2<u32>(start, next);
+        start = next;
+    }
+    if lid == SCAN_GROUP - 1u {
+        list_total[0] = chunk_ends[lid];
+    }
+}
+
+// Fourth pass: tile_counts has been reset to 0 and is used as each tile's cursor; the same
 // primitives as counted are left out (the stored rectangles and reaches).
 @compute @workgroup_size(64, 1, 1)
 fn fill_tiles(
@@ -304,8 +345,9 @@ fn fill_tiles(
         }
         let slot = atomicAdd(&tile_counts[p.y], 1u);
         let range = tile_ranges[p.y];
-        if range.x + slot < range.y {
-            tile_items[range.x + slot] = first + p.x;
+        let at = range.x + slot;
+        if at < range.y && at < arrayLength(&tile_items) {
+            tile_items[at] = first + p.x;
         }
     }
 }

@@ -168,3 +168,41 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     out_colour[out] = pack(colour);
 }
+
+// A ray of `stats --backend gpu` (gpu_stats.rs): traced over [0, far] among the primitives of
+// tile list `list`, which the host built for rays of its kind (StatsRay in gpu_stats.rs).
+struct StatsRay {
+    origin: vec3<f32>,
+    far: f32,
+    dir: vec3<f32>,
+    list: u32,
+};
+
+@group(0) @binding(11) var<storage, read> stats_rays: array<StatsRay>;
+
+// One thread per ray of the batch (globals.width rays), in rows of STATS_ROW workgroups;
+// writes steps and depth (the first crossing's t) at the ray's index.
+@compute @workgroup_size(64, 1, 1)
+fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.y * STATS_ROW * 64u + id.x;
+    if k >= globals.width {
+        return;
+    }
+    var resume = suspensions[k];
+    if (resume.flags & FINISHED) != 0u {
+        return;
+    }
+    let r = stats_rays[k];
+    let ray = Ray(r.origin, r.dir);
+    var supports: RaySupports;
+    let sp = &supports;
+    gather_list(sp, ray, r.list, r.far);
+    let trace = trace_ray(sp, ray, &resume);
+    if (resume.flags & SUSPENDED) != 0u {
+        suspensions[k] = resume;
+        return;
+    }
+    suspensions[k].flags = FINISHED;
+    out_steps[k] = trace.steps;
+    out_depth[k] = select(INF, trace.t, trace.hit);
+}

@@ -395,6 +395,7 @@ struct RaySupports {
     tile_end: u32,
     horizon: f32,
     floor: f32,    // of the last fill, kept for a suspended march to refill the same window
+    far: f32,      // end of the ray's interval
     ids: array<u32, RAY_SUPPORTS>,
     spans: array<vec2<f32>, RAY_SUPPORTS>,
 };
@@ -417,7 +418,7 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
         let i = tile_items[j];
         var span = support_interval(ray, i);
-        span = vec2<f32>(max(span.x, 0.0), min(span.y, globals.far));
+        span = vec2<f32>(max(span.x, 0.0), min(span.y, (*sp).far));
         if span.x > span.y || span.y <= floor {
             continue;
         }
@@ -447,9 +448,18 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
 
 fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
     let ts = globals.tile_size;
-    let range = tile_ranges[(py / ts) * globals.tiles_x + px / ts];
-    (*sp).tile_start = range.x;
-    (*sp).tile_end = range.y;
+    gather_list(sp, ray, (py / ts) * globals.tiles_x + px / ts, globals.far);
+}
+
+// The supports along `ray` over [0, far] among those of list `list`.
+fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32) {
+    let range = tile_ranges[list];
+    (*sp).far = far;
+    // A list past the items' end (the host grows them and traces again, tile_binning.rs) is
+    // read only as far as it was written.
+    let written = arrayLength(&tile_items);
+    (*sp).tile_start = min(range.x, written);
+    (*sp).tile_end = min(range.y, written);
     fill_window(sp, ray, 0.0);
 }
 

@@ -21,6 +21,7 @@ use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuPrimitive, PackedScene};
+use crate::gpu_stats::{GpuStatsRay, RayLists, STATS_ROW};
 use crate::shaders::GpuMethod;
 use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
 
@@ -134,6 +135,50 @@ struct SceneBuffers {
     isovalue: f32,
 }
 
+impl SceneBuffers {
+    /// The trace uniforms of the scene and the settings; the camera, frame and shading fields
+    /// are left for the caller.
+    fn globals(&self, settings: &TraceSettings, steps_per_dispatch: u32) -> GpuGlobals {
+        GpuGlobals {
+            origin: [0.0; 3],
+            far: 0.0,
+            forward: [0.0; 3],
+            tan_half_fov: 0.0,
+            right: [0.0; 3],
+            aspect: 1.0,
+            up: [0.0; 3],
+            isovalue: self.isovalue,
+            width: 0,
+            height: 1,
+            tiles_x: 0,
+            tiles_y: 0,
+            primitive_count: self.packed.primitives.len() as u32,
+            group_count: self.packed.kernels.len() as u32,
+            blend_operator: self.packed.blend as u32,
+            max_steps: settings.max_steps,
+            epsilon: settings.epsilon as f32,
+            min_step: settings.min_step as f32,
+            growth: settings.growth as f32,
+            initial_interval: settings.initial_interval.min(f64::from(f32::MAX)) as f32,
+            lipschitz: self.method.lipschitz,
+            gauss_sigma: self.method.gauss_sigma,
+            gauss_radius: self.method.gauss_radius,
+            gauss_norm: self.method.gauss_norm,
+            tile_size: TILE,
+            light_count: self.packed.lights.len() as u32,
+            panel_x: 0,
+            output_width: 0,
+            heat_max: 1.0,
+            heat_view: 0,
+            shading_flags: 0,
+            shading_scale: 1.0,
+            blend_width: self.packed.blend_width,
+            steps_per_dispatch,
+            pad: [0; 2],
+        }
+    }
+}
+
 /// Constants some methods need of a scene, computed once per upload.
 #[derive(Clone, Copy, Debug)]
 struct MethodConstants {
@@ -154,6 +199,8 @@ pub struct GpuRenderer {
     errors: Arc<Mutex<Vec<String>>>,
     binning: TileBinning,
     trace_pipelines: HashMap<GpuMethod, wgpu::ComputePipeline>,
+    /// The same shaders' `trace_rays` entry (`stats --backend gpu`).
+    ray_pipelines: HashMap<GpuMethod, wgpu::ComputePipeline>,
     scene: Option<SceneBuffers>,
     /// Primitive uploads in bytes, for the tests of partial re-upload.
     uploaded_bytes: u64,
@@ -369,6 +416,7 @@ impl GpuRenderer {
             errors,
             binning,
             trace_pipelines: HashMap::new(),
+            ray_pipelines: HashMap::new(),
             scene: None,
             uploaded_bytes: 0,
             timestamps,
@@ -396,6 +444,15 @@ impl GpuRenderer {
     #[must_use]
     pub fn device_kind(&self) -> DeviceKind {
         self.device_kind
+    }
+
+    /// The uploaded scene's primitives as packed for the GPU (group transforms and repetition
+    /// applied); none without a scene.
+    #[must_use]
+    pub fn packed_primitives(&self) -> &[GpuPrimitive] {
+        self.scene
+            .as_ref()
+            .map_or(&[], |s| s.packed.primitives.as_slice())
     }
 
     /// The compiled scene uploaded last, if any.
@@ -517,6 +574,121 @@ impl GpuRenderer {
             .or_insert_with(|| pipeline(device, &method.source(), "trace_pixels"))
     }
 
+    /// Traces a batch of statistics rays with `method` on the uploaded scene
+    /// (`stats --backend gpu`, [`crate::gpu_stats`]): each ray over `[0, far]` among the
+    /// primitives of its list in `lists`. Returns each ray's steps and the parameter of its first
+    /// crossing (infinite when it has none).
+    ///
+    /// # Errors
+    /// As [`GpuRenderer::render`].
+    pub fn trace_rays(
+        &mut self,
+        method: GpuMethod,
+        rays: &[GpuStatsRay],
+        lists: &RayLists,
+        settings: &TraceSettings,
+    ) -> Result<Vec<(u32, f64)>, BackendError> {
+        self.ready_for(&[method], View::Steps { steps_max: 1 })?;
+        let device = self.device.clone();
+        let d = &device;
+        let source = method.source();
+        let pipeline = self
+            .ray_pipelines
+            .entry(method)
+            .or_insert_with(|| pipeline(d, &source, "trace_rays"))
+            .clone();
+        let scene = self
+            .scene
+            .as_ref()
+            .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
+        let n = rays.len() as u32;
+        let globals = GpuGlobals {
+            width: n,
+            ..scene.globals(settings, self.steps_per_dispatch)
+        };
+        let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("ray globals"),
+            contents: bytemuck::bytes_of(&globals),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let ray_buffer = storage(d, "statistics rays", bytemuck::cast_slice(rays));
+        let ranges = storage(d, "ray list ranges", bytemuck::cast_slice(&lists.ranges));
+        let items = storage(d, "ray list items", bytemuck::cast_slice(&lists.items));
+        let output = |label: &str, usage: wgpu::BufferUsages| {
+            d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: u64::from(n.max(1)) * 4,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let written = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let read = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        let (depth, steps) = (output("ray depth", written), output("ray steps", written));
+        let (depth_read, steps_read) = (
+            output("ray depth readback", read),
+            output("ray steps readback", read),
+        );
+        let suspensions = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("suspended rays"),
+            size: u64::from(n.max(1)) * SUSPENSION_BYTES,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("statistics rays"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &globals),
+                entry(1, &scene.primitives),
+                entry(2, &scene.kernels),
+                entry(5, &ranges),
+                entry(6, &items),
+                entry(8, &depth),
+                entry(9, &steps),
+                entry(10, &suspensions),
+                entry(11, &ray_buffer),
+            ],
+        });
+        let dispatches = if method.resumable() {
+            settings.max_steps.div_ceil(self.steps_per_dispatch).max(1)
+        } else {
+            1
+        };
+        let groups = n.div_ceil(64).max(1);
+        let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("statistics rays"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            for _ in 0..dispatches {
+                pass.dispatch_workgroups(groups.min(STATS_ROW), groups.div_ceil(STATS_ROW), 1);
+            }
+        }
+        encoder.copy_buffer_to_buffer(&depth, 0, &depth_read, 0, depth.size());
+        encoder.copy_buffer_to_buffer(&steps, 0, &steps_read, 0, steps.size());
+        self.queue.submit([encoder.finish()]);
+        let depth: Vec<f32> = read_back(d, &depth_read).map_err(BackendError::DeviceFailed)?;
+        let steps: Vec<u32> = read_back(d, &steps_read).map_err(BackendError::DeviceFailed)?;
+        self.check().map_err(BackendError::DeviceFailed)?;
+        Ok(steps
+            .into_iter()
+            .zip(depth)
+            .take(rays.len())
+            .map(|(s, t)| {
+                let t = if t >= 3.0e38 {
+                    f64::INFINITY
+                } else {
+                    f64::from(t)
+                };
+                (s, t)
+            })
+            .collect())
+    }
+
     /// Renders `methods` side by side (`width × height` each) through `camera` on the uploaded
     /// scene; one frame per method.
     ///
@@ -538,10 +710,10 @@ impl GpuRenderer {
     }
 
     /// Records the trace of `methods` (side by side) through `camera` into `encoder` without
-    /// reading anything back: the frame stays in the output buffers
+    /// reading anything back or waiting for the GPU: the frame stays in the output buffers
     /// ([`GpuRenderer::output_buffers`]), which the editor's viewport draws from directly.
-    /// Only the tile binning submits work of its own and reads back its per-tile counts (to
-    /// size the tile lists).
+    /// Whether its tile lists fitted is known a frame or two later
+    /// ([`GpuRenderer::poll_tile_lists`]).
     ///
     /// # Errors
     /// As [`GpuRenderer::render`].
@@ -563,9 +735,26 @@ impl GpuRenderer {
             &geometry,
             settings,
             view,
-            None,
+            (None, false),
         )
         .map_err(BackendError::DeviceFailed)
+    }
+
+    /// Checks the tile lists of the frames encoded without waiting (call once per frame, after
+    /// polling the device, with the frame's encoder); whether the latest frame's lists were cut
+    /// short, so that it must be traced again (the items have grown).
+    ///
+    /// # Errors
+    /// Lists larger than the device can bind.
+    pub fn poll_tile_lists(&mut self, encoder: &mut wgpu::CommandEncoder) -> Result<bool, String> {
+        self.binning.poll_overflow(&self.device, encoder)
+    }
+
+    /// Whether the tile lists of some frame encoded without waiting are still to be checked
+    /// (keep polling).
+    #[must_use]
+    pub fn tile_lists_unchecked(&self) -> bool {
+        self.binning.unchecked()
     }
 
     /// The colour output (packed sRGB8) and step counts of the last frame traced or encoded,
@@ -637,7 +826,7 @@ impl GpuRenderer {
             geometry,
             settings,
             view,
-            queries.as_ref(),
+            (queries.as_ref(), true),
         )?;
         let d = &self.device;
         let (width, height) = (geometry.width, geometry.height);
@@ -694,9 +883,10 @@ impl GpuRenderer {
         Ok(frames)
     }
 
-    /// Bins the primitives into the tile lists (a submit of its own, reading back the per-tile
-    /// counts) and records one trace pass per method into `encoder`, writing the output
-    /// buffers (panels side by side).
+    /// Bins the primitives into the tile lists and records one trace pass per method into
+    /// `encoder`, writing the output buffers (panels side by side). With `wait`, the binning is
+    /// submitted first and its total read back, so the lists are whole (a frame read back
+    /// waits anyway); without, nothing waits ([`GpuRenderer::poll_tile_lists`]).
     #[allow(clippy::too_many_arguments)]
     fn encode_trace(
         &mut self,
@@ -706,20 +896,23 @@ impl GpuRenderer {
         geometry: &FrameGeometry,
         settings: &TraceSettings,
         view: View,
-        queries: Option<&wgpu::QuerySet>,
+        (queries, wait): (Option<&wgpu::QuerySet>, bool),
     ) -> Result<(), String> {
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let n_prims = scene.packed.primitives.len() as u32;
-        let tile_lists = self.binning.bin(
+        let (tile_lists, total) = self.binning.encode_lists(
             &self.device,
             &self.queue,
+            (!wait).then_some(&mut *encoder),
             &scene.primitives,
             n_prims,
             geometry,
             queries,
         )?;
         self.check()?;
-        self.last_tile_items = u64::from(tile_lists.total);
+        if let Some(total) = total {
+            self.last_tile_items = total;
+        }
         // Borrowed again: `check` and the tile count above needed `self` in between.
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let FrameGeometry {
@@ -751,7 +944,8 @@ impl GpuRenderer {
         };
         let shading_flags =
             u32::from(shading.soft_shadows) | (u32::from(shading.ambient_occlusion) << 1);
-        self.binning.fill(encoder, &tile_lists, queries);
+        self.binning.fill(d, encoder, &tile_lists, queries)?;
+        let items = self.binning.items();
         for (panel, method) in methods.iter().enumerate() {
             let globals = GpuGlobals {
                 origin: f3(origin),
@@ -761,34 +955,17 @@ impl GpuRenderer {
                 right: f3(right),
                 aspect: aspect as f32,
                 up: f3(up),
-                isovalue: scene.isovalue,
                 width,
                 height,
                 tiles_x,
                 tiles_y,
-                primitive_count: n_prims,
-                group_count: scene.packed.kernels.len() as u32,
-                blend_operator: scene.packed.blend as u32,
-                max_steps: settings.max_steps,
-                epsilon: settings.epsilon as f32,
-                min_step: settings.min_step as f32,
-                growth: settings.growth as f32,
-                initial_interval: settings.initial_interval.min(f64::from(f32::MAX)) as f32,
-                lipschitz: scene.method.lipschitz,
-                gauss_sigma: scene.method.gauss_sigma,
-                gauss_radius: scene.method.gauss_radius,
-                gauss_norm: scene.method.gauss_norm,
-                tile_size: TILE,
-                light_count: scene.packed.lights.len() as u32,
                 panel_x: width * panel as u32,
                 output_width: out_width,
                 heat_max,
                 heat_view,
                 shading_flags,
                 shading_scale: shading_scale(program) as f32,
-                blend_width: scene.packed.blend_width,
-                steps_per_dispatch: self.steps_per_dispatch,
-                pad: [0; 2],
+                ..scene.globals(settings, self.steps_per_dispatch)
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("globals"),
@@ -806,7 +983,7 @@ impl GpuRenderer {
                     entry(3, &scene.materials),
                     entry(4, &scene.lights),
                     entry(5, &tile_lists.ranges),
-                    entry(6, &tile_lists.items),
+                    entry(6, items),
                     entry(7, colour),
                     entry(8, depth),
                     entry(9, steps),

@@ -6,9 +6,11 @@
 //! is the GPU's `FrameBackend`. The CPU tracer of skeletrace-core is the reference these
 //! frames are compared with.
 
+pub mod async_readback;
 pub mod buffers;
 pub mod gpu_backend;
 pub mod gpu_renderer;
+pub mod gpu_stats;
 pub mod shaders;
 pub mod shared;
 pub mod step_statistics;

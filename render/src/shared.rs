@@ -102,6 +102,7 @@ fn f32_array(out: &mut String, name: &str, values: &[f64]) {
 #[must_use]
 pub fn wgsl_constants() -> String {
     let mut out = String::from("// Emitted by render/src/shared.rs from the Rust definitions.\n");
+    u32_const(&mut out, "STATS_ROW", crate::gpu_stats::STATS_ROW);
     for (name, kind) in [
         ("KIND_POINT", PrimitiveKind::Point),
         ("KIND_DISTANCE_SEGMENT", PrimitiveKind::DistanceSegment),

@@ -2,14 +2,12 @@
 //! they were traced; `shaders/step_statistics.wgsl` counts each panel's histogram of step
 //! counts and the shared top of the colour scale next to them, the viewport's blit colours the
 //! heat maps with that top, and only the histograms (a few kilobytes) and the hovered pixel's
-//! counts are copied out, asynchronously: recorded into one frame's encoder, mapped once that
-//! frame is submitted, read when the map completes. The statistics are those the CPU computes
+//! counts are copied out, without waiting for the GPU ([`AsyncReadback`]). The statistics are those the CPU computes
 //! from a read-back frame ([`StepHistogram`], [`skeletrace_core::frame::shared_step_top`]).
-
-use std::sync::{Arc, Mutex};
 
 use skeletrace_core::frame::StepHistogram;
 
+use crate::async_readback::AsyncReadback;
 use crate::gpu_renderer::{entry, pipeline};
 use crate::shaders::step_statistics_source;
 
@@ -64,24 +62,13 @@ pub struct GridStatistics {
     pub probe_steps: Vec<u32>,
 }
 
-type MapResult = Arc<Mutex<Option<Result<(), wgpu::BufferAsyncError>>>>;
-
-/// Where the copy of the statistics is.
-enum Readback {
-    Idle,
-    /// Recorded into an encoder that is submitted with the frame.
-    Recorded(StatisticsTag, StatisticsShape),
-    /// Submitted and asked to map.
-    Mapping(StatisticsTag, StatisticsShape, MapResult),
-}
-
 struct StatisticsBuffers {
     shape: StatisticsShape,
     uniforms: wgpu::Buffer,
     histogram: wgpu::Buffer,
     top: wgpu::Buffer,
     /// The histograms, the top, then one probed count per panel.
-    staging: wgpu::Buffer,
+    readback: AsyncReadback<StatisticsTag>,
 }
 
 /// The statistics passes, their buffers and the read-back in flight.
@@ -89,7 +76,6 @@ pub struct StepStatistics {
     count: wgpu::ComputePipeline,
     top: wgpu::ComputePipeline,
     buffers: Option<StatisticsBuffers>,
-    readback: Readback,
     published: Option<GridStatistics>,
 }
 
@@ -102,7 +88,6 @@ impl StepStatistics {
             count: pipeline(device, &source, "count_steps"),
             top: pipeline(device, &source, "shared_top"),
             buffers: None,
-            readback: Readback::Idle,
             published: None,
         }
     }
@@ -119,7 +104,6 @@ impl StepStatistics {
     ) {
         if self.buffers.as_ref().is_none_or(|b| b.shape != shape) {
             // A read-back of the old buffers still in flight is dropped with them.
-            self.readback = Readback::Idle;
             self.buffers = Some(StatisticsBuffers::new(device, shape));
         }
         let Some(b) = &self.buffers else { return };
@@ -165,40 +149,12 @@ impl StepStatistics {
         self.buffers.as_ref().map(|b| &b.top)
     }
 
-    /// Advances the read-back: maps a copy submitted since the last call, publishes a completed
-    /// map. Call once per frame, before [`StepStatistics::request`].
-    pub fn poll(&mut self, device: &wgpu::Device) {
-        let _ = device.poll(wgpu::PollType::Poll);
-        let Some(buffers) = &self.buffers else { return };
-        match std::mem::replace(&mut self.readback, Readback::Idle) {
-            Readback::Idle => {}
-            Readback::Recorded(tag, shape) => {
-                let result: MapResult = Arc::default();
-                let done = Arc::clone(&result);
-                buffers
-                    .staging
-                    .slice(..)
-                    .map_async(wgpu::MapMode::Read, move |r| {
-                        if let Ok(mut slot) = done.lock() {
-                            *slot = Some(r);
-                        }
-                    });
-                self.readback = Readback::Mapping(tag, shape, result);
-            }
-            Readback::Mapping(tag, shape, result) => {
-                let finished = result.lock().ok().and_then(|mut r| r.take());
-                match finished {
-                    None => self.readback = Readback::Mapping(tag, shape, result),
-                    Some(Ok(())) => {
-                        if let Ok(view) = buffers.staging.slice(..).get_mapped_range() {
-                            self.published = Some(unpack(tag, shape, bytemuck::cast_slice(&view)));
-                        }
-                        buffers.staging.unmap();
-                    }
-                    // A lost map (a device reset): the next request copies again.
-                    Some(Err(_)) => {}
-                }
-            }
+    /// Advances the read-back (the caller polls the device once per frame): publishes the
+    /// statistics whose copy has completed. Call before [`StepStatistics::request`].
+    pub fn poll(&mut self) {
+        let Some(b) = &mut self.buffers else { return };
+        if let Some((tag, words)) = b.readback.poll() {
+            self.published = Some(unpack(tag, b.shape, &words));
         }
     }
 
@@ -211,16 +167,13 @@ impl StepStatistics {
         steps: &wgpu::Buffer,
         tag: StatisticsTag,
     ) {
-        if !matches!(self.readback, Readback::Idle)
-            || self.published.as_ref().is_some_and(|p| p.tag == tag)
-        {
+        if self.published.as_ref().is_some_and(|p| p.tag == tag) {
             return;
         }
-        let Some(b) = &self.buffers else { return };
+        let Some(b) = &mut self.buffers else { return };
         let shape = b.shape;
         let words = shape.histogram_words();
-        encoder.copy_buffer_to_buffer(&b.histogram, 0, &b.staging, 0, words * 4);
-        encoder.copy_buffer_to_buffer(&b.top, 0, &b.staging, words * 4, 4);
+        let mut copies = vec![(&b.histogram, 0, 0, words * 4), (&b.top, 0, words * 4, 4)];
         if let Some((x, y)) = tag
             .probe
             .filter(|&(x, y)| x < shape.width && y < shape.height)
@@ -229,16 +182,10 @@ impl StepStatistics {
                 let pixel = (u64::from(y) * u64::from(shape.panels) + u64::from(panel))
                     * u64::from(shape.width)
                     + u64::from(x);
-                encoder.copy_buffer_to_buffer(
-                    steps,
-                    pixel * 4,
-                    &b.staging,
-                    (words + 1 + u64::from(panel)) * 4,
-                    4,
-                );
+                copies.push((steps, pixel * 4, (words + 1 + u64::from(panel)) * 4, 4));
             }
         }
-        self.readback = Readback::Recorded(tag, shape);
+        b.readback.record(encoder, &copies, tag);
     }
 
     /// The latest statistics read back.
@@ -271,10 +218,10 @@ impl StatisticsBuffers {
             ),
             histogram: buffer("step histograms", words * 4, counted),
             top: buffer("shared step top", 4, counted),
-            staging: buffer(
+            readback: AsyncReadback::new(
+                device,
                 "step statistics readback",
-                (words + 1 + u64::from(shape.panels)) * 4,
-                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                words + 1 + u64::from(shape.panels),
             ),
         }
     }

@@ -1,14 +1,19 @@
 //! Screen-tile binning of primitive supports (binning.wgsl; the analogue of the scalis 2021
 //! A-buffer, §7): its pipelines, and per frame the tile lists each ray's support window is
-//! filled from. The occluding depths and counts per tile go in a first submission, read back
-//! for the host's prefix sum; the lists are filled in the trace submission.
+//! filled from. Occluding depths, counts, ranges (a prefix sum on the GPU) and lists are all
+//! recorded into the frame's encoder. The items buffer keeps the size the largest frame so far
+//! needed; a frame that needs more finds its lists cut short, and the host grows the buffer and
+//! traces again: at once where the frame is read back anyway ([`TileBinning::encode_lists`]
+//! with `wait`), a frame or two later on the editor's GPU viewport, which never waits
+//! ([`TileBinning::poll_overflow`]).
 
 use bytemuck::{Pod, Zeroable};
 use skeletrace_core::frame::PinholeCamera;
 use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
-use crate::gpu_renderer::{entry, f3, pipeline, read_back, storage, timestamp_writes};
+use crate::async_readback::AsyncReadback;
+use crate::gpu_renderer::{entry, f3, pipeline, read_back, timestamp_writes};
 use crate::shaders::binning_source;
 
 /// Tile edge in pixels.
@@ -88,29 +93,56 @@ impl FrameGeometry {
     }
 }
 
-/// One frame's tile lists (binning.wgsl): per-tile ranges into `items`, filled by
-/// `fill_group` in the trace submission.
+/// Items the lists of the first frame may hold before the buffer grows: few, for the first
+/// frame sizes the buffer (waiting, or traced again on the GPU viewport) and later ones grow it
+/// by a quarter more than they need.
+const INITIAL_ITEMS: u64 = 1 << 10;
+
+/// One frame's tile lists (binning.wgsl): per-tile ranges into the items, filled by
+/// [`TileBinning::fill`] in the trace submission.
 pub struct TileLists {
-    pub(crate) counts: wgpu::Buffer,
+    binning: wgpu::Buffer,
     pub(crate) ranges: wgpu::Buffer,
-    pub(crate) items: wgpu::Buffer,
-    pub(crate) fill_group: wgpu::BindGroup,
     /// Binning workgroups: columns of 64 primitives × slices of their (primitive, tile) pairs.
-    pub(crate) workgroups: (u32, u32),
-    /// (primitive, tile) pairs in all lists.
-    pub(crate) total: u32,
+    workgroups: (u32, u32),
 }
 
-/// The binning pipelines and how they are dispatched.
+/// Per-tile and per-primitive buffers of one frame shape, reused while it holds.
+struct BinningBuffers {
+    /// Tiles and primitives.
+    shape: (u32, u32),
+    counts: wgpu::Buffer,
+    ranges: wgpu::Buffer,
+    rects: wgpu::Buffer,
+    occluded: wgpu::Buffer,
+    nearest: wgpu::Buffer,
+    /// The (primitive, tile) pairs of all lists (binning.wgsl `list_total`).
+    total: wgpu::Buffer,
+}
+
+/// The binning pipelines, how they are dispatched, and the buffers they fill.
 pub struct TileBinning {
     occlude: wgpu::ComputePipeline,
     count: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
     fill: wgpu::ComputePipeline,
     /// Workgroups the binning passes aim for in all: enough to fill a GPU; few on a CPU
     /// adapter, where each workgroup's shared prefix sum costs real time.
     workgroups: u32,
     /// Whether binning leaves out primitives behind occluders (binning.wgsl).
     pub occluders: bool,
+    buffers: Option<BinningBuffers>,
+    /// The items of every tile's list.
+    items: wgpu::Buffer,
+    /// Frames whose lists were recorded, the items' capacity when the last was, and the last
+    /// frame whose total was checked.
+    encoded: u64,
+    encoded_capacity: u64,
+    checked: u64,
+    /// The total of frame `.0`, whose lists had room for `.1` items.
+    total_readback: AsyncReadback<(u64, u64)>,
+    /// The largest storage binding the device allows, in bytes.
+    max_binding: u64,
 }
 
 impl TileBinning {
@@ -120,24 +152,66 @@ impl TileBinning {
         Self {
             occlude: pipeline(device, &source, "occlude_tiles"),
             count: pipeline(device, &source, "count_tiles"),
+            scan: pipeline(device, &source, "scan_tiles"),
             fill: pipeline(device, &source, "fill_tiles"),
             workgroups: if cpu_adapter { 64 } else { 4096 },
             occluders: true,
+            buffers: None,
+            items: items_buffer(device, INITIAL_ITEMS),
+            encoded: 0,
+            encoded_capacity: INITIAL_ITEMS,
+            checked: 0,
+            total_readback: AsyncReadback::new(device, "tile list total readback", 1),
+            max_binding: u64::from(device.limits().max_storage_buffer_binding_size),
         }
     }
 
-    /// Bins the `n_prims` primitives' supports into the tiles of `geometry` (binning.wgsl): the
-    /// occluding depths and counts per tile in a first submission, read back for the host's
-    /// prefix sum; the lists are filled by the returned `fill_group` in the trace submission.
-    pub fn bin(
-        &self,
+    /// Items the lists can hold now.
+    fn capacity(&self) -> u64 {
+        self.items.size() / 4
+    }
+
+    /// Grows the items to hold `total` with room to spare; whether it grew.
+    ///
+    /// # Errors
+    /// When the device cannot bind a buffer that large.
+    fn hold(&mut self, device: &wgpu::Device, total: u64) -> Result<bool, String> {
+        if total <= self.capacity() {
+            return Ok(false);
+        }
+        let words = (total + total / 4).min(self.max_binding / 4);
+        if words < total {
+            return Err(format!(
+                "the tile lists need {} MB; the GPU binds at most {} MB (use a smaller frame \
+                 or the CPU)",
+                total * 4 >> 20,
+                self.max_binding >> 20
+            ));
+        }
+        self.items = items_buffer(device, words);
+        Ok(true)
+    }
+
+    /// Records the passes that bin the `n_prims` primitives' supports into the tiles of
+    /// `geometry` (binning.wgsl: occluding depths, counts, ranges) into `encoder`; the lists
+    /// are filled by [`TileBinning::fill`]. Without an encoder, the passes are submitted on
+    /// their own and the total read back, so that the items hold every list (returns the total
+    /// then); with one, nothing waits, and the total is copied back later and checked by
+    /// [`TileBinning::poll_overflow`].
+    ///
+    /// # Errors
+    /// A failed readback, or lists larger than the device can bind.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_lists(
+        &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
+        encoder: Option<&mut wgpu::CommandEncoder>,
         primitives: &wgpu::Buffer,
         n_prims: u32,
         geometry: &FrameGeometry,
         queries: Option<&wgpu::QuerySet>,
-    ) -> Result<TileLists, String> {
+    ) -> Result<(TileLists, Option<u64>), String> {
         let d = device;
         let FrameGeometry {
             origin,
@@ -152,12 +226,11 @@ impl TileBinning {
             tiles_y,
             ..
         } = *geometry;
-        let tiles = (tiles_x * tiles_y) as usize;
+        let tiles = tiles_x * tiles_y;
         // Binning workgroups: one column per 64 primitives, as many slices of each column's
         // (primitive, tile) pairs as fill `binning_workgroups` (binning.wgsl).
         let columns = n_prims.div_ceil(64).max(1);
-        let slices = (self.workgroups / columns).clamp(1, tiles as u32);
-        // Pass 1: count supports per tile.
+        let slices = (self.workgroups / columns).clamp(1, tiles);
         let binning = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("binning"),
             contents: bytemuck::bytes_of(&GpuBinning {
@@ -180,63 +253,49 @@ impl TileBinning {
             }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let counts = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile counts"),
-            size: (tiles * 4) as u64,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let counts_read = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile counts readback"),
-            size: (tiles * 4) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let rects = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile rectangles"),
-            size: u64::from(n_prims.max(1)) * 16,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let occluded = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("occluding depths"),
-            size: (tiles * 4) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let nearest = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("nearest reaches"),
-            size: u64::from(n_prims.max(1)) * 4,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let occlude_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("occlude tiles"),
-            layout: &self.occlude.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &binning),
-                entry(1, primitives),
-                entry(6, &occluded),
-            ],
-        });
-        let count_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("count tiles"),
-            layout: &self.count.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &binning),
-                entry(1, primitives),
-                entry(2, &counts),
-                entry(5, &rects),
-                entry(6, &occluded),
-                entry(7, &nearest),
-            ],
-        });
-        let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        encoder.clear_buffer(&occluded, 0, None);
+        if self
+            .buffers
+            .as_ref()
+            .is_none_or(|b| b.shape != (tiles, n_prims))
         {
-            // The occluding depths, then the counts (binning.wgsl).
+            self.buffers = Some(BinningBuffers::new(d, tiles, n_prims));
+        }
+        let b = self.buffers.as_ref().ok_or("no binning buffers")?;
+        let group = |pipeline: &wgpu::ComputePipeline, label: &str, bindings: &[u32]| {
+            let entries: Vec<_> = bindings
+                .iter()
+                .map(|&k| match k {
+                    0 => entry(0, &binning),
+                    1 => entry(1, primitives),
+                    2 => entry(2, &b.counts),
+                    3 => entry(3, &b.ranges),
+                    5 => entry(5, &b.rects),
+                    6 => entry(6, &b.occluded),
+                    7 => entry(7, &b.nearest),
+                    _ => entry(8, &b.total),
+                })
+                .collect();
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            })
+        };
+        let occlude_group = group(&self.occlude, "occlude tiles", &[0, 1, 6]);
+        let count_group = group(&self.count, "count tiles", &[0, 1, 2, 5, 6, 7]);
+        let scan_group = group(&self.scan, "scan tiles", &[0, 2, 3, 8]);
+        let wait = encoder.is_none();
+        let mut own = None;
+        let encoder = match encoder {
+            Some(e) => e,
+            None => {
+                own.insert(d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()))
+            }
+        };
+        encoder.clear_buffer(&b.occluded, 0, None);
+        encoder.clear_buffer(&b.counts, 0, None);
+        {
+            // The occluding depths, the counts, then the ranges (binning.wgsl).
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("count tiles"),
                 timestamp_writes: timestamp_writes(queries, 0),
@@ -247,62 +306,147 @@ impl TileBinning {
             pass.set_pipeline(&self.count);
             pass.set_bind_group(0, &count_group, &[]);
             pass.dispatch_workgroups(columns, slices, 1);
+            pass.set_pipeline(&self.scan);
+            pass.set_bind_group(0, &scan_group, &[]);
+            pass.dispatch_workgroups(1, 1, 1);
         }
-        encoder.copy_buffer_to_buffer(&counts, 0, &counts_read, 0, (tiles * 4) as u64);
-        queue.submit([encoder.finish()]);
-        let tile_counts: Vec<u32> = read_back(d, &counts_read)?;
-        let mut ranges = Vec::with_capacity(tiles);
-        let mut total = 0u32;
-        for &c in &tile_counts {
-            ranges.push([total, total + c]);
-            total += c;
-        }
-
-        // Pass 2: fill the tile lists, then trace every method.
-        let ranges_buffer = storage(d, "tile ranges", bytemuck::cast_slice(&ranges));
-        let items = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile items"),
-            size: u64::from(total.max(1)) * 4,
-            usage: wgpu::BufferUsages::STORAGE,
+        self.encoded += 1;
+        self.encoded_capacity = self.capacity();
+        let lists = TileLists {
+            binning,
+            ranges: b.ranges.clone(),
+            workgroups: (columns, slices),
+        };
+        let Some(mut encoder) = own.filter(|_| wait) else {
+            return Ok((lists, None));
+        };
+        let total_read = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tile list total readback"),
+            size: 4,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let fill_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fill tiles"),
-            layout: &self.fill.get_bind_group_layout(0),
-            entries: &[
-                entry(0, &binning),
-                entry(2, &counts),
-                entry(3, &ranges_buffer),
-                entry(4, &items),
-                entry(5, &rects),
-                entry(6, &occluded),
-                entry(7, &nearest),
-            ],
-        });
-        Ok(TileLists {
-            counts,
-            ranges: ranges_buffer,
-            items,
-            fill_group,
-            workgroups: (columns, slices),
-            total,
-        })
+        encoder.copy_buffer_to_buffer(&b.total, 0, &total_read, 0, 4);
+        queue.submit([encoder.finish()]);
+        let total = u64::from(read_back::<u32>(d, &total_read)?[0]);
+        self.hold(d, total)?;
+        self.checked = self.encoded;
+        Ok((lists, Some(total)))
     }
 
     /// Records the pass that fills `lists` (timestamps at index 1 of `queries`).
     pub fn fill(
         &self,
+        device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         lists: &TileLists,
         queries: Option<&wgpu::QuerySet>,
-    ) {
-        encoder.clear_buffer(&lists.counts, 0, None);
+    ) -> Result<(), String> {
+        let b = self.buffers.as_ref().ok_or("no binning buffers")?;
+        let fill_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("fill tiles"),
+            layout: &self.fill.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &lists.binning),
+                entry(2, &b.counts),
+                entry(3, &lists.ranges),
+                entry(4, &self.items),
+                entry(5, &b.rects),
+                entry(6, &b.occluded),
+                entry(7, &b.nearest),
+            ],
+        });
+        encoder.clear_buffer(&b.counts, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("fill tiles"),
             timestamp_writes: timestamp_writes(queries, 1),
         });
         pass.set_pipeline(&self.fill);
-        pass.set_bind_group(0, &lists.fill_group, &[]);
+        pass.set_bind_group(0, &fill_group, &[]);
         pass.dispatch_workgroups(lists.workgroups.0, lists.workgroups.1, 1);
+        Ok(())
     }
+
+    /// The items of every tile's list, as the last fill wrote them.
+    pub fn items(&self) -> &wgpu::Buffer {
+        &self.items
+    }
+
+    /// Checks the lists recorded without waiting (call once per frame, after polling the
+    /// device, with the frame's encoder): copies back the total of the latest frame when none
+    /// is in flight, and when a copy has come back showing that the lists did not fit, grows
+    /// the items. Returns whether the latest frame must be traced again.
+    ///
+    /// # Errors
+    /// Lists larger than the device can bind.
+    pub fn poll_overflow(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<bool, String> {
+        let mut again = false;
+        if let Some(((frame, capacity), words)) = self.total_readback.poll() {
+            let total = u64::from(words[0]);
+            if total > capacity {
+                self.hold(device, total)?;
+                // Cut short: traced again if it is the latest (a later frame is checked in
+                // its turn).
+                again = frame == self.encoded;
+            }
+        }
+        if self.checked < self.encoded
+            && let Some(b) = &self.buffers
+            && self.total_readback.record(
+                encoder,
+                &[(&b.total, 0, 0, 4)],
+                (self.encoded, self.encoded_capacity),
+            )
+        {
+            self.checked = self.encoded;
+        }
+        Ok(again)
+    }
+
+    /// Whether the lists of some frame recorded without waiting have yet to be checked.
+    pub fn unchecked(&self) -> bool {
+        self.checked < self.encoded || !self.total_readback.is_idle()
+    }
+}
+
+impl BinningBuffers {
+    fn new(device: &wgpu::Device, tiles: u32, n_prims: u32) -> Self {
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let tiles = u64::from(tiles);
+        let prims = u64::from(n_prims.max(1));
+        let cleared = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        Self {
+            shape: (tiles as u32, n_prims),
+            counts: buffer("tile counts", tiles * 4, cleared),
+            ranges: buffer("tile ranges", tiles * 8, wgpu::BufferUsages::STORAGE),
+            rects: buffer("tile rectangles", prims * 16, wgpu::BufferUsages::STORAGE),
+            occluded: buffer("occluding depths", tiles * 4, cleared),
+            nearest: buffer("nearest reaches", prims * 4, wgpu::BufferUsages::STORAGE),
+            total: buffer(
+                "tile list total",
+                4,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            ),
+        }
+    }
+}
+
+fn items_buffer(device: &wgpu::Device, words: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("tile items"),
+        size: words.max(1) * 4,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
 }

@@ -147,7 +147,18 @@ impl ViewportPainter {
         scale: StepScale,
         probe: Option<(u32, u32)>,
     ) {
-        self.statistics.poll(self.renderer.device());
+        let _ = self.renderer.device().poll(wgpu::PollType::Poll);
+        self.statistics.poll();
+        match self.renderer.poll_tile_lists(encoder) {
+            // The frame on screen missed part of its tile lists: traced again, in full.
+            Ok(true) => self.last = None,
+            Ok(false) => {}
+            Err(e) => {
+                self.failure = Some(e);
+                self.bind_group = None;
+                return;
+            }
+        }
         let same = self.last.as_ref().is_some_and(|l| l.same_as(frame));
         if !same || self.bind_group.is_none() {
             self.bind_group = None;
@@ -276,6 +287,13 @@ impl ViewportPainter {
                 }
         });
         (published, current)
+    }
+
+    /// Whether a frame's tile lists are still to be checked: the window should draw again
+    /// soon, for a frame that missed part of them is traced again.
+    #[must_use]
+    pub fn settling(&self) -> bool {
+        self.renderer.tile_lists_unchecked()
     }
 
     /// Frames traced so far (a frame whose key did not change is not traced again).

@@ -112,7 +112,7 @@ impl Editor {
         });
         let top = if let Some(frame) = gpu_frame {
             let probe = self.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
-            Self::paint_gpu_viewport(
+            self.paint_gpu_viewport(
                 &painter,
                 rect,
                 frame,

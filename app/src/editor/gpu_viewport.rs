@@ -122,14 +122,27 @@ impl Editor {
     /// `None` without a GPU viewport.
     #[must_use]
     pub fn gpu_viewport_counts(&self) -> Option<(u64, u64, String)> {
+        self.with_viewport_painter(|painter| {
+            (
+                painter.traced(),
+                painter.uploaded_primitive_bytes(),
+                painter.adapter_name().to_owned(),
+            )
+        })
+    }
+
+    /// Whether the GPU viewport is still checking its last frame's tile lists (and may trace
+    /// it again).
+    #[must_use]
+    pub fn gpu_viewport_settling(&self) -> bool {
+        self.with_viewport_painter(ViewportPainter::settling)
+            .unwrap_or(false)
+    }
+
+    fn with_viewport_painter<T>(&self, f: impl FnOnce(&ViewportPainter) -> T) -> Option<T> {
         let state = self.gpu_viewport.as_ref()?;
         let renderer = state.renderer.read();
-        let painter = renderer.callback_resources.get::<ViewportPainter>()?;
-        Some((
-            painter.traced(),
-            painter.uploaded_primitive_bytes(),
-            painter.adapter_name().to_owned(),
-        ))
+        renderer.callback_resources.get::<ViewportPainter>().map(f)
     }
 
     /// The GPU viewport's frame of `methods` in `view` at `size`, when it takes this frame: a
@@ -186,21 +199,26 @@ impl Editor {
     #[must_use]
     pub fn gpu_grid_statistics(&self) -> Option<(GridStatistics, bool)> {
         let probe = self.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
-        let state = self.gpu_viewport.as_ref()?;
-        let renderer = state.renderer.read();
-        let painter = renderer.callback_resources.get::<ViewportPainter>()?;
-        let (published, current) = painter.statistics(probe);
-        published.map(|p| (p.clone(), current))
+        self.with_viewport_painter(|painter| {
+            let (published, current) = painter.statistics(probe);
+            published.map(|p| (p.clone(), current))
+        })
+        .flatten()
     }
 
-    /// Adds the paint callback of `frame` over `area`, panel `k` drawn into `panels[k]`.
+    /// Adds the paint callback of `frame` over `area`, panel `k` drawn into `panels[k]`; asks
+    /// for another frame while the last one's tile lists are being checked.
     pub(super) fn paint_gpu_viewport(
+        &self,
         painter: &egui::Painter,
         area: egui::Rect,
         frame: ViewportFrame,
         panels: Vec<egui::Rect>,
         (scale, probe): (StepScale, Option<(u32, u32)>),
     ) {
+        if self.gpu_viewport_settling() {
+            painter.ctx().request_repaint();
+        }
         painter.add(egui_wgpu::Callback::new_paint_callback(
             area,
             ViewportCallback {

@@ -82,7 +82,7 @@ impl Editor {
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
         if let Some(frame) = gpu_frame {
-            Self::paint_gpu_viewport(&painter, rect, frame, vec![rect], (StepScale::Log, None));
+            self.paint_gpu_viewport(&painter, rect, frame, vec![rect], (StepScale::Log, None));
         } else if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
             painter.image(
                 f.texture.id(),

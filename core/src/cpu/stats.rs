@@ -32,6 +32,9 @@ pub struct MethodStats {
     pub rays: usize,
     /// Rays with a crossing.
     pub hits: usize,
+    /// Rays compared with the reference tracer: every ray on the CPU, the first ones on the
+    /// GPU (the reference runs on the CPU); `missed` and `spurious` count among them.
+    pub compared: usize,
     /// Rays whose reference crossing the method missed.
     pub missed: usize,
     /// Rays with a crossing the reference does not have.
@@ -40,7 +43,7 @@ pub struct MethodStats {
     pub avg_steps: f64,
     /// Mean point evaluations of the field per ray (value and gradient count as one): the
     /// measure that compares methods whose steps differ in cost (a SCALIS iteration, a bisection
-    /// leaf, a confirmation past a root).
+    /// leaf, a confirmation past a root). Not counted on the GPU (NaN, `null` in JSON).
     pub avg_evaluations: f64,
     /// Median steps per ray.
     pub median_steps: u32,
@@ -48,7 +51,8 @@ pub struct MethodStats {
     pub p95_steps: u32,
     /// Largest steps per ray.
     pub max_steps: u32,
-    /// Mean time per ray, in nanoseconds (single thread).
+    /// Mean time per ray, in nanoseconds: one CPU thread's, or on the GPU the batches' wall
+    /// time over their rays.
     pub ns_per_ray: f64,
     /// Largest depth error of the matched hits, relative to the box diagonal.
     pub max_depth_error: f64,
@@ -73,19 +77,8 @@ pub struct SceneStats {
 /// the support box.
 #[must_use]
 pub fn protocol_rays(program: &FieldProgram, count: usize, seed: u64) -> Vec<(Ray, Interval)> {
-    let b = program.support_bounds();
-    let extent = b.max - b.min;
-    let mut rng = SplitMix64::new(seed);
-    (0..count)
-        .map(|i| {
-            let axis = (i % 6) / 2;
-            let positive = i % 2 == 0;
-            let mut origin = b.min + extent * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-            let mut direction = DVec3::ZERO;
-            origin[axis] = if positive { b.min[axis] } else { b.max[axis] };
-            direction[axis] = if positive { 1.0 } else { -1.0 };
-            (Ray { origin, direction }, Interval::new(0.0, extent[axis]))
-        })
+    rays_of_iter(program, Protocol::Default, seed)
+        .take(count)
         .collect()
 }
 
@@ -94,23 +87,9 @@ pub fn protocol_rays(program: &FieldProgram, count: usize, seed: u64) -> Vec<(Ra
 /// a uniform point inside it; the interval is the part of the ray inside the box.
 #[must_use]
 pub fn rays_around_box(program: &FieldProgram, count: usize, seed: u64) -> Vec<(Ray, Interval)> {
-    let b = program.support_bounds();
-    let extent = b.max - b.min;
-    let (center, radius) = (b.center(), 0.5 * b.diagonal());
-    let mut rng = SplitMix64::new(seed);
-    let mut out = Vec::with_capacity(count);
-    while out.len() < count {
-        let origin = center + DVec3::from_array(rng.direction()) * radius;
-        let target = b.min + extent * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-        let Some(direction) = (target - origin).try_normalize() else {
-            continue;
-        };
-        let ray = Ray { origin, direction };
-        if let Some(span) = b.ray_interval(&ray, Interval::new(0.0, f64::INFINITY)) {
-            out.push((ray, span));
-        }
-    }
-    out
+    rays_of_iter(program, Protocol::Paper2023, seed)
+        .take(count)
+        .collect()
 }
 
 /// The rays of a profile's statistics: around the box for the forward-inclusion paper, along
@@ -122,12 +101,37 @@ pub fn rays_of(
     count: usize,
     seed: u64,
 ) -> Vec<(Ray, Interval)> {
-    match protocol {
-        Protocol::Paper2023 => rays_around_box(program, count, seed),
-        Protocol::Default | Protocol::Paper2021 | Protocol::Paper2014 => {
-            protocol_rays(program, count, seed)
+    rays_of_iter(program, protocol, seed).take(count).collect()
+}
+
+/// The rays of [`rays_of`], one at a time (the GPU's statistics take millions, in batches).
+pub fn rays_of_iter(
+    program: &FieldProgram,
+    protocol: Protocol,
+    seed: u64,
+) -> impl Iterator<Item = (Ray, Interval)> + use<> {
+    let b = program.support_bounds();
+    let extent = b.max - b.min;
+    let mut rng = SplitMix64::new(seed);
+    let around = protocol == Protocol::Paper2023;
+    let (center, radius) = (b.center(), 0.5 * b.diagonal());
+    (0_usize..).filter_map(move |i| {
+        if around {
+            let origin = center + DVec3::from_array(rng.direction()) * radius;
+            let target = b.min + extent * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+            let direction = (target - origin).try_normalize()?;
+            let ray = Ray { origin, direction };
+            let span = b.ray_interval(&ray, Interval::new(0.0, f64::INFINITY))?;
+            return Some((ray, span));
         }
-    }
+        let axis = (i % 6) / 2;
+        let positive = i % 2 == 0;
+        let mut origin = b.min + extent * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+        let mut direction = DVec3::ZERO;
+        origin[axis] = if positive { b.min[axis] } else { b.max[axis] };
+        direction[axis] = if positive { 1.0 } else { -1.0 };
+        Some((Ray { origin, direction }, Interval::new(0.0, extent[axis])))
+    })
 }
 
 /// What `stats` traces: how many rays from which seed, under which settings profile, opaque or
@@ -160,6 +164,73 @@ impl StatsSetup {
 /// Tolerance of the comparison with the reference, relative to the box diagonal.
 pub const TOLERANCE: f64 = 1e-4;
 
+/// What one method did on every ray, before it is summarised ([`MethodStats::of`]).
+#[derive(Clone, Debug, Default)]
+pub struct MethodTally {
+    /// Steps per ray (counted to the last crossing in transparent mode).
+    pub steps: Vec<u32>,
+    /// Point evaluations over all rays, where they are counted.
+    pub evaluations: Option<u64>,
+    /// Rays with a crossing.
+    pub hits: usize,
+    /// Nanoseconds over all rays.
+    pub nanoseconds: f64,
+}
+
+impl MethodStats {
+    /// The statistics of `name` from its tally and the comparison of its crossings with the
+    /// reference's, `(reference, method)` per compared ray; depth errors relative to the box
+    /// `diagonal`.
+    pub fn of<'a>(
+        name: &str,
+        mut tally: MethodTally,
+        compared: impl Iterator<Item = (&'a [Crossing], &'a [Crossing])>,
+        diagonal: f64,
+    ) -> Self {
+        tally.steps.sort_unstable();
+        let steps = &tally.steps;
+        let count = steps.len().max(1) as f64;
+        let mut stats = MethodStats {
+            name: name.to_owned(),
+            rays: steps.len(),
+            hits: tally.hits,
+            compared: 0,
+            missed: 0,
+            spurious: 0,
+            avg_steps: steps.iter().map(|&s| f64::from(s)).sum::<f64>() / count,
+            avg_evaluations: tally.evaluations.map_or(f64::NAN, |e| e as f64 / count),
+            median_steps: percentile(steps, 0.5),
+            p95_steps: percentile(steps, 0.95),
+            max_steps: steps.last().copied().unwrap_or(0),
+            ns_per_ray: tally.nanoseconds / count,
+            max_depth_error: 0.0,
+        };
+        let tolerance = TOLERANCE * diagonal;
+        for (want, got) in compared {
+            let verdict = compare(want, got, tolerance);
+            stats.compared += 1;
+            stats.missed += usize::from(verdict.missed);
+            stats.spurious += usize::from(verdict.spurious);
+            stats.max_depth_error = stats.max_depth_error.max(verdict.depth_error / diagonal);
+        }
+        stats
+    }
+}
+
+/// The reference tracer's crossings along `rays` (in parallel).
+#[must_use]
+pub fn reference_crossings(
+    program: &FieldProgram,
+    settings: TraceSettings,
+    rays: &[(Ray, Interval)],
+    mode: TraceMode,
+) -> Vec<Vec<Crossing>> {
+    let tracer = methods::Reference.prepare(program, settings);
+    rays.par_iter()
+        .map(|(ray, span)| tracer.trace(ray, *span, mode).crossings)
+        .collect()
+}
+
 /// One traced ray, as the statistics need it.
 struct Outcome {
     crossings: Vec<Crossing>,
@@ -180,15 +251,9 @@ pub fn run(
 ) -> SceneStats {
     let settings = TraceSettings::for_protocol(program, setup.protocol);
     let diagonal = program.support_bounds().diagonal();
-    let tolerance = TOLERANCE * diagonal;
     let rays = rays_of(program, setup.protocol, setup.rays, setup.seed);
-    let reference_method = methods::Reference;
-    let reference_tracer = reference_method.prepare(program, settings);
     progress("reference", 0.0);
-    let reference: Vec<Vec<Crossing>> = rays
-        .par_iter()
-        .map(|(ray, span)| reference_tracer.trace(ray, *span, setup.mode).crossings)
-        .collect();
+    let reference = reference_crossings(program, settings, &rays, setup.mode);
     let mut out = Vec::new();
     for method in chosen {
         let tracer = method.prepare(program, settings);
@@ -218,36 +283,18 @@ pub fn run(
                 }
             })
             .collect();
-        let mut steps: Vec<u32> = results.iter().map(|r| r.steps).collect();
-        steps.sort_unstable();
-        let count = results.len().max(1) as f64;
-        let mut stats = MethodStats {
-            name: method.name().to_owned(),
-            rays: rays.len(),
-            hits: 0,
-            missed: 0,
-            spurious: 0,
-            avg_steps: steps.iter().map(|&s| f64::from(s)).sum::<f64>() / count,
-            avg_evaluations: results
-                .iter()
-                .map(|r| f64::from(r.evaluations))
-                .sum::<f64>()
-                / count,
-            median_steps: percentile(&steps, 0.5),
-            p95_steps: percentile(&steps, 0.95),
-            max_steps: steps.last().copied().unwrap_or(0),
-            ns_per_ray: results.iter().map(|r| r.nanoseconds as f64).sum::<f64>() / count,
-            max_depth_error: 0.0,
+        let tally = MethodTally {
+            steps: results.iter().map(|r| r.steps).collect(),
+            evaluations: Some(results.iter().map(|r| u64::from(r.evaluations)).sum()),
+            hits: results.iter().filter(|r| !r.crossings.is_empty()).count(),
+            nanoseconds: results.iter().map(|r| r.nanoseconds as f64).sum(),
         };
-        for (got, want) in results.iter().zip(&reference) {
-            stats.hits += usize::from(!got.crossings.is_empty());
-            let verdict = compare(want, &got.crossings, tolerance);
-            stats.missed += usize::from(verdict.missed);
-            stats.spurious += usize::from(verdict.spurious);
-            stats.max_depth_error = stats.max_depth_error.max(verdict.depth_error / diagonal);
-        }
+        let compared = reference
+            .iter()
+            .zip(&results)
+            .map(|(want, got)| (want.as_slice(), got.crossings.as_slice()));
         progress(method.name(), 1.0);
-        out.push(stats);
+        out.push(MethodStats::of(method.name(), tally, compared, diagonal));
     }
     SceneStats {
         scene: scene_name.to_owned(),
@@ -333,13 +380,15 @@ impl SceneStats {
             .iter()
             .map(|m| {
                 format!(
-                    "{{\"name\": {}, \"rays\": {}, \"hits\": {}, \"missed\": {}, \"spurious\": {}, \
+                    "{{\"name\": {}, \"rays\": {}, \"hits\": {}, \"compared\": {}, \
+                     \"missed\": {}, \"spurious\": {}, \
                      \"avg_steps\": {}, \"avg_evaluations\": {}, \"median_steps\": {}, \
                      \"p95_steps\": {}, \"max_steps\": {}, \"ns_per_ray\": {}, \
                      \"max_depth_error\": {}}}",
                     json::string(&m.name),
                     m.rays,
                     m.hits,
+                    m.compared,
                     m.missed,
                     m.spurious,
                     json::number(m.avg_steps),
@@ -372,13 +421,17 @@ impl SceneStats {
         );
         for m in &self.methods {
             out.push_str(&format!(
-                "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {} | {:.0} | {:.1e} |\n",
+                "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {:.0} | {:.1e} |\n",
                 m.name,
                 m.hits,
                 m.missed,
                 m.spurious,
                 m.avg_steps,
-                m.avg_evaluations,
+                if m.avg_evaluations.is_finite() {
+                    format!("{:.2}", m.avg_evaluations)
+                } else {
+                    "–".to_owned()
+                },
                 m.median_steps,
                 m.p95_steps,
                 m.max_steps,

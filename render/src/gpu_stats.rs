@@ -1,0 +1,301 @@
+//! `stats --backend gpu` (issue 22): the statistics protocol's rays (core `cpu/stats.rs`: the
+//! six axis directions, or random rays around the box under `paper-2023`) traced on the GPU in
+//! batches of a million, so that the papers' ten million rays per method take seconds. The
+//! screen tiles of a frame do not apply to these rays; [`RayLists`] gives each ray its
+//! candidate primitives instead: rays along an axis look theirs up in a grid of cells across
+//! the box (the primitives whose support's bounding sphere, seen along that axis, covers the
+//! cell), other rays in one list of every primitive. The reference tracer runs on the CPU, on
+//! the first rays of the same sequence, and every method is compared with it there; steps are
+//! counted over every ray. Opaque rays only (the GPU traces to the first crossing); the GPU
+//! counts no evaluations.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use skeletrace_core::backend::BackendError;
+use skeletrace_core::bounds::interval::Interval;
+use skeletrace_core::compile::Compiled;
+use skeletrace_core::cpu::stats::{
+    MethodStats, MethodTally, SceneStats, StatsSetup, rays_of_iter, reference_crossings,
+};
+use skeletrace_core::field::geometry::Ray;
+use skeletrace_core::methods::{Crossing, TraceMode, TraceSettings};
+
+use crate::buffers::GpuPrimitive;
+use crate::gpu_renderer::GpuRenderer;
+use crate::shaders::GpuMethod;
+
+/// Workgroups in a row of the `trace_rays` dispatch (main.wgsl `STATS_ROW`).
+pub const STATS_ROW: u32 = 1024;
+/// Rays per GPU batch.
+const BATCH: usize = 1 << 20;
+/// Cells along each side of an axis's grid.
+const GRID: usize = 64;
+
+/// Twin of `StatsRay` in main.wgsl: a ray from `origin` along unit `dir` over `[0, far]`,
+/// among the primitives of list `list`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuStatsRay {
+    /// Start of the traced interval.
+    pub origin: [f32; 3],
+    /// Its length.
+    pub far: f32,
+    /// Unit direction.
+    pub dir: [f32; 3],
+    /// Candidate list ([`RayLists`]).
+    pub list: u32,
+}
+
+/// Candidate primitives of statistics rays: for each axis a [`GRID`]² grid of cells across
+/// the box, lists `axis · GRID² + cell`; then one list of every primitive.
+pub struct RayLists {
+    /// Per list, its range in `items`.
+    pub ranges: Vec<[u32; 2]>,
+    /// Primitive indices.
+    pub items: Vec<u32>,
+    min: DVec3,
+    cell: DVec3,
+}
+
+impl RayLists {
+    /// The lists of `primitives` (as packed for the GPU) for rays inside the box `[min, max]`.
+    #[must_use]
+    pub fn new(primitives: &[GpuPrimitive], min: DVec3, max: DVec3) -> Self {
+        let cell = ((max - min) / GRID as f64).max(DVec3::splat(1e-12));
+        // Bounding spheres are stored in f32: a margin keeps every covered cell.
+        let margin = 1e-5 * (max - min).length();
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 3 * GRID * GRID + 1];
+        let every = 3 * GRID * GRID;
+        for (i, p) in primitives.iter().enumerate() {
+            let i = i as u32;
+            lists[every].push(i);
+            let [x, y, z, r] = p.bound.map(f64::from);
+            for axis in 0..3 {
+                let base = axis * GRID * GRID;
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                if r < 0.0 {
+                    // Unbounded support: every cell.
+                    for k in 0..GRID * GRID {
+                        lists[base + k].push(i);
+                    }
+                    continue;
+                }
+                let centre = DVec3::new(x, y, z);
+                let span = |a: usize| {
+                    let lo = (centre[a] - r - margin - min[a]) / cell[a];
+                    let hi = (centre[a] + r + margin - min[a]) / cell[a];
+                    let clamp = |c: f64| (c.floor().max(0.0) as usize).min(GRID - 1);
+                    (hi >= 0.0 && lo < GRID as f64).then(|| (clamp(lo), clamp(hi)))
+                };
+                let (Some((u0, u1)), Some((v0, v1))) = (span(u), span(v)) else {
+                    continue;
+                };
+                for cu in u0..=u1 {
+                    for cv in v0..=v1 {
+                        lists[base + cu * GRID + cv].push(i);
+                    }
+                }
+            }
+        }
+        let mut ranges = Vec::with_capacity(lists.len());
+        let mut items = Vec::new();
+        for list in lists {
+            let start = items.len() as u32;
+            items.extend(list);
+            ranges.push([start, items.len() as u32]);
+        }
+        Self {
+            ranges,
+            items,
+            min,
+            cell,
+        }
+    }
+
+    /// The GPU ray of `ray` over `span`: started at the span's beginning, its list the cell it
+    /// runs through when it follows an axis, else every primitive.
+    #[must_use]
+    pub fn ray(&self, ray: &Ray, span: Interval) -> GpuStatsRay {
+        let d = ray.direction;
+        let axis = (0..3).find(|&a| {
+            let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+            d[a] != 0.0 && d[u] == 0.0 && d[v] == 0.0
+        });
+        let start = ray.at(span.lo);
+        let list = match axis {
+            Some(a) => {
+                let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+                let cell = |k: usize| {
+                    (((start[k] - self.min[k]) / self.cell[k]).floor().max(0.0) as usize)
+                        .min(GRID - 1)
+                };
+                (a * GRID * GRID + cell(u) * GRID + cell(v)) as u32
+            }
+            None => (3 * GRID * GRID) as u32,
+        };
+        GpuStatsRay {
+            origin: start.as_vec3().to_array(),
+            far: (span.hi - span.lo) as f32,
+            dir: d.as_vec3().to_array(),
+            list,
+        }
+    }
+}
+
+/// Traces `setup.rays` protocol rays with each of `methods` on `renderer`'s GPU and compares
+/// the first `compared` of them with the reference tracer on the CPU; `progress` is called
+/// with the method's name and the fraction done.
+///
+/// # Errors
+/// [`BackendError::Unsupported`] for transparent rays or a method the GPU does not run on the
+/// scene; a device failure.
+pub fn run(
+    renderer: &mut GpuRenderer,
+    compiled: &Arc<Compiled>,
+    scene_name: &str,
+    methods: &[GpuMethod],
+    (setup, compared): (StatsSetup, usize),
+    progress: &dyn Fn(&str, f64),
+) -> Result<SceneStats, BackendError> {
+    if setup.mode == TraceMode::Transparent {
+        return Err(BackendError::Unsupported(
+            "transparent statistics run on the CPU only (the GPU traces the first crossing)"
+                .to_owned(),
+        ));
+    }
+    renderer.set_scene(compiled)?;
+    let program = &compiled.program;
+    let settings = TraceSettings::for_protocol(program, setup.protocol);
+    let bounds = program.support_bounds();
+    let lists = RayLists::new(renderer.packed_primitives(), bounds.min, bounds.max);
+    let sample: Vec<(Ray, Interval)> = rays_of_iter(program, setup.protocol, setup.seed)
+        .take(compared.min(setup.rays))
+        .collect();
+    progress("reference", 0.0);
+    let reference = reference_crossings(program, settings, &sample, TraceMode::Opaque);
+    // The first crossing enters the volume unless the ray starts inside it.
+    let entering: Vec<bool> = sample
+        .iter()
+        .map(|(ray, span)| program.value(ray.at(span.lo)) < program.isovalue())
+        .collect();
+    let mut out = Vec::with_capacity(methods.len());
+    for &method in methods {
+        let mut tally = MethodTally {
+            steps: Vec::with_capacity(setup.rays),
+            evaluations: None,
+            hits: 0,
+            nanoseconds: 0.0,
+        };
+        let mut found: Vec<Vec<Crossing>> = Vec::with_capacity(sample.len());
+        let mut source = rays_of_iter(program, setup.protocol, setup.seed);
+        // Untimed: the first batch would otherwise time the pipeline's build.
+        if let Some((ray, span)) = sample.first() {
+            renderer.trace_rays(method, &[lists.ray(ray, *span)], &lists, &settings)?;
+        }
+        while tally.steps.len() < setup.rays {
+            progress(method.name(), tally.steps.len() as f64 / setup.rays as f64);
+            let batch: Vec<(Ray, Interval)> = source
+                .by_ref()
+                .take(BATCH.min(setup.rays - tally.steps.len()))
+                .collect();
+            let gpu_rays: Vec<GpuStatsRay> = batch.iter().map(|(r, s)| lists.ray(r, *s)).collect();
+            let start = Instant::now();
+            let traced = renderer.trace_rays(method, &gpu_rays, &lists, &settings)?;
+            tally.nanoseconds += start.elapsed().as_nanos() as f64;
+            for ((steps, t), (_, span)) in traced.into_iter().zip(&batch) {
+                let i = tally.steps.len();
+                tally.steps.push(steps);
+                tally.hits += usize::from(t.is_finite());
+                if i < sample.len() {
+                    found.push(if t.is_finite() {
+                        vec![Crossing {
+                            t: span.lo + t,
+                            entering: entering[i],
+                        }]
+                    } else {
+                        Vec::new()
+                    });
+                }
+            }
+        }
+        let pairs = reference
+            .iter()
+            .zip(&found)
+            .map(|(want, got)| (want.as_slice(), got.as_slice()));
+        out.push(MethodStats::of(
+            method.name(),
+            tally,
+            pairs,
+            bounds.diagonal(),
+        ));
+        progress(method.name(), 1.0);
+    }
+    Ok(SceneStats {
+        scene: scene_name.to_owned(),
+        rays: setup.rays,
+        protocol: setup.protocol,
+        mode: setup.mode,
+        methods: out,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blob(centre: [f32; 3], radius: f32) -> GpuPrimitive {
+        GpuPrimitive {
+            bound: [centre[0], centre[1], centre[2], radius],
+            ..GpuPrimitive::zeroed()
+        }
+    }
+
+    /// An axis ray's list holds every primitive whose bounding sphere the ray meets, sampled
+    /// over random spheres and rays; other rays get every primitive.
+    #[test]
+    fn an_axis_rays_list_holds_every_sphere_it_meets() {
+        let mut state = 7_u64;
+        let mut unit = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1_u64 << 53) as f64
+        };
+        let (min, max) = (DVec3::new(-1.0, -2.0, 0.0), DVec3::new(3.0, 1.0, 5.0));
+        let spheres: Vec<GpuPrimitive> = (0..200)
+            .map(|_| {
+                let c = min + (max - min) * DVec3::new(unit(), unit(), unit());
+                blob(c.as_vec3().to_array(), (0.05 + 0.6 * unit()) as f32)
+            })
+            .collect();
+        let lists = RayLists::new(&spheres, min, max);
+        for k in 0..3000 {
+            let axis = k % 3;
+            let mut origin = min + (max - min) * DVec3::new(unit(), unit(), unit());
+            origin[axis] = min[axis];
+            let mut direction = DVec3::ZERO;
+            direction[axis] = 1.0;
+            let ray = Ray { origin, direction };
+            let gpu = lists.ray(&ray, Interval::new(0.0, (max - min)[axis]));
+            let [a, b] = lists.ranges[gpu.list as usize];
+            let listed = &lists.items[a as usize..b as usize];
+            for (i, p) in spheres.iter().enumerate() {
+                let c = DVec3::new(p.bound[0].into(), p.bound[1].into(), p.bound[2].into());
+                let off = (c - origin) - direction * (c - origin).dot(direction);
+                if off.length() <= f64::from(p.bound[3]) {
+                    assert!(listed.contains(&(i as u32)), "ray {k} misses sphere {i}");
+                }
+            }
+        }
+        let slanted = Ray {
+            origin: min,
+            direction: DVec3::ONE.normalize(),
+        };
+        let gpu = lists.ray(&slanted, Interval::new(0.0, 1.0));
+        let [a, b] = lists.ranges[gpu.list as usize];
+        assert_eq!((b - a) as usize, spheres.len());
+    }
+}
