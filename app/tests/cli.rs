@@ -495,3 +495,51 @@ fn trace_ray_reports_the_heat_maps_step_counts_and_a_consistent_step_log() {
     assert!(!bad.status.success());
     assert!(text(&bad.stderr).contains("outside the 48x40 frame"));
 }
+
+/// Issue 22: `stats --backend gpu` prints the DESIGN.md JSON with the rays compared with the
+/// reference (`--compared`), no evaluation count (`null`), and the CPU's hits on the same rays.
+/// Without an adapter it is skipped, unless `SKELETRACE_REQUIRE_GPU=1` (CI) makes that a failure.
+#[test]
+fn stats_on_the_gpu_compares_the_first_rays_with_the_reference() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/tree.ron");
+    let scene = scene.to_str().unwrap_or_default();
+    let args = |backend: &'static str| {
+        vec![
+            "stats",
+            scene,
+            "--methods",
+            "quadratic-taylor",
+            "--rays",
+            "1200",
+            "--compared",
+            "500",
+            "--json",
+            "--backend",
+            backend,
+        ]
+    };
+    let gpu = skeletrace(&args("gpu"));
+    if !gpu.status.success() && std::env::var("SKELETRACE_REQUIRE_GPU").as_deref() != Ok("1") {
+        eprintln!("SKIPPED: no GPU adapter ({})", text(&gpu.stderr));
+        return;
+    }
+    assert!(gpu.status.success(), "{}", text(&gpu.stderr));
+    let json = text(&gpu.stdout);
+    for field in [
+        "\"rays\": 1200",
+        "\"compared\": 500",
+        "\"avg_evaluations\": null",
+        "\"missed\": 0",
+        "\"spurious\": 0",
+    ] {
+        assert!(json.contains(field), "{field} missing from {json}");
+    }
+    let cpu = text(&skeletrace(&args("cpu")).stdout);
+    let hits = |json: &str| {
+        json.split("\"hits\": ")
+            .nth(1)
+            .map(|r| r.split(',').next().unwrap_or("").to_owned())
+    };
+    assert_eq!(hits(&json), hits(&cpu), "GPU {json}\nCPU {cpu}");
+    assert!(cpu.contains("\"compared\": 1200"), "{cpu}");
+}

@@ -293,6 +293,11 @@ mod tests {
                 clip_scale),
         );
         check_twin(&trace, "Light", rust_layout!(GpuLight: vector, colour));
+        check_twin(
+            &trace,
+            "StatsRay",
+            rust_layout!(crate::gpu_stats::GpuStatsRay: origin, far, dir, list),
+        );
     }
 
     /// Every shared constant is emitted once, and none is typed again in a WGSL file.
@@ -317,6 +322,9 @@ mod tests {
             ("field_inversion.wgsl", FIELD_INVERSION),
             ("main.wgsl", MAIN),
             ("binning.wgsl", BINNING),
+            ("heat.wgsl", HEAT),
+            ("viewport_blit.wgsl", BLIT),
+            ("step_statistics.wgsl", STEP_STATISTICS),
         ] {
             for name in &names {
                 assert!(

@@ -162,7 +162,7 @@ impl TileBinning {
             encoded_capacity: INITIAL_ITEMS,
             checked: 0,
             total_readback: AsyncReadback::new(device, "tile list total readback", 1),
-            max_binding: u64::from(device.limits().max_storage_buffer_binding_size),
+            max_binding: device.limits().max_storage_buffer_binding_size,
         }
     }
 
@@ -184,7 +184,7 @@ impl TileBinning {
             return Err(format!(
                 "the tile lists need {} MB; the GPU binds at most {} MB (use a smaller frame \
                  or the CPU)",
-                total * 4 >> 20,
+                (total * 4) >> 20,
                 self.max_binding >> 20
             ));
         }
