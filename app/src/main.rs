@@ -15,7 +15,7 @@ use std::process::ExitCode;
 use clap::Parser;
 use skeletrace_core::backend::{BackendChoice, DeviceKind};
 use skeletrace_core::cpu::stats;
-use skeletrace_core::methods::{Method, MethodId, TraceMode};
+use skeletrace_core::methods::{Method, MethodId, Protocol, TraceMode};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::{FieldProgram, Scene};
 use skeletrace_render::{GpuMethod, GpuRenderer};
@@ -171,13 +171,15 @@ fn gpu_methods(
     list: &str,
     chosen: &[Box<dyn Method>],
     program: &FieldProgram,
+    protocol: Protocol,
 ) -> Result<Vec<GpuMethod>, String> {
     let mut out = Vec::new();
     for method in chosen {
-        let id = MethodId::parse_list(method.name())?[0];
+        let id = method.id();
         let gpu = GpuMethod::from_id(id)
             .ok_or_else(|| "no GPU implementation".to_owned())
-            .and_then(|g| g.supports(program).map(|()| g));
+            .and_then(|g| g.supports(program).map(|()| g))
+            .and_then(|g| g.follows(protocol).map(|()| g));
         match gpu {
             Ok(g) => out.push(g),
             Err(why) if list == "all" => eprintln!("skeletrace: skipping {id} on the GPU: {why}"),
@@ -222,7 +224,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let stats = match on_gpu {
         None => stats::run(program, &name, &chosen, setup, &progress),
         Some(mut gpu) => {
-            let methods = gpu_methods(&args.methods, &chosen, program)?;
+            let methods = gpu_methods(&args.methods, &chosen, program, setup.protocol)?;
             eprintln!(
                 "skeletrace: {} rays per method on {}; the first {} compared with the reference on the CPU",
                 setup.rays,

@@ -37,6 +37,46 @@ fn point_quadratic(ray: Ray, i: u32, t0: f32, h_in: f32) -> Inclusion {
                      vec2<f32>(n * chord * x1, n * chord * x2), h);
 }
 
+// Linear bottom-up inclusion of a point blob (bottom_up.rs point_linear, §5.2): the chord of
+// the convex K(tangent of x) above, the tangent of K(chord of x) below.
+fn point_linear(ray: Ray, i: u32, t0: f32, h: f32) -> Inclusion {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let inv = 1.0 / (prim.a.w * prim.a.w);
+    let w = ray.origin + t0 * ray.dir - prim.a.xyz;
+    let x0 = dot(w, w) * inv;
+    let x1 = 2.0 * dot(w, ray.dir) * inv;
+    let x2 = inv;
+    let n = prim.c.x;
+    let k0 = kernel_convex(k, x0);
+    var upper = 0.0;
+    if h > 0.0 {
+        upper = n * (kernel_convex(k, x0 + x1 * h).x - k0.x) / h;
+    }
+    let lower = n * k0.y * (x1 + x2 * h);
+    return Inclusion(n * k0.x, vec2<f32>(lower, 0.0), vec2<f32>(upper, 0.0), h);
+}
+
+// Linear Taylor inclusion (inclusion.rs ForwardInclusion::linear).
+fn linear_taylor(f: f32, jet: Jet, h: f32) -> Inclusion {
+    return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);
+}
+
+// The lines under and over an inclusion's parabolas on its interval
+// (inclusion.rs ForwardInclusion::linearized).
+fn linearized(a: Inclusion) -> Inclusion {
+    let h = a.length;
+    var lower = vec2<f32>(a.lower.x, 0.0);
+    if a.lower.y < 0.0 {
+        lower.x = a.lower.x + a.lower.y * h;
+    }
+    var upper = vec2<f32>(a.upper.x, 0.0);
+    if a.upper.y > 0.0 {
+        upper.x = a.upper.x + a.upper.y * h;
+    }
+    return Inclusion(a.start, lower, upper, h);
+}
+
 // Quadratic Taylor inclusion (inclusion.rs ForwardInclusion::quadratic): a side whose f″ bound
 // is infinite falls back to linear Taylor.
 fn quadratic_taylor(f: f32, d: f32, jet: Jet, h: f32) -> Inclusion {
@@ -100,7 +140,23 @@ fn groups_max(groups: array<Inclusion, MAX_GROUPS>, negated: bool) -> Inclusion 
     return out;
 }
 
-fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32) -> Inclusion {
+// The groups' inclusions composed through the blend (inclusion.rs blend): summed, or their
+// maximum or minimum hull. Not for the smooth operators, which have no composition rule.
+fn compose_groups(groups: array<Inclusion, MAX_GROUPS>) -> Inclusion {
+    if globals.blend_operator == BLEND_SUM {
+        var out = groups[0];
+        for (var g = 1u; g < globals.group_count; g++) {
+            out = inclusion_add(out, groups[g]);
+        }
+        return out;
+    }
+    return groups_max(groups, globals.blend_operator == BLEND_MIN);
+}
+
+// Bottom-up inclusion of the field (bottom_up.rs field_inclusion): point blobs by their own
+// rule, other primitives by their Taylor inclusion of the same degree, summed per group and
+// composed; the linear one is linearized after the composition.
+fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Inclusion {
     var groups: array<Inclusion, MAX_GROUPS>;
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
@@ -115,35 +171,66 @@ fn bottom_up_quadratic(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32)
         let g = primitives[i].group;
         var own: Inclusion;
         if primitives[i].kind == KIND_POINT {
-            own = point_quadratic(ray, i, t, h);
+            if quadratic {
+                own = point_quadratic(ray, i, t, h);
+            } else {
+                own = point_linear(ray, i, t, h);
+            }
         } else {
-            // No bottom-up rule: the primitive's own quadratic Taylor inclusion (primitive_taylor).
+            // No bottom-up rule: the primitive's own Taylor inclusion (primitive_taylor).
             let vg = primitive_value_gradient(i, ray.origin + t * ray.dir);
-            own = quadratic_taylor(vg.x, dot(vg.yzw, ray.dir), item_jet(ray, item, t, t + h), h);
+            let jet = item_jet(ray, item, t, t + h);
+            if quadratic {
+                own = quadratic_taylor(vg.x, dot(vg.yzw, ray.dir), jet, h);
+            } else {
+                own = linear_taylor(vg.x, jet, h);
+            }
         }
         groups[g] = inclusion_add(groups[g], own);
     }
-    if globals.blend_operator == BLEND_SUM {
-        var out = groups[0];
-        for (var g = 1u; g < globals.group_count; g++) {
-            out = inclusion_add(out, groups[g]);
-        }
+    let out = compose_groups(groups);
+    if quadratic {
         return out;
     }
-    return groups_max(groups, globals.blend_operator == BLEND_MIN);
+    return linearized(out);
+}
+
+// Mixed inclusion (forward-inclusion 2023 §7.2; marching.rs mixed_inclusion): each group's own
+// Taylor inclusion from its value, slope and jet, composed through the blend.
+fn mixed(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Inclusion {
+    let values = groups_at(sp, ray, t);
+    let jets = group_jets(sp, ray, t, t + h);
+    var groups: array<Inclusion, MAX_GROUPS>;
+    for (var g = 0u; g < MAX_GROUPS; g++) {
+        if quadratic {
+            groups[g] = quadratic_taylor(values[g].x, dot(values[g].yzw, ray.dir), jets[g], h);
+        } else {
+            groups[g] = linear_taylor(values[g].x, jets[g], h);
+        }
+    }
+    return compose_groups(groups);
 }
 
 fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
+    let composable = globals.blend_operator < BLEND_SMOOTH_UNION;
     if METHOD == BOUND_SEGMENT {
         return symmetric(f, summed_lipschitz(sp, ray, t, t + h), h);
-    } else if METHOD == BOUND_BOTTOM_UP_QUADRATIC && globals.blend_operator < BLEND_SMOOTH_UNION {
-        return bottom_up_quadratic(sp, ray, t, h);
+    } else if METHOD == BOUND_BOTTOM_UP_QUADRATIC && composable {
+        return bottom_up(sp, ray, t, h, true);
+    } else if METHOD == BOUND_BOTTOM_UP_LINEAR && composable {
+        return bottom_up(sp, ray, t, h, false);
+    } else if METHOD == BOUND_LINEAR_MIXED && composable {
+        return mixed(sp, ray, t, h, false);
+    } else if METHOD == BOUND_QUADRATIC_MIXED && composable {
+        return mixed(sp, ray, t, h, true);
     }
-    // Below: Taylor inclusions, also bottom-up-quadratic's fallback for the smooth operators,
-    // which have no forward-inclusion composition rule (bottom_up.rs field_inclusion).
+    // Below: Taylor inclusions of the whole field, also the bottom-up and mixed methods'
+    // fallback for the smooth operators, which have no forward-inclusion composition rule
+    // (bottom_up.rs field_inclusion, marching.rs mixed_inclusion).
     let jet = ray_jet(sp, ray, t, t + h);
-    if METHOD == BOUND_LINEAR_TAYLOR {
-        return Inclusion(f, vec2<f32>(jet.d1.x, 0.0), vec2<f32>(jet.d1.y, 0.0), h);
+    if METHOD == BOUND_LINEAR_TAYLOR || METHOD == BOUND_BOTTOM_UP_LINEAR
+        || METHOD == BOUND_LINEAR_MIXED {
+        return linear_taylor(f, jet, h);
     }
     return quadratic_taylor(f, d, jet, h);
 }

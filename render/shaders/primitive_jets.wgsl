@@ -246,7 +246,8 @@ fn item_jet(ray: Ray, item: SupportItem, lo: f32, hi: f32) -> Jet {
 }
 
 // Group jets over [lo, hi], blended (ray_jet), and the summed Lipschitz bound (summed_lipschitz).
-fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
+// Each group's jet over [lo, hi]: the sum of its primitives'.
+fn group_jets(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> array<Jet, MAX_GROUPS> {
     var groups: array<Jet, MAX_GROUPS>;
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
@@ -260,6 +261,11 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
         let g = primitives[item.id].group;
         groups[g] = jet_add(groups[g], item_jet(ray, item, lo, hi));
     }
+    return groups;
+}
+
+fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
+    let groups = group_jets(sp, ray, lo, hi);
     let n = globals.group_count;
     let op = globals.blend_operator;
     if op >= BLEND_SMOOTH_UNION {

@@ -588,7 +588,7 @@ impl GpuRenderer {
         lists: &RayLists,
         settings: &TraceSettings,
     ) -> Result<Vec<(u32, f64)>, BackendError> {
-        self.ready_for(&[method], View::Steps { steps_max: 1 })?;
+        self.ready_for(&[method], View::Steps { steps_max: 1 }, settings)?;
         let device = self.device.clone();
         let d = &device;
         let source = method.source();
@@ -703,7 +703,7 @@ impl GpuRenderer {
         (width, height): (u32, u32),
         view: View,
     ) -> Result<Vec<Frame>, BackendError> {
-        let compiled = self.ready_for(methods, view)?;
+        let compiled = self.ready_for(methods, view, settings)?;
         let geometry = FrameGeometry::new(camera, width, height);
         self.trace_frames(&compiled.program, methods, &geometry, settings, view)
             .map_err(BackendError::DeviceFailed)
@@ -726,7 +726,7 @@ impl GpuRenderer {
         (width, height): (u32, u32),
         view: View,
     ) -> Result<(), BackendError> {
-        let compiled = self.ready_for(methods, view)?;
+        let compiled = self.ready_for(methods, view, settings)?;
         let geometry = FrameGeometry::new(camera, width, height);
         self.encode_trace(
             encoder,
@@ -772,12 +772,14 @@ impl GpuRenderer {
         &self.device
     }
 
-    /// The uploaded scene, after checking that `methods` and `view` apply to it; builds the
+    /// The uploaded scene, after checking that `methods` and `view` apply to it and that the
+    /// methods follow the settings' profile ([`GpuMethod::follows`]); builds the
     /// methods' pipelines.
     fn ready_for(
         &mut self,
         methods: &[GpuMethod],
         view: View,
+        settings: &TraceSettings,
     ) -> Result<Arc<Compiled>, BackendError> {
         let compiled = self
             .scene
@@ -785,6 +787,10 @@ impl GpuRenderer {
             .map(|s| Arc::clone(&s.compiled))
             .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
         let program = &compiled.program;
+        for m in methods {
+            m.follows(settings.protocol)
+                .map_err(BackendError::Unsupported)?;
+        }
         for m in methods {
             m.supports(program).map_err(BackendError::Unsupported)?;
         }

@@ -4,7 +4,7 @@
 use skeletrace_core::FieldProgram;
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::{Primitive, Solid};
-use skeletrace_core::methods::MethodId;
+use skeletrace_core::methods::{MethodId, Protocol};
 
 use crate::shared::{MarchBound, wgsl_constants};
 
@@ -58,6 +58,12 @@ pub enum GpuMethod {
     QuadraticTaylor,
     /// `bottom-up-quadratic` (point blobs; Taylor for segments and planes).
     BottomUpQuadratic,
+    /// `bottom-up-linear` (point blobs; Taylor for segments and planes).
+    BottomUpLinear,
+    /// `linear-mixed` (point blobs, segments, planes).
+    LinearMixed,
+    /// `quadratic-mixed` (point blobs, segments, planes).
+    QuadraticMixed,
     /// `scalis-quadratic` (SCALIS skeletons).
     ScalisQuadratic,
     /// `field-inversion` (Gaussian blobs).
@@ -66,13 +72,16 @@ pub enum GpuMethod {
 
 impl GpuMethod {
     /// Every GPU method.
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 11] = [
         Self::Sphere,
         Self::SphereEnhanced,
         Self::Segment,
         Self::LinearTaylor,
         Self::QuadraticTaylor,
         Self::BottomUpQuadratic,
+        Self::BottomUpLinear,
+        Self::LinearMixed,
+        Self::QuadraticMixed,
         Self::ScalisQuadratic,
         Self::FieldInversion,
     ];
@@ -87,6 +96,9 @@ impl GpuMethod {
             Self::LinearTaylor => MethodId::LinearTaylor,
             Self::QuadraticTaylor => MethodId::QuadraticTaylor,
             Self::BottomUpQuadratic => MethodId::BottomUpQuadratic,
+            Self::BottomUpLinear => MethodId::BottomUpLinear,
+            Self::LinearMixed => MethodId::LinearMixed,
+            Self::QuadraticMixed => MethodId::QuadraticMixed,
             Self::ScalisQuadratic => MethodId::ScalisQuadratic,
             Self::FieldInversion => MethodId::FieldInversion,
         }
@@ -102,6 +114,29 @@ impl GpuMethod {
     #[must_use]
     pub const fn name(self) -> &'static str {
         self.id().name()
+    }
+
+    /// `Err` with the reason when this GPU method does not follow `protocol`: the profiles reach
+    /// the GPU through the trace settings only, and these methods make choices of their own
+    /// under some of them on the CPU (`core/src/methods/protocol.rs`).
+    ///
+    /// # Errors
+    /// The choice the GPU lacks.
+    pub fn follows(self, protocol: Protocol) -> Result<(), String> {
+        let lacks = match (self, protocol) {
+            (Self::ScalisQuadratic, Protocol::Paper2021) => {
+                "the paper's |F| < 10⁻³ stop and sphere-step entry"
+            }
+            (Self::FieldInversion, Protocol::Paper2023) => {
+                "the unrefined hit of Bruckner's listing"
+            }
+            (Self::SphereEnhanced, Protocol::Paper2014) => "ω = 1.2",
+            _ => return Ok(()),
+        };
+        Err(format!(
+            "{} under --protocol {protocol} runs on the CPU only (the GPU lacks {lacks})",
+            self.name()
+        ))
     }
 
     /// `Err` with the reason when this GPU method cannot trace `program` (the CPU method may).
@@ -124,6 +159,9 @@ impl GpuMethod {
             | Self::LinearTaylor
             | Self::QuadraticTaylor
             | Self::BottomUpQuadratic
+            | Self::BottomUpLinear
+            | Self::LinearMixed
+            | Self::QuadraticMixed
                 if !bounded =>
             {
                 Err(format!(
@@ -170,11 +208,17 @@ impl GpuMethod {
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
-            | Self::BottomUpQuadratic => {
+            | Self::BottomUpQuadratic
+            | Self::BottomUpLinear
+            | Self::LinearMixed
+            | Self::QuadraticMixed => {
                 let bound = match self {
                     Self::Segment => MarchBound::Segment,
                     Self::LinearTaylor => MarchBound::LinearTaylor,
                     Self::QuadraticTaylor => MarchBound::QuadraticTaylor,
+                    Self::BottomUpLinear => MarchBound::BottomUpLinear,
+                    Self::LinearMixed => MarchBound::LinearMixed,
+                    Self::QuadraticMixed => MarchBound::QuadraticMixed,
                     _ => MarchBound::BottomUpQuadratic,
                 };
                 format!(
@@ -297,6 +341,32 @@ mod tests {
             &trace,
             "StatsRay",
             rust_layout!(crate::gpu_stats::GpuStatsRay: origin, far, dir, list),
+        );
+    }
+
+    /// Every GPU method follows the default profile; the three whose profile choices are
+    /// CPU-only refuse those profiles, naming what the GPU lacks.
+    #[test]
+    fn methods_refuse_the_profiles_whose_choices_the_gpu_lacks() {
+        for method in GpuMethod::ALL {
+            assert!(
+                method.follows(Protocol::Default).is_ok(),
+                "{}",
+                method.name()
+            );
+        }
+        for (method, protocol) in [
+            (GpuMethod::ScalisQuadratic, Protocol::Paper2021),
+            (GpuMethod::FieldInversion, Protocol::Paper2023),
+            (GpuMethod::SphereEnhanced, Protocol::Paper2014),
+        ] {
+            let why = method.follows(protocol).err().unwrap_or_default();
+            assert!(why.contains("runs on the CPU only"), "{why}");
+        }
+        assert!(
+            GpuMethod::QuadraticTaylor
+                .follows(Protocol::Paper2023)
+                .is_ok()
         );
     }
 

@@ -75,6 +75,12 @@ pub enum MarchBound {
     QuadraticTaylor = 2,
     /// Bottom-up quadratic inclusion.
     BottomUpQuadratic = 3,
+    /// Bottom-up linear inclusion.
+    BottomUpLinear = 4,
+    /// Per-group linear Taylor inclusions composed through the blend.
+    LinearMixed = 5,
+    /// Per-group quadratic Taylor inclusions composed through the blend.
+    QuadraticMixed = 6,
 }
 
 /// A WGSL `const` of type `f32`.
@@ -137,6 +143,9 @@ pub fn wgsl_constants() -> String {
         ("BOUND_LINEAR_TAYLOR", MarchBound::LinearTaylor),
         ("BOUND_QUADRATIC_TAYLOR", MarchBound::QuadraticTaylor),
         ("BOUND_BOTTOM_UP_QUADRATIC", MarchBound::BottomUpQuadratic),
+        ("BOUND_BOTTOM_UP_LINEAR", MarchBound::BottomUpLinear),
+        ("BOUND_LINEAR_MIXED", MarchBound::LinearMixed),
+        ("BOUND_QUADRATIC_MIXED", MarchBound::QuadraticMixed),
     ] {
         u32_const(&mut out, name, bound as u32);
     }

@@ -150,6 +150,9 @@ impl MethodId {
                 | Self::LinearTaylor
                 | Self::QuadraticTaylor
                 | Self::BottomUpQuadratic
+                | Self::BottomUpLinear
+                | Self::LinearMixed
+                | Self::QuadraticMixed
                 | Self::ScalisQuadratic
                 | Self::FieldInversion
         )
