@@ -6,6 +6,7 @@
 //! back), else from the render thread's frames.
 
 use eframe::egui;
+use egui_plot::{Bar, BarChart, Plot};
 use skeletrace_core::frame::{StepHistogram, StepScale, View};
 use skeletrace_core::methods::MethodId;
 
@@ -187,8 +188,9 @@ impl Editor {
                 egui::Color32::LIGHT_GRAY,
             );
             if let Some(h) = &info.histogram {
-                draw_histogram(
-                    &painter,
+                histogram_plot(
+                    ui,
+                    ("step histogram", i),
                     egui::Rect::from_min_size(
                         egui::pos2(x + layout.cell_w - 4.0 - HISTOGRAM_WIDTH, y + 2.0),
                         egui::vec2(HISTOGRAM_WIDTH, label - 6.0),
@@ -316,36 +318,62 @@ fn histogram_bin(steps: u32) -> usize {
     }
 }
 
-/// A panel's step histogram in `rect`: the share of pixels in each power-of-two bin of step
-/// counts (square-root heights, so rare long marches stay visible), bars in the heat colour of
-/// the bin's lower count.
-fn draw_histogram(painter: &egui::Painter, rect: egui::Rect, histogram: &StepHistogram) {
+/// A panel's step histogram in `rect` (egui_plot): the share of pixels in each power-of-two bin
+/// of step counts (square-root heights, so rare long marches stay visible), bars in the heat
+/// colour of the bin's lower count; hovering a bar names its bin and share.
+fn histogram_plot(
+    ui: &mut egui::Ui,
+    id: impl std::hash::Hash + std::fmt::Debug,
+    rect: egui::Rect,
+    histogram: &StepHistogram,
+) {
     let mut counts = [0_u64; HISTOGRAM_BINS];
     for (steps, &n) in histogram.counts().iter().enumerate() {
         counts[histogram_bin(steps as u32)] += n;
     }
-    let total = histogram.pixels().max(1) as f32;
-    painter.rect_filled(rect, 2.0, egui::Color32::from_black_alpha(120));
-    let w = rect.width() / HISTOGRAM_BINS as f32;
-    for (k, &count) in counts.iter().enumerate() {
-        if count == 0 {
-            continue;
-        }
-        let h = rect.height() * (count as f32 / total).sqrt();
-        let low = if k == 0 { 0 } else { 1_u32 << (k - 1) };
-        let [r, g, b] = skeletrace_core::frame::heat_colour(
-            StepScale::Log.position(f64::from(low), 1 << (HISTOGRAM_BINS - 2)),
-        );
-        let byte = |c: f32| (c * 255.0 + 0.5) as u8;
-        painter.rect_filled(
-            egui::Rect::from_min_max(
-                egui::pos2(rect.left() + k as f32 * w + 0.5, rect.bottom() - h),
-                egui::pos2(rect.left() + (k + 1) as f32 * w - 0.5, rect.bottom()),
-            ),
-            0.0,
-            egui::Color32::from_rgb(byte(r), byte(g), byte(b)),
-        );
-    }
+    let total = histogram.pixels().max(1) as f64;
+    let bars: Vec<Bar> = counts
+        .iter()
+        .enumerate()
+        .filter(|&(_, &count)| count > 0)
+        .map(|(k, &count)| {
+            let low = if k == 0 { 0 } else { 1_u32 << (k - 1) };
+            let [r, g, b] = skeletrace_core::frame::heat_colour(
+                StepScale::Log.position(f64::from(low), 1 << (HISTOGRAM_BINS - 2)),
+            );
+            let byte = |c: f32| (c * 255.0 + 0.5) as u8;
+            let bin = match k {
+                0 => "0 steps".to_owned(),
+                _ if k == HISTOGRAM_BINS - 1 => format!("{low}+ steps"),
+                _ => format!("{low}–{} steps", 2 * low - 1),
+            };
+            let share = count as f64 / total;
+            Bar::new(k as f64, share.sqrt())
+                .width(0.85)
+                .fill(egui::Color32::from_rgb(byte(r), byte(g), byte(b)))
+                .name(format!("{bin}: {:.1} %", 100.0 * share))
+        })
+        .collect();
+    ui.put(rect, |ui: &mut egui::Ui| {
+        Plot::new(id)
+            .width(rect.width())
+            .height(rect.height())
+            .show_axes(false)
+            .show_grid(false)
+            .show_x(false)
+            .show_y(false)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .allow_boxed_zoom(false)
+            .include_x(-0.5)
+            .include_x(HISTOGRAM_BINS as f64 - 0.5)
+            .include_y(0.0)
+            .include_y(1.0)
+            .set_margin_fraction(egui::Vec2::ZERO)
+            .show(ui, |plot| plot.bar_chart(BarChart::new("steps", bars)))
+            .response
+    });
 }
 
 /// Tick values of the colour bar: 0, then 1, 2, 5, 10, 20, 50, … (log) or quarters (linear), and
