@@ -978,6 +978,45 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
     assert_eq!(h.state().gpu_viewport_counts().map(|c| c.0), traced);
 }
 
+/// Issue 22: the editor traces the default creature and the hand on the window's GPU (forced on
+/// lavapipe as a hardware adapter would take it): the frame goes through the paint callback,
+/// the render thread traces nothing, and no failure sends it back to the CPU. The HRBF scene and
+/// the scene with every shape and operator still go to the CPU (`docs/gpu.md`).
+#[test]
+fn the_editor_traces_the_creature_and_the_hand_on_the_gpu() {
+    if skeletrace_tests::skip_without_gpu("the_editor_traces_the_creature_and_the_hand") {
+        return;
+    }
+    for name in ["creature", "hand"] {
+        let ui_state = UiState {
+            backend: BackendChoice::Auto,
+            shaded_method: skeletrace_core::MethodId::QuadraticTaylor,
+            ..UiState::default()
+        };
+        let doc = Document::open(&asset(name)).unwrap_or_else(|e| panic!("{e}"));
+        let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), 0.2);
+        settle_gpu_viewport(&mut h);
+        let (traced, _, _) = h
+            .state()
+            .gpu_viewport_counts()
+            .unwrap_or_else(|| panic!("{name}: the GPU viewport is on"));
+        assert!(
+            traced >= 1,
+            "{name}: traced on the GPU ({:?})",
+            h.state().notice()
+        );
+        assert!(
+            h.state().shown_frames().is_empty(),
+            "{name}: nothing went through the render thread"
+        );
+        assert!(
+            h.state().gpu_viewport_counts().is_some(),
+            "{name}: no failure sent the viewport back to the CPU ({:?})",
+            h.state().notice()
+        );
+    }
+}
+
 /// Issue 19: an edit made in the window, then no input at all: within the autosave period (and
 /// a little) the recovery file holds the edited scene.
 #[test]
