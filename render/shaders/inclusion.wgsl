@@ -12,14 +12,21 @@ fn kernel_convex(k: Kernel, x: f32) -> vec2<f32> {
     return kernel_d1(k, x);
 }
 
+// x(s) = x0 + x1·s + x2·s², the squared distance to point blob `prim` in units of its radius
+// along the ray from t0 (bottom_up.rs squared_distance).
+fn blob_squared_distance(ray: Ray, prim: Primitive, t0: f32) -> vec3<f32> {
+    let inv = 1.0 / (prim.a.w * prim.a.w);
+    let w = ray.origin + t0 * ray.dir - prim.a.xyz;
+    return vec3<f32>(dot(w, w) * inv, 2.0 * dot(w, ray.dir) * inv, inv);
+}
+
 fn point_quadratic(ray: Ray, i: u32, t0: f32, h_in: f32) -> Inclusion {
     let prim = primitives[i];
     let k = kernels[prim.group];
-    let inv = 1.0 / (prim.a.w * prim.a.w);
-    let w = ray.origin + t0 * ray.dir - prim.a.xyz;
-    let x0 = dot(w, w) * inv;
-    let x1 = 2.0 * dot(w, ray.dir) * inv;
-    let x2 = inv;
+    let x = blob_squared_distance(ray, prim, t0);
+    let x0 = x.x;
+    let x1 = x.y;
+    let x2 = x.z;
     let n = prim.c.x;
     let closest = -x1 / (2.0 * x2);
     var h = h_in;
@@ -42,11 +49,10 @@ fn point_quadratic(ray: Ray, i: u32, t0: f32, h_in: f32) -> Inclusion {
 fn point_linear(ray: Ray, i: u32, t0: f32, h: f32) -> Inclusion {
     let prim = primitives[i];
     let k = kernels[prim.group];
-    let inv = 1.0 / (prim.a.w * prim.a.w);
-    let w = ray.origin + t0 * ray.dir - prim.a.xyz;
-    let x0 = dot(w, w) * inv;
-    let x1 = 2.0 * dot(w, ray.dir) * inv;
-    let x2 = inv;
+    let x = blob_squared_distance(ray, prim, t0);
+    let x0 = x.x;
+    let x1 = x.y;
+    let x2 = x.z;
     let n = prim.c.x;
     let k0 = kernel_convex(k, x0);
     var upper = 0.0;

@@ -132,27 +132,37 @@ fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
     return colour;
 }
 
+// Marches `ray` over its gathered supports from where suspension `k` left it, its outcome in
+// `trace`; whether the march finished in this dispatch (a marching method is dispatched until
+// every ray's budget is spent, parts.wgsl).
+fn march_resumed(k: u32, sp: ptr<function, RaySupports>, ray: Ray, trace: ptr<function, Trace>) -> bool {
+    var resume = suspensions[k];
+    *trace = trace_ray(sp, ray, &resume);
+    if (resume.flags & SUSPENDED) != 0u {
+        suspensions[k] = resume;
+        return false;
+    }
+    suspensions[k].flags = FINISHED;
+    return true;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= globals.width || id.y >= globals.height {
         return;
     }
-    // A marching method is dispatched until every ray's budget is spent (parts.wgsl).
     let pixel = id.y * globals.width + id.x;
-    var resume = suspensions[pixel];
-    if (resume.flags & FINISHED) != 0u {
+    if (suspensions[pixel].flags & FINISHED) != 0u {
         return;
     }
     let ray = pixel_ray(id.x, id.y);
     var supports: RaySupports;
     let sp = &supports;
     gather_supports(sp, ray, id.x, id.y);
-    let trace = trace_ray(sp, ray, &resume);
-    if (resume.flags & SUSPENDED) != 0u {
-        suspensions[pixel] = resume;
+    var trace: Trace;
+    if !march_resumed(pixel, sp, ray, &trace) {
         return;
     }
-    suspensions[pixel].flags = FINISHED;
     let out = id.y * globals.output_width + globals.panel_x + id.x;
     out_steps[out] = trace.steps;
     out_depth[out] = select(INF, trace.t, trace.hit);
@@ -188,8 +198,7 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     if k >= globals.width {
         return;
     }
-    var resume = suspensions[k];
-    if (resume.flags & FINISHED) != 0u {
+    if (suspensions[k].flags & FINISHED) != 0u {
         return;
     }
     let r = stats_rays[k];
@@ -197,12 +206,10 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     var supports: RaySupports;
     let sp = &supports;
     gather_list(sp, ray, r.list, r.far);
-    let trace = trace_ray(sp, ray, &resume);
-    if (resume.flags & SUSPENDED) != 0u {
-        suspensions[k] = resume;
+    var trace: Trace;
+    if !march_resumed(k, sp, ray, &trace) {
         return;
     }
-    suspensions[k].flags = FINISHED;
     out_steps[k] = trace.steps;
     out_depth[k] = select(INF, trace.t, trace.hit);
 }
