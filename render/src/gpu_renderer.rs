@@ -21,7 +21,7 @@ use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuPrimitive, PackedScene};
-use crate::gpu_stats::{GpuStatsRay, RayLists, STATS_ROW};
+use crate::gpu_stats::{GpuStatsRay, RayLists, STATS_ROW, UploadedRayLists};
 use crate::shaders::GpuMethod;
 use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
 
@@ -574,6 +574,16 @@ impl GpuRenderer {
             .or_insert_with(|| pipeline(device, &method.source(), "trace_pixels"))
     }
 
+    /// `lists` in storage buffers, for every batch of [`GpuRenderer::trace_rays`].
+    #[must_use]
+    pub fn upload_ray_lists(&self, lists: &RayLists) -> UploadedRayLists {
+        let d = &self.device;
+        UploadedRayLists {
+            ranges: storage(d, "ray list ranges", bytemuck::cast_slice(&lists.ranges)),
+            items: storage(d, "ray list items", bytemuck::cast_slice(&lists.items)),
+        }
+    }
+
     /// Traces a batch of statistics rays with `method` on the uploaded scene
     /// (`stats --backend gpu`, [`crate::gpu_stats`]): each ray over `[0, far]` among the
     /// primitives of its list in `lists`. Returns each ray's steps and the parameter of its first
@@ -585,7 +595,7 @@ impl GpuRenderer {
         &mut self,
         method: GpuMethod,
         rays: &[GpuStatsRay],
-        lists: &RayLists,
+        lists: &UploadedRayLists,
         settings: &TraceSettings,
     ) -> Result<Vec<(u32, f64)>, BackendError> {
         self.ready_for(&[method], View::Steps { steps_max: 1 }, settings)?;
@@ -612,8 +622,6 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let ray_buffer = storage(d, "statistics rays", bytemuck::cast_slice(rays));
-        let ranges = storage(d, "ray list ranges", bytemuck::cast_slice(&lists.ranges));
-        let items = storage(d, "ray list items", bytemuck::cast_slice(&lists.items));
         let output = |label: &str, usage: wgpu::BufferUsages| {
             d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -642,8 +650,8 @@ impl GpuRenderer {
                 entry(0, &globals),
                 entry(1, &scene.primitives),
                 entry(2, &scene.kernels),
-                entry(5, &ranges),
-                entry(6, &items),
+                entry(5, &lists.ranges),
+                entry(6, &lists.items),
                 entry(8, &depth),
                 entry(9, &steps),
                 entry(10, &suspensions),

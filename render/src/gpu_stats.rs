@@ -60,6 +60,12 @@ pub struct RayLists {
     cell: DVec3,
 }
 
+/// [`RayLists`] on the GPU ([`GpuRenderer::upload_ray_lists`]).
+pub struct UploadedRayLists {
+    pub(crate) ranges: wgpu::Buffer,
+    pub(crate) items: wgpu::Buffer,
+}
+
 impl RayLists {
     /// The lists of `primitives` (as packed for the GPU) for rays inside the box `[min, max]`.
     #[must_use]
@@ -171,6 +177,7 @@ pub fn run(
     let settings = TraceSettings::for_protocol(program, setup.protocol);
     let bounds = program.support_bounds();
     let lists = RayLists::new(renderer.packed_primitives(), bounds.min, bounds.max);
+    let uploaded = renderer.upload_ray_lists(&lists);
     let sample: Vec<(Ray, Interval)> = rays_of_iter(program, setup.protocol, setup.seed)
         .take(compared.min(setup.rays))
         .collect();
@@ -193,7 +200,7 @@ pub fn run(
         let mut source = rays_of_iter(program, setup.protocol, setup.seed);
         // Untimed: the first batch would otherwise time the pipeline's build.
         if let Some((ray, span)) = sample.first() {
-            renderer.trace_rays(method, &[lists.ray(ray, *span)], &lists, &settings)?;
+            renderer.trace_rays(method, &[lists.ray(ray, *span)], &uploaded, &settings)?;
         }
         while tally.steps.len() < setup.rays {
             progress(method.name(), tally.steps.len() as f64 / setup.rays as f64);
@@ -203,7 +210,7 @@ pub fn run(
                 .collect();
             let gpu_rays: Vec<GpuStatsRay> = batch.iter().map(|(r, s)| lists.ray(r, *s)).collect();
             let start = Instant::now();
-            let traced = renderer.trace_rays(method, &gpu_rays, &lists, &settings)?;
+            let traced = renderer.trace_rays(method, &gpu_rays, &uploaded, &settings)?;
             tally.nanoseconds += start.elapsed().as_nanos() as f64;
             for ((steps, t), (_, span)) in traced.into_iter().zip(&batch) {
                 let i = tally.steps.len();

@@ -86,10 +86,18 @@ impl Editor {
             );
             return;
         };
-        let panels: Vec<egui::Rect> = (0..infos.len())
+        // Each panel's cell: its label strip, then its image.
+        let cells: Vec<egui::Pos2> = (0..infos.len())
             .map(|i| {
-                let x = rect.left() + (i % layout.columns) as f32 * layout.cell_w;
-                let y = rect.top() + (i / layout.columns) as f32 * (layout.panel_h + label);
+                egui::pos2(
+                    rect.left() + (i % layout.columns) as f32 * layout.cell_w,
+                    rect.top() + (i / layout.columns) as f32 * (layout.panel_h + label),
+                )
+            })
+            .collect();
+        let panels: Vec<egui::Rect> = cells
+            .iter()
+            .map(|&egui::Pos2 { x, y }| {
                 fit_rect(
                     egui::Rect::from_min_size(
                         egui::pos2(x, y + label),
@@ -159,9 +167,7 @@ impl Editor {
             }
             top
         };
-        for (i, info) in infos.iter().enumerate() {
-            let x = rect.left() + (i % layout.columns) as f32 * layout.cell_w;
-            let y = rect.top() + (i / layout.columns) as f32 * (layout.panel_h + label);
+        for (i, (info, &egui::Pos2 { x, y })) in infos.iter().zip(&cells).enumerate() {
             let backend = if info.on_gpu { "GPU" } else { "CPU" };
             painter.text(
                 egui::pos2(x + 4.0, y + 2.0),

@@ -10,13 +10,13 @@ use std::time::Duration;
 use eframe::egui;
 use skeletrace_core::Compiled;
 use skeletrace_core::backend::{BackendChoice, Cancel};
-use skeletrace_core::frame::{FieldShading, Frame, StepScale};
+use skeletrace_core::frame::{FieldShading, Frame, StepHistogram, StepScale, shared_step_top};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
 
 use super::ViewMode;
 use super::worker::{RenderWorker, Reply, Request};
-use crate::picture::{Canvas, shared_scale};
+use crate::picture::Canvas;
 
 /// Preview resolution divisor at start, before any preview was timed.
 const PREVIEW_DIVISOR: usize = 4;
@@ -32,7 +32,7 @@ pub(super) struct ShownFrame {
     pub method: MethodId,
     pub frame: Frame,
     /// Its step counts' histogram (the grid's statistics).
-    pub histogram: skeletrace_core::frame::StepHistogram,
+    pub histogram: StepHistogram,
     pub texture: egui::TextureHandle,
     pub on_gpu: bool,
     pub ms: f64,
@@ -229,16 +229,17 @@ impl ViewportFrames {
             self.preview_divisor =
                 adapted_divisor(self.preview_divisor, ms, traced, self.viewport_pixels);
         }
-        let named: Vec<(&str, Frame)> = reply
+        let histograms: Vec<StepHistogram> = reply
             .frames
             .iter()
-            .map(|t| (t.method.name(), t.frame.clone()))
+            .map(|t| t.frame.step_histogram())
             .collect();
-        let steps_max = shared_scale(&named).max(1);
+        let steps_max = shared_step_top(&histograms);
         let frames = reply
             .frames
             .into_iter()
-            .map(|t| {
+            .zip(histograms)
+            .map(|(t, histogram)| {
                 let image = frame_image(&t.frame, view, steps_max, scale);
                 let texture = ctx.load_texture(
                     format!("frame-{}", t.method),
@@ -247,7 +248,7 @@ impl ViewportFrames {
                 );
                 ShownFrame {
                     method: t.method,
-                    histogram: t.frame.step_histogram(),
+                    histogram,
                     frame: t.frame,
                     texture,
                     on_gpu: t.on_gpu,
