@@ -146,6 +146,23 @@ impl Interval {
     }
 }
 
+impl Interval {
+    /// `self · o` for `o` of positive members only (`o.lo > 0`): the end points of `*` (equal
+    /// numbers; where both are zeros their signs may differ), since the order of the products
+    /// is known (the larger factor of `self` gives the larger products), with two products and
+    /// comparisons fewer. For the hot loops of the
+    /// SCALIS bounds, where `o` is a power of `1/τ` (issue 18).
+    #[must_use]
+    #[inline]
+    pub fn times_positive(self, o: Self) -> Self {
+        debug_assert!(o.lo > 0.0, "{o:?}");
+        Self {
+            lo: mul_ends(self.lo, o.lo).min(mul_ends(self.lo, o.hi)),
+            hi: mul_ends(self.hi, o.lo).max(mul_ends(self.hi, o.hi)),
+        }
+    }
+}
+
 /// Product of two end points with the interval convention `0 · ∞ = 0`.
 fn mul_ends(a: f64, b: f64) -> f64 {
     if a == 0.0 || b == 0.0 { 0.0 } else { a * b }
@@ -453,6 +470,41 @@ mod tests {
     fn multiplication_treats_zero_times_infinity_as_zero() {
         let z = Interval::ZERO * Interval::ENTIRE;
         assert_eq!(z, Interval::ZERO);
+    }
+
+    /// `times_positive` gives the end points of `*`, on intervals of every sign (zero and
+    /// infinite end points included) times positive ones: bit for bit, except the sign of a
+    /// zero where the products underflow (`==` holds; the march fingerprints are unchanged).
+    #[test]
+    fn product_with_a_positive_interval_is_the_general_product() {
+        let mut rng = crate::model::rng::SplitMix64::new(17);
+        let mut end = |rng: &mut crate::model::rng::SplitMix64| match rng.below(8) {
+            0 => 0.0,
+            1 => f64::INFINITY,
+            2 => f64::NEG_INFINITY,
+            _ => rng.range(-1.0, 1.0) * 10f64.powf(rng.range(-300.0, 300.0)),
+        };
+        for _ in 0..100_000 {
+            let a = Interval::new(end(&mut rng), end(&mut rng));
+            let lo = rng.range(0.0, 1.0) * 10f64.powf(rng.range(-300.0, 300.0));
+            let hi = if rng.below(8) == 0 {
+                f64::INFINITY
+            } else {
+                lo * rng.range(1.0, 10.0)
+            };
+            if lo <= 0.0 {
+                continue;
+            }
+            let b = Interval::new(lo, hi);
+            let (fast, general) = (a.times_positive(b), a * b);
+            assert!(
+                fast == general
+                    && [(fast.lo, general.lo), (fast.hi, general.hi)]
+                        .iter()
+                        .all(|(f, g)| *f == 0.0 || f.to_bits() == g.to_bits()),
+                "{a:?} · {b:?}: {fast:?} vs {general:?}"
+            );
+        }
     }
 
     #[test]

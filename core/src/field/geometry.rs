@@ -242,6 +242,7 @@ impl SphereCone {
 /// Closest distance squared between segments `[p0, p1]` and `[q0, q1]` (Ericson, Real-Time
 /// Collision Detection §5.1.9).
 #[must_use]
+#[inline]
 pub fn segment_segment_distance_sq(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
     let d1 = p1 - p0;
     let d2 = q1 - q0;

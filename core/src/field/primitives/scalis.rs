@@ -154,25 +154,25 @@ impl ScalisSegment {
         let w_origin = u.dot(ray.origin - c.start);
         let uv = u.dot(c.axis);
         let (chord, chord_sq) = (ray_b - ray_a, (ray_b - ray_a).length_squared());
+        let inv_chord_sq = if chord_sq > 0.0 { 1.0 / chord_sq } else { 0.0 };
         let reach = k.support_radius() * (1.0 + 1e-9);
         let mut jet = Jet::ZERO;
         for piece in 0..pieces {
             let (sa, sb) = (piece as f64 * ds, (piece + 1) as f64 * ds);
-            let (qa, qb) = (c.start + sa * c.axis, c.start + sb * c.axis);
-            let (tau_a, tau_b) = (c.radius + c.slope * sa, c.radius + c.slope * sb);
+            let tau_b = c.radius + c.slope * sb;
             // A piece whose midpoint lies farther from the ray's chord than half its length
             // plus its support radius (with a margin far above rounding) has `x.lo` beyond the
-            // support: skipped as below, without the segment–segment distance.
-            let mid = 0.5 * (qa + qb);
-            let along = if chord_sq > 0.0 {
-                ((mid - ray_a).dot(chord) / chord_sq).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let gap = (mid - (ray_a + along * chord)).length() - 0.5 * ds;
-            if gap > reach * tau_b {
+            // support: skipped as below, without the segment–segment distance. Compared
+            // squared, with the chord's reciprocal length: no square root or division per
+            // piece (issue 18), and the skip decides nothing the `x.lo` test would not.
+            let mid = c.start + (0.5 * (sa + sb)) * c.axis;
+            let along = ((mid - ray_a).dot(chord) * inv_chord_sq).clamp(0.0, 1.0);
+            let far = reach * tau_b + 0.5 * ds;
+            if (mid - (ray_a + along * chord)).length_squared() > far * far {
                 continue;
             }
+            let (qa, qb) = (c.start + sa * c.axis, c.start + sb * c.axis);
+            let tau_a = c.radius + c.slope * sa;
             let d_min = segment_segment_distance_sq(ray_a, ray_b, qa, qb);
             let d_max = [(ray_a, qa), (ray_a, qb), (ray_b, qa), (ray_b, qb)]
                 .iter()
@@ -186,17 +186,21 @@ impl ScalisSegment {
             let w = Interval::new(w(span.lo, sa), w(span.lo, sb))
                 .hull(Interval::new(w(span.hi, sa), w(span.hi, sb)));
             let inv_tau = Interval::new(1.0 / tau_b, 1.0 / tau_a);
-            let inv_tau3 = inv_tau.square() * inv_tau;
+            let inv_tau2 = inv_tau.square();
+            let inv_tau3 = inv_tau2.times_positive(inv_tau);
             let (kv, k1, k2, kink) = k.ranges(x);
-            let mut d2 = (k2 * w.square() * inv_tau3 * inv_tau.square()).scale(4.0)
-                + (k1 * inv_tau3).scale(2.0);
+            let mut d2 = (k2 * w.square())
+                .times_positive(inv_tau3)
+                .times_positive(inv_tau2)
+                .scale(4.0)
+                + k1.times_positive(inv_tau3).scale(2.0);
             if kink {
                 d2.hi = f64::INFINITY;
             }
             jet = jet
                 + Jet {
-                    value: kv * inv_tau,
-                    d1: (k1 * w * inv_tau3).scale(2.0),
+                    value: kv.times_positive(inv_tau),
+                    d1: (k1 * w).times_positive(inv_tau3).scale(2.0),
                     d2,
                 }
                 .scale(ds);
