@@ -88,7 +88,9 @@ impl Bvh {
         self.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds)
     }
 
-    fn traverse(&self, hit: impl Fn(&Aabb) -> bool, mut visit: impl FnMut(u32, &Aabb)) {
+    /// Visits, depth first, every item whose box `hit` accepts (`Some`) below nodes it
+    /// accepts, with what `hit` returned for the item's box.
+    fn traverse<H>(&self, hit: impl Fn(&Aabb) -> Option<H>, mut visit: impl FnMut(u32, &Aabb, H)) {
         if self.nodes.is_empty() {
             return;
         }
@@ -99,14 +101,14 @@ impl Bvh {
             top -= 1;
             let i = stack[top];
             let node = &self.nodes[i as usize];
-            if !hit(&node.bounds) {
+            if hit(&node.bounds).is_none() {
                 continue;
             }
             if node.count > 0 {
                 let first = node.first_or_right as usize;
                 for (item, bounds) in &self.items[first..first + node.count as usize] {
-                    if hit(bounds) {
-                        visit(*item, bounds);
+                    if let Some(h) = hit(bounds) {
+                        visit(*item, bounds, h);
                     }
                 }
             } else {
@@ -119,14 +121,14 @@ impl Bvh {
 
     /// Calls `visit` with every item whose box contains `p`.
     pub fn for_each_containing(&self, p: DVec3, mut visit: impl FnMut(u32)) {
-        self.traverse(|b| b.contains(p), |i, _| visit(i));
+        self.traverse(|b| b.contains(p).then_some(()), |i, _, ()| visit(i));
     }
 
     /// Calls `visit` with every item whose box overlaps `region`.
     pub fn for_each_overlapping(&self, region: &Aabb, mut visit: impl FnMut(u32)) {
         self.traverse(
-            |b| b.min.cmple(region.max).all() && region.min.cmple(b.max).all(),
-            |i, _| visit(i),
+            |b| (b.min.cmple(region.max).all() && region.min.cmple(b.max).all()).then_some(()),
+            |i, _, ()| visit(i),
         );
     }
 
@@ -134,21 +136,22 @@ impl Bvh {
     pub fn for_each_on_ray(&self, ray: &Ray, span: Interval, mut visit: impl FnMut(u32)) {
         let inv = ray.direction.recip();
         self.traverse(
-            |b| b.ray_interval_with(ray, inv, span).is_some(),
-            |i, _| visit(i),
+            |b| b.ray_interval_with(ray, inv, span),
+            |i, _, _| visit(i),
         );
     }
 
-    /// Calls `visit(item, box)` for every item whose box, widened by `pad` on every side, meets
-    /// the ray on `span`, in the order of every other query (depth first, left child first): a
-    /// superset, in the same order, of the items any point or interval query on the ray within
-    /// `span` visits.
+    /// Calls `visit(item, box, near)` for every item whose box, widened by `pad` on every side,
+    /// meets the ray on `span` — on `near` — in the order of every other query (depth first,
+    /// left child first): a superset, in the same order, of the items any point or interval
+    /// query on the ray within `span` visits. A point `ray.at(t)` inside an item's box has `t`
+    /// in its `near` (the widening absorbs the rounding of `ray.at`).
     pub fn for_each_near_ray(
         &self,
         ray: &Ray,
         span: Interval,
         pad: f64,
-        visit: impl FnMut(u32, &Aabb),
+        visit: impl FnMut(u32, &Aabb, Interval),
     ) {
         let inv = ray.direction.recip();
         // The slab test without its exact handling of a zero direction component: `f64::min`
@@ -160,7 +163,10 @@ impl Bvh {
                 let t_b = (b.max - high) * inv;
                 let enter = t_a.min(t_b).max_element().max(span.lo);
                 let exit = t_a.max(t_b).min_element().min(span.hi);
-                enter <= exit
+                (enter <= exit).then_some(Interval {
+                    lo: enter,
+                    hi: exit,
+                })
             },
             visit,
         );

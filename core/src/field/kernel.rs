@@ -275,6 +275,7 @@ impl KernelProfile {
 
     /// `K(x)`.
     #[must_use]
+    #[inline]
     pub fn value(&self, x: f64) -> f64 {
         if x >= self.support_sq {
             return 0.0;
@@ -286,6 +287,7 @@ impl KernelProfile {
     /// `(K(x), K′(x))`; the one-sided derivative from inside at the support boundary is not
     /// returned: outside the support both are 0.
     #[must_use]
+    #[inline]
     pub fn value_d1(&self, x: f64) -> (f64, f64) {
         if x >= self.support_sq {
             return (0.0, 0.0);

@@ -9,6 +9,9 @@
 //! each question then scans that short list with interval tests. Once a ray has asked many
 //! point questions (sphere tracing), its candidates are binned along the ray so that each
 //! question scans only its bin. A question outside the gathered reach goes to the program.
+//! The candidates are kept one array per field (structure of arrays), and a point question
+//! tests a box only where the ray's parameter lies in that box's (widened) interval on the ray;
+//! the arrays are recycled from ray to ray on each thread, so that a ray allocates nothing.
 //!
 //! The answers are bit for bit those of the program's own queries: the list keeps the BVH's
 //! depth-first order (which every program query follows), a point query keeps exactly the items
@@ -27,16 +30,77 @@ use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
 
-/// One primitive the ray may meet.
-#[derive(Clone, Copy, Debug)]
-struct Candidate {
-    primitive: u32,
-    /// The primitive's support box (`None`: unbounded, a plane), for point queries.
-    bounds: Option<Aabb>,
+/// The primitives the ray may meet, one array per field (structure of arrays: a question's
+/// scan reads only what its test needs), in the BVH's depth-first order, the unbounded
+/// primitives (planes) last.
+#[derive(Debug, Default)]
+struct Candidates {
+    primitive: Vec<u32>,
+    /// Where the ray's line is inside the candidate's widened box, within the reach (the whole
+    /// line for an unbounded primitive): a point `ray.at(t)` inside the box has `t` here, so a
+    /// point question tests the box only where this holds `t`.
+    near: Vec<Interval>,
+    /// The support boxes of the first `bounded` candidates, for point questions.
+    boxes: Vec<Aabb>,
+    bounded: usize,
     /// The box's interval on the ray's line (the whole line for an unbounded primitive).
-    line: Interval,
-    /// The exact support's interval on the line.
-    support: Option<Interval>,
+    line: Vec<Interval>,
+    /// The exact support's interval on the line ([`NO_SUPPORT`] where the line misses it).
+    support: Vec<Interval>,
+}
+
+/// An empty interval: its intersection with any interval is empty.
+const NO_SUPPORT: Interval = Interval {
+    lo: f64::INFINITY,
+    hi: f64::NEG_INFINITY,
+};
+
+thread_local! {
+    /// Candidate arrays of rays whose fields were dropped, reused by the next rays of the thread:
+    /// no allocation per ray once they have grown.
+    static SPARE: std::cell::RefCell<Vec<Candidates>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+impl Candidates {
+    /// Empty arrays, recycled from a dropped field of this thread where there is one.
+    fn recycled() -> Self {
+        let mut c = SPARE.with(|spare| spare.borrow_mut().pop()).unwrap_or_default();
+        c.primitive.clear();
+        c.near.clear();
+        c.boxes.clear();
+        c.line.clear();
+        c.support.clear();
+        c.bounded = 0;
+        c
+    }
+
+    fn len(&self) -> usize {
+        self.primitive.len()
+    }
+
+    fn push(&mut self, primitive: u32, near: Interval, line: Interval, support: Option<Interval>) {
+        self.primitive.push(primitive);
+        self.near.push(near);
+        self.line.push(line);
+        self.support.push(support.unwrap_or(NO_SUPPORT));
+    }
+
+    /// Whether candidate `i`'s box contains `p = ray.at(t)`.
+    #[inline]
+    fn contains(&self, i: usize, t: f64, p: DVec3) -> bool {
+        self.near[i].contains(t) && (i >= self.bounded || self.boxes[i].contains(p))
+    }
+
+    /// Candidate `i`'s support on `span`, if its box and its support meet the ray there.
+    #[inline]
+    fn on(&self, i: usize, span: Interval) -> Option<Interval> {
+        let line = self.line[i];
+        if line.lo.max(span.lo) <= line.hi.min(span.hi) {
+            self.support[i].intersect(span)
+        } else {
+            None
+        }
+    }
 }
 
 /// The field along one ray; see the module documentation.
@@ -47,7 +111,7 @@ pub struct RayField<'a> {
     span: Interval,
     /// The part of the ray the candidates cover.
     reach: Interval,
-    candidates: Vec<Candidate>,
+    candidates: Candidates,
     /// Built once the ray has asked [`CELLS_AFTER`] point questions.
     cells: OnceCell<Cells>,
     point_questions: Cell<u32>,
@@ -75,11 +139,11 @@ struct Cells {
 const MAX_CELLS: usize = 32;
 
 impl Cells {
-    fn new(candidates: &[Candidate], reach: Interval) -> Self {
+    fn new(candidates: &Candidates, reach: Interval) -> Self {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for c in candidates.iter().filter(|c| c.bounds.is_some()) {
-            lo = lo.min(c.line.lo);
-            hi = hi.max(c.line.hi);
+        for near in &candidates.near[..candidates.bounded] {
+            lo = lo.min(near.lo);
+            hi = hi.max(near.hi);
         }
         let (lo, hi) = (lo.max(reach.lo), hi.min(reach.hi));
         let count = (candidates.len() / 2).min(MAX_CELLS);
@@ -88,18 +152,18 @@ impl Cells {
             return Self::default();
         }
         let width = (hi - lo) / count as f64;
-        // A point's parameter and its box's interval round differently: widen generously.
-        let slack = 1e-7 * (hi - lo + lo.abs().max(hi.abs()));
         // Clamped to be non-negative first, the cast truncates as `floor` does (a library call
-        // on the baseline x86-64 target).
+        // on the baseline x86-64 target). A candidate's `near` holds every point question's
+        // `t` that may find it and, within the reach, its box's interval on the line; the cell
+        // of a parameter grows with it, so the cells a question looks at list the candidate.
         let last = (count - 1) as f64;
-        let range = |c: &Candidate| {
+        let range = |near: &Interval| {
             let cell = |t: f64| ((t - lo) / width).clamp(0.0, last) as usize;
-            cell(c.line.lo - slack)..=cell(c.line.hi + slack)
+            cell(near.lo)..=cell(near.hi)
         };
         let mut offsets = vec![0_u32; count + 1];
-        for c in candidates {
-            for k in range(c) {
+        for near in &candidates.near {
+            for k in range(near) {
                 offsets[k + 1] += 1;
             }
         }
@@ -108,8 +172,8 @@ impl Cells {
         }
         let mut fill = offsets.clone();
         let mut items = vec![0_u32; offsets[count] as usize];
-        for (i, c) in candidates.iter().enumerate() {
-            for k in range(c) {
+        for (i, near) in candidates.near.iter().enumerate() {
+            for k in range(near) {
                 items[fill[k] as usize] = i as u32;
                 fill[k] += 1;
             }
@@ -157,29 +221,21 @@ impl<'a> RayField<'a> {
             lo: span.lo - margin,
             hi: span.hi + margin,
         };
-        let mut candidates = Vec::with_capacity(64);
+        let mut candidates = Candidates::recycled();
         let support =
             |i: u32| program.primitives()[i as usize].support_interval(ray, program.kernel_of(i));
         let inv = ray.direction.recip();
-        bvh.for_each_near_ray(ray, reach, pad, |i, bounds| {
-            candidates.push(Candidate {
-                primitive: i,
-                bounds: Some(*bounds),
-                line: bounds
-                    .ray_interval_with(ray, inv, Interval::ENTIRE)
-                    .unwrap_or(Interval {
-                        lo: f64::INFINITY,
-                        hi: f64::NEG_INFINITY,
-                    }),
-                support: support(i),
-            });
+        bvh.for_each_near_ray(ray, reach, pad, |i, bounds, near| {
+            let line = bounds
+                .ray_interval_with(ray, inv, Interval::ENTIRE)
+                .unwrap_or(NO_SUPPORT);
+            candidates.push(i, near, line, support(i));
+            candidates.boxes.push(*bounds);
         });
-        candidates.extend(unbounded.iter().map(|&i| Candidate {
-            primitive: i,
-            bounds: None,
-            line: Interval::ENTIRE,
-            support: support(i),
-        }));
+        candidates.bounded = candidates.len();
+        for &i in unbounded {
+            candidates.push(i, Interval::ENTIRE, Interval::ENTIRE, support(i));
+        }
         Self {
             program,
             ray: *ray,
@@ -301,6 +357,13 @@ impl<'a> RayField<'a> {
     }
 }
 
+impl Drop for RayField<'_> {
+    fn drop(&mut self) {
+        let candidates = std::mem::take(&mut self.candidates);
+        SPARE.with(|spare| spare.borrow_mut().push(candidates));
+    }
+}
+
 impl RayField<'_> {
     /// The candidates' indices in one cell covering `[a, b]`, once the cells are built.
     fn cell(&self, a: f64, b: f64) -> Option<&[u32]> {
@@ -321,18 +384,17 @@ impl PointLookup for AtParameter<'_, '_> {
                 .cells
                 .get_or_init(|| Cells::new(&field.candidates, field.reach));
         }
-        let test = |c: &Candidate| c.bounds.is_none_or(|b| b.contains(p));
-        if let Some(cell) = field.cell(self.1, self.1) {
+        let (t, candidates) = (self.1, &field.candidates);
+        if let Some(cell) = field.cell(t, t) {
             for &i in cell {
-                let c = &field.candidates[i as usize];
-                if test(c) {
-                    visit(c.primitive);
+                if candidates.contains(i as usize, t, p) {
+                    visit(candidates.primitive[i as usize]);
                 }
             }
         } else {
-            for c in &field.candidates {
-                if test(c) {
-                    visit(c.primitive);
+            for i in 0..candidates.len() {
+                if candidates.contains(i, t, p) {
+                    visit(candidates.primitive[i]);
                 }
             }
         }
@@ -341,19 +403,19 @@ impl PointLookup for AtParameter<'_, '_> {
 
 impl RayLookup for RayField<'_> {
     fn on_ray(&self, span: Interval, mut visit: impl FnMut(u32, Interval)) {
-        let mut test = |c: &Candidate| {
-            if c.line.lo.max(span.lo) <= c.line.hi.min(span.hi)
-                && let Some(s) = c.support.and_then(|s| s.intersect(span))
-            {
-                visit(c.primitive, s);
-            }
-        };
+        let candidates = &self.candidates;
         if let Some(cell) = self.cell(span.lo, span.hi) {
             for &i in cell {
-                test(&self.candidates[i as usize]);
+                if let Some(s) = candidates.on(i as usize, span) {
+                    visit(candidates.primitive[i as usize], s);
+                }
             }
         } else {
-            self.candidates.iter().for_each(test);
+            for i in 0..candidates.len() {
+                if let Some(s) = candidates.on(i, span) {
+                    visit(candidates.primitive[i], s);
+                }
+            }
         }
     }
 }
