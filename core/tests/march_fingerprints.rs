@@ -31,6 +31,9 @@ use skeletrace_core::{FieldProgram, Interval, Ray};
 const GRID: usize = 16;
 const AIMED: usize = 64;
 
+/// A scene's name, compiled program and fixed rays.
+type Job = (String, FieldProgram, Vec<(Ray, Interval)>);
+
 /// One (scene, method) pair's outcome over the fixed rays.
 #[derive(Debug, PartialEq, Eq)]
 struct Fingerprint {
@@ -117,7 +120,11 @@ fn rays(scene: &Scene, program: &FieldProgram) -> Vec<(Ray, Interval)> {
     out
 }
 
-fn fingerprint(program: &FieldProgram, method: &dyn Method, rays: &[(Ray, Interval)]) -> Fingerprint {
+fn fingerprint(
+    program: &FieldProgram,
+    method: &dyn Method,
+    rays: &[(Ray, Interval)],
+) -> Fingerprint {
     let tracer = method.prepare(program, TraceSettings::for_program(program));
     let mut print = Fingerprint {
         rays: rays.len(),
@@ -152,7 +159,7 @@ fn golden_path() -> std::path::PathBuf {
 #[test]
 fn every_march_is_unchanged_on_the_fixed_rays() {
     let scenes = scenes();
-    let jobs: Vec<(String, FieldProgram, Vec<(Ray, Interval)>)> = scenes
+    let jobs: Vec<Job> = scenes
         .iter()
         .map(|(name, scene)| {
             let program = FieldProgram::new(scene);
@@ -191,9 +198,8 @@ fn every_march_is_unchanged_on_the_fixed_rays() {
         std::fs::write(&path, &text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         return;
     }
-    let golden = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!("{}: {e} (SKELETRACE_BLESS=1 writes it)", path.display())
-    });
+    let golden = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (SKELETRACE_BLESS=1 writes it)", path.display()));
     let want: BTreeMap<String, String> = golden
         .lines()
         .filter_map(|line| {

@@ -478,7 +478,7 @@ mod tests {
     #[test]
     fn product_with_a_positive_interval_is_the_general_product() {
         let mut rng = crate::model::rng::SplitMix64::new(17);
-        let mut end = |rng: &mut crate::model::rng::SplitMix64| match rng.below(8) {
+        let end = |rng: &mut crate::model::rng::SplitMix64| match rng.below(8) {
             0 => 0.0,
             1 => f64::INFINITY,
             2 => f64::NEG_INFINITY,

@@ -135,10 +135,7 @@ impl Bvh {
     /// Calls `visit` with every item whose box meets the ray on `span`.
     pub fn for_each_on_ray(&self, ray: &Ray, span: Interval, mut visit: impl FnMut(u32)) {
         let inv = ray.direction.recip();
-        self.traverse(
-            |b| b.ray_interval_with(ray, inv, span),
-            |i, _, _| visit(i),
-        );
+        self.traverse(|b| b.ray_interval_with(ray, inv, span), |i, _, _| visit(i));
     }
 
     /// Calls `visit(item, box, near)` for every item whose box, widened by `pad` on every side,

@@ -64,7 +64,9 @@ thread_local! {
 impl Candidates {
     /// Empty arrays, recycled from a dropped field of this thread where there is one.
     fn recycled() -> Self {
-        let mut c = SPARE.with(|spare| spare.borrow_mut().pop()).unwrap_or_default();
+        let mut c = SPARE
+            .with(|spare| spare.borrow_mut().pop())
+            .unwrap_or_default();
         c.primitive.clear();
         c.near.clear();
         c.boxes.clear();
