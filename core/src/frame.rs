@@ -259,10 +259,41 @@ impl PinholeCamera {
     /// Ray through the centre of pixel `(x, y)` of a `width × height` image.
     #[must_use]
     pub fn ray(&self, x: usize, y: usize, width: usize, height: usize) -> Ray {
+        Ray::new(
+            self.origin,
+            self.direction_at(x as f64 + 0.5, y as f64 + 0.5, width, height),
+        )
+    }
+
+    /// The eye.
+    #[must_use]
+    pub fn origin(&self) -> DVec3 {
+        self.origin
+    }
+
+    /// Direction (not normalised) through the point `(px, py)` of the image, in pixels from
+    /// its top left corner.
+    #[must_use]
+    pub fn direction_at(&self, px: f64, py: f64, width: usize, height: usize) -> DVec3 {
         let aspect = width as f64 / height.max(1) as f64;
-        let u = (2.0 * (x as f64 + 0.5) / width as f64 - 1.0) * self.tan_half * aspect;
-        let v = (1.0 - 2.0 * (y as f64 + 0.5) / height as f64) * self.tan_half;
-        Ray::new(self.origin, self.forward + u * self.right + v * self.up)
+        let u = (2.0 * px / width as f64 - 1.0) * self.tan_half * aspect;
+        let v = (1.0 - 2.0 * py / height as f64) * self.tan_half;
+        self.forward + u * self.right + v * self.up
+    }
+
+    /// Directions through the outer corners of the pixels `x0..x1 × y0..y1`, in order around
+    /// them: the cone of a screen tile's camera rays ([`crate::field::ray_field::TileCandidates`]).
+    #[must_use]
+    pub fn tile_corners(
+        &self,
+        (x0, x1): (usize, usize),
+        (y0, y1): (usize, usize),
+        width: usize,
+        height: usize,
+    ) -> [DVec3; 4] {
+        let (x0, x1, y0, y1) = (x0 as f64, x1 as f64, y0 as f64, y1 as f64);
+        [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+            .map(|(x, y)| self.direction_at(x, y, width, height))
     }
 }
 

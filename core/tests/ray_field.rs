@@ -10,25 +10,25 @@ mod common;
 use common::{KINDS, assert_no_failures, assets, every_operator, random_groups, scene};
 use glam::DVec3;
 use rayon::prelude::*;
+use skeletrace_core::compile;
+use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
 use skeletrace_core::cpu::stats::protocol_rays;
 use skeletrace_core::field::program::PrimitiveSlope;
 use skeletrace_core::field::ray_field::RayField;
+use skeletrace_core::field::ray_field::TileCandidates;
+use skeletrace_core::frame::{FieldShading, PinholeCamera, far_distance};
+use skeletrace_core::methods::{MethodId, TraceMode};
 use skeletrace_core::model::rng::SplitMix64;
-use skeletrace_core::model::scene::{Blend, Scene};
+use skeletrace_core::model::scene::{Blend, Camera, Scene};
 use skeletrace_core::{FieldProgram, Interval, Ray};
 
 fn same_bits(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits()
 }
 
-/// Compares every query on `ray` over `span`; returns the first difference.
-fn compare(
-    program: &FieldProgram,
-    ray: &Ray,
-    span: Interval,
-    rng: &mut SplitMix64,
-) -> Option<String> {
-    let field = RayField::new(program, ray, span);
+/// Compares every query of `field` with the program's own; returns the first difference.
+fn compare(program: &FieldProgram, field: &RayField, rng: &mut SplitMix64) -> Option<String> {
+    let (ray, span) = (&field.ray().clone(), field.span());
     // Enough point questions that the ray's candidates get binned (`CELLS_AFTER`), so that both
     // the scan of every candidate and the bins are compared.
     for k in 0..48 {
@@ -94,9 +94,146 @@ fn check_program(program: &FieldProgram, label: &str, seed: u64) -> Vec<String> 
     rays.extend(protocol_rays(program, 60, seed));
     rays.iter()
         .filter_map(|(ray, span)| {
-            compare(program, ray, *span, &mut rng).map(|e| format!("{label}: ray {ray:?}: {e}"))
+            compare(program, &RayField::new(program, ray, *span), &mut rng)
+                .map(|e| format!("{label}: ray {ray:?}: {e}"))
         })
         .collect()
+}
+
+/// Camera rays of random 8×8 tiles of a 64×48 image from random cameras around the scene (and
+/// the scene's own): the fields gathered from the tile's list answer as the program does.
+fn check_tiles(
+    program: &FieldProgram,
+    scene_camera: &Camera,
+    label: &str,
+    seed: u64,
+) -> Vec<String> {
+    let bounds = program.support_bounds();
+    let mut rng = SplitMix64::new(seed);
+    let mut failures = Vec::new();
+    for k in 0..6 {
+        let camera = if k == 0 {
+            *scene_camera
+        } else {
+            let dir = DVec3::from_array(rng.direction());
+            let distance = bounds.diagonal() * rng.range(0.3, 2.0);
+            Camera {
+                position: (bounds.center() + distance * dir).to_array(),
+                target: (bounds.center()
+                    + 0.2 * bounds.diagonal() * DVec3::from_array(rng.direction()))
+                .to_array(),
+                fov_degrees: rng.range(20.0, 90.0),
+                ..Camera::default()
+            }
+        };
+        let pinhole = PinholeCamera::new(&camera);
+        let (w, h) = (64, 48);
+        let span = Interval::new(0.0, far_distance(program, &camera));
+        let (x0, y0) = (8 * rng.below(w / 8), 8 * rng.below(h / 8));
+        let corners = pinhole.tile_corners((x0, x0 + 8), (y0, y0 + 8), w, h);
+        let tile = TileCandidates::gather(program, pinhole.origin(), corners, span);
+        for y in y0..y0 + 8 {
+            for x in x0..x0 + 8 {
+                let ray = pinhole.ray(x, y, w, h);
+                let field = RayField::from_tile(program, &ray, span, &tile);
+                if let Some(e) = compare(program, &field, &mut rng) {
+                    failures.push(format!("{label}: camera {k}, pixel ({x}, {y}): {e}"));
+                }
+            }
+        }
+    }
+    failures
+}
+
+#[test]
+fn tile_candidates_answer_as_the_bvh_on_every_asset() {
+    let failures: Vec<String> = assets()
+        .par_iter()
+        .flat_map_iter(|path| {
+            let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+            let program = FieldProgram::new(&scene);
+            check_tiles(&program, &scene.camera, &path.display().to_string(), 11)
+        })
+        .collect();
+    assert_no_failures(&failures, "differences");
+}
+
+#[test]
+fn tile_candidates_answer_as_the_bvh_on_random_scenes() {
+    let failures: Vec<String> = (0..60)
+        .into_par_iter()
+        .flat_map_iter(|job| {
+            let mut rng = SplitMix64::new(job as u64 * 104_729 + 5);
+            let mut groups = random_groups(&mut rng, 2);
+            for g in &mut groups {
+                if g.hrbfs.is_empty() {
+                    for _ in 0..30 {
+                        let kind = KINDS[rng.below(KINDS.len() - 1)];
+                        common::add_primitive(g, kind, &mut rng);
+                    }
+                }
+            }
+            let program = FieldProgram::new(&scene(groups, None));
+            check_tiles(
+                &program,
+                &Camera::default(),
+                &format!("scene {job}"),
+                job as u64,
+            )
+        })
+        .collect();
+    assert_no_failures(&failures, "differences");
+}
+
+/// The renderer traces camera rays from tile lists: its frames' step counts and depths are
+/// those of the same rays traced one by one (`RayTracer::trace`, a BVH walk per ray), for every
+/// method on every asset.
+#[test]
+fn frames_traced_by_tiles_are_those_traced_ray_by_ray() {
+    let jobs: Vec<(std::path::PathBuf, MethodId)> = assets()
+        .into_iter()
+        .flat_map(|path| MethodId::ALL.map(|m| (path.clone(), m)))
+        .filter(|(_, m)| *m != MethodId::Reference)
+        .collect();
+    let failures: Vec<String> = jobs
+        .par_iter()
+        .filter_map(|(path, id)| {
+            let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+            let compiled = compile(&scene);
+            let method = id.method();
+            method.supports(&compiled.program).ok()?;
+            let tracer = method.prepare(&compiled.program, compiled.settings);
+            let renderer = Renderer::new(&compiled, tracer.as_ref(), compiled.settings);
+            let (w, h) = (21, 13);
+            let options = RenderOptions {
+                width: w,
+                height: h,
+                shadows: false,
+                shading: FieldShading::default(),
+            };
+            let frame = renderer.render(&scene.camera, options);
+            let pinhole = PinholeCamera::new(&scene.camera);
+            let span = Interval::new(0.0, far_distance(&compiled.program, &scene.camera));
+            let opaque = compiled.materials.iter().all(|m| m.opacity >= 1.0);
+            let differing = (0..w * h)
+                .filter(|&i| {
+                    let trace =
+                        tracer.trace(&pinhole.ray(i % w, i / w, w, h), span, TraceMode::Opaque);
+                    let depth = trace.first().map_or(f64::INFINITY, |c| c.t);
+                    depth.to_bits() != frame.depth[i].to_bits()
+                        || (opaque && trace.steps != frame.steps[i])
+                })
+                .count();
+            (differing > 0).then(|| {
+                format!(
+                    "{}: {}: {differing} pixels differ",
+                    path.display(),
+                    id.name()
+                )
+            })
+        })
+        .collect();
+    assert_no_failures(&failures, "frames");
 }
 
 #[test]

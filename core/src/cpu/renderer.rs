@@ -22,9 +22,16 @@ use crate::compile::Compiled;
 use crate::cpu::shading::{ambient_occlusion, soft_shadow};
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
+use crate::field::ray_field::{RayField, TileCandidates};
 use crate::frame::{FieldShading, Frame, PinholeCamera, far_distance, shading_scale};
-use crate::methods::{RayTracer, TraceMode, TraceSettings};
+use crate::methods::{RayTracer, Trace, TraceMode, TraceSettings};
 use crate::model::scene::{Camera, Light, Material};
+
+/// A traced pixel: colour, depth of the first crossing and steps.
+type Pixel = ([f32; 3], f64, u32);
+
+/// Side of the square screen tiles whose camera rays share one candidate list.
+const TILE: usize = 8;
 
 /// Reflection/refraction depth for transparent groups.
 pub const MAX_BOUNCES: u32 = 4;
@@ -97,25 +104,55 @@ impl<'a> Renderer<'a> {
             options,
             far: far_distance(self.program, camera),
         };
-        let pixels: Option<Vec<([f32; 3], f64, u32)>> = (0..w * h)
+        let span = Interval::new(0.0, context.far);
+        let (columns, rows) = (w.div_ceil(TILE), h.div_ceil(TILE));
+        // One BVH walk per tile gathers its camera rays' candidates (`TileCandidates`); tiles
+        // are scheduled over the threads, each tile's rays traced together.
+        let tiles: Option<Vec<Vec<Pixel>>> = (0..columns * rows)
             .into_par_iter()
-            .map(|i| {
+            .map(|tile| {
                 if cancel.is_cancelled() {
                     return None;
                 }
-                let ray = pinhole.ray(i % w, i / w, w, h);
-                let mut steps = 0;
-                let (colour, depth) = self.radiance(&ray, 0, &context, &mut steps);
-                Some((colour.as_vec3().to_array(), depth, steps))
+                let (x0, y0) = ((tile % columns) * TILE, (tile / columns) * TILE);
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+                let corners = pinhole.tile_corners((x0, x1), (y0, y1), w, h);
+                let candidates =
+                    TileCandidates::gather(self.program, pinhole.origin(), corners, span);
+                let mut pixels = Vec::with_capacity((x1 - x0) * (y1 - y0));
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let ray = pinhole.ray(x, y, w, h);
+                        let field = RayField::from_tile(self.program, &ray, span, &candidates);
+                        let trace = self.tracer.trace_field(&field, TraceMode::Opaque);
+                        drop(field);
+                        let mut steps = 0;
+                        let (colour, depth) =
+                            self.shade_trace(&ray, &trace, 0, &context, &mut steps);
+                        pixels.push((colour.as_vec3().to_array(), depth, steps));
+                    }
+                }
+                Some(pixels)
             })
             .collect();
-        let pixels = pixels?;
+        let tiles = tiles?;
+        let mut colour = vec![[0.0; 3]; w * h];
+        let mut depth = vec![f64::INFINITY; w * h];
+        let mut steps = vec![0; w * h];
+        for (tile, pixels) in tiles.iter().enumerate() {
+            let (x0, y0) = ((tile % columns) * TILE, (tile / columns) * TILE);
+            let x1 = (x0 + TILE).min(w);
+            for (k, pixel) in pixels.iter().enumerate() {
+                let i = (y0 + k / (x1 - x0)) * w + x0 + k % (x1 - x0);
+                (colour[i], depth[i], steps[i]) = *pixel;
+            }
+        }
         Some(Frame {
             width: w,
             height: h,
-            colour: pixels.iter().map(|p| p.0).collect(),
-            depth: pixels.iter().map(|p| p.1).collect(),
-            steps: pixels.iter().map(|p| p.2).collect(),
+            colour,
+            depth,
+            steps,
         })
     }
 
@@ -130,6 +167,18 @@ impl<'a> Renderer<'a> {
         let trace = self
             .tracer
             .trace(ray, Interval::new(0.0, context.far), TraceMode::Opaque);
+        self.shade_trace(ray, &trace, bounce, context, steps)
+    }
+
+    /// Colour seen along `ray`, traced as `trace`, and the distance of its first crossing.
+    fn shade_trace(
+        &self,
+        ray: &Ray,
+        trace: &Trace,
+        bounce: u32,
+        context: &FrameContext,
+        steps: &mut u32,
+    ) -> (DVec3, f64) {
         *steps += trace.steps;
         let Some(hit) = trace.first() else {
             return (background(ray.direction), f64::INFINITY);

@@ -138,35 +138,110 @@ impl Bvh {
         self.traverse(|b| b.ray_interval_with(ray, inv, span), |i, _, _| visit(i));
     }
 
-    /// Calls `visit(item, box, near)` for every item whose box, widened by `pad` on every side,
-    /// meets the ray on `span` — on `near` — in the order of every other query (depth first,
-    /// left child first): a superset, in the same order, of the items any point or interval
-    /// query on the ray within `span` visits. A point `ray.at(t)` inside an item's box has `t`
-    /// in its `near` (the widening absorbs the rounding of `ray.at`).
-    pub fn for_each_near_ray(
-        &self,
-        ray: &Ray,
-        span: Interval,
-        pad: f64,
-        visit: impl FnMut(u32, &Aabb, Interval),
-    ) {
-        let inv = ray.direction.recip();
-        // The slab test without its exact handling of a zero direction component: `f64::min`
-        // and `max` ignore NaN (an origin on a slab plane), which only widens the superset.
-        let (low, high) = (ray.origin + pad, ray.origin - pad);
-        self.traverse(
-            |b| {
-                let t_a = (b.min - low) * inv;
-                let t_b = (b.max - high) * inv;
-                let enter = t_a.min(t_b).max_element().max(span.lo);
-                let exit = t_a.max(t_b).min_element().min(span.hi);
-                (enter <= exit).then_some(Interval {
-                    lo: enter,
-                    hi: exit,
-                })
-            },
-            visit,
-        );
+    /// Calls `visit(item, box, interval)` for every item whose box, widened as `near` widens it,
+    /// meets `near`'s ray on its span — on `interval` — in the order of every other query
+    /// (depth first, left child first): a superset, in the same order, of the items any point
+    /// or interval query on the ray within the span visits. A point `ray.at(t)` inside an
+    /// item's box has `t` in its `interval` (the widening absorbs the rounding of `ray.at`).
+    pub fn for_each_near(&self, near: &NearRay, visit: impl FnMut(u32, &Aabb, Interval)) {
+        self.traverse(|b| near.interval(b), visit);
+    }
+
+    /// Calls `visit(item, box)` for every item whose box may meet a ray of `beam`, in the order
+    /// of every other query: items whose boxes no ray of the beam meets are left out, the
+    /// others kept (see [`Beam`]).
+    pub fn for_each_in_beam(&self, beam: &Beam, mut visit: impl FnMut(u32, &Aabb)) {
+        self.traverse(|b| beam.may_meet(b).then_some(()), |i, b, ()| visit(i, b));
+    }
+}
+
+/// The test of [`Bvh::for_each_near_ray`] on one box: where the ray is inside the box widened
+/// by `pad` on `span`. Without the exact handling of a zero direction component: `f64::min` and
+/// `max` ignore NaN (an origin on a slab plane).
+#[derive(Clone, Copy, Debug)]
+pub struct NearRay {
+    inv: DVec3,
+    low: DVec3,
+    high: DVec3,
+    span: Interval,
+}
+
+impl NearRay {
+    /// The test for `ray` on `span`, boxes widened by `pad`.
+    #[must_use]
+    pub fn new(ray: &Ray, span: Interval, pad: f64) -> Self {
+        Self {
+            inv: ray.direction.recip(),
+            low: ray.origin + pad,
+            high: ray.origin - pad,
+            span,
+        }
+    }
+
+    /// The part of the span where the ray is inside the widened box `b`, if any.
+    #[inline]
+    #[must_use]
+    pub fn interval(&self, b: &Aabb) -> Option<Interval> {
+        let t_a = (b.min - self.low) * self.inv;
+        let t_b = (b.max - self.high) * self.inv;
+        let enter = t_a.min(t_b).max_element().max(self.span.lo);
+        let exit = t_a.max(t_b).min_element().min(self.span.hi);
+        (enter <= exit).then_some(Interval {
+            lo: enter,
+            hi: exit,
+        })
+    }
+}
+
+/// The rays from one origin whose directions lie in the cone over a convex quadrilateral of
+/// directions (a screen tile's pixels: the quadrilateral through the tile's outer pixel
+/// corners), on a span that reaches at most `behind` before the origin. A box that one of them
+/// meets, widened by `pad` as [`NearRay`] widens it, is never left out: the tile's pixel centres
+/// lie half a pixel inside the cone, far more than the rounding of the slab test; within
+/// `behind` of the origin, where that margin vanishes, every box is kept.
+#[derive(Clone, Copy, Debug)]
+pub struct Beam {
+    origin: DVec3,
+    /// Inward normals of the cone's four sides (planes through the origin).
+    sides: [DVec3; 4],
+    pad: f64,
+    behind: f64,
+}
+
+impl Beam {
+    /// The beam from `origin` over the directions `corners` (in order around the quadrilateral).
+    #[must_use]
+    pub fn new(origin: DVec3, corners: [DVec3; 4], pad: f64, behind: f64) -> Self {
+        let centre = corners
+            .iter()
+            .fold(DVec3::ZERO, |a, &c| a + c.normalize_or_zero());
+        let sides = std::array::from_fn(|k| {
+            let n = corners[k].cross(corners[(k + 1) % 4]);
+            if n.dot(centre) < 0.0 { -n } else { n }
+        });
+        Self {
+            origin,
+            sides,
+            pad,
+            behind,
+        }
+    }
+
+    /// Whether a ray of the beam may meet box `b` widened by `pad`.
+    #[must_use]
+    pub fn may_meet(&self, b: &Aabb) -> bool {
+        let centre = 0.5 * (b.min + b.max) - self.origin;
+        let half = 0.5 * (b.max - b.min) + self.pad;
+        // Near the origin: the box within `behind` of it (a generous per-axis test).
+        let reach = DVec3::splat(2.0 * (self.behind + self.pad));
+        if (centre.abs() - half).cmple(reach).all() {
+            return true;
+        }
+        let scale = centre.abs().element_sum() + half.element_sum();
+        self.sides.iter().all(|n| {
+            let farthest = n.dot(centre) + n.abs().dot(half);
+            farthest >= -1e-9 * n.length() * scale
+        })
     }
 }
 

@@ -25,6 +25,7 @@ use std::cell::{Cell, OnceCell};
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
+use crate::field::bvh::{Beam, NearRay};
 use crate::field::geometry::{Aabb, Ray};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
@@ -119,6 +120,72 @@ pub struct RayField<'a> {
     point_questions: Cell<u32>,
 }
 
+/// Widening of every box in the candidate tests: it absorbs the rounding of `ray.at(t)`
+/// against the slab test, so that a point question's box containing the point is in the list.
+fn pad_of(program: &FieldProgram) -> f64 {
+    let b = program.lookup_parts().0.bounds();
+    if b.is_empty() {
+        0.0
+    } else {
+        1e-9 * (b.diagonal() + b.min.abs().max(b.max.abs()).max_element())
+    }
+}
+
+/// The part of the ray a field gathered for `span` covers: a margin either side for the steps
+/// that look just past it.
+fn reach_of(span: Interval) -> Interval {
+    let margin = 1e-3 * (1.0 + span.width());
+    Interval {
+        lo: span.lo - margin,
+        hi: span.hi + margin,
+    }
+}
+
+/// The candidates of a bundle of rays from one origin — a screen tile's camera rays — on one
+/// span: every primitive whose box may meet one of them, in the BVH's depth-first order, with
+/// its box (issue 18; the CPU twin of the GPU's tile binning, `render/shaders/binning.wgsl`).
+/// One BVH walk per tile instead of one per ray; [`RayField::from_tile`] filters it per ray.
+#[derive(Debug)]
+pub struct TileCandidates {
+    span: Interval,
+    items: Vec<(u32, Aabb)>,
+}
+
+impl TileCandidates {
+    /// The candidates of the rays from `origin` whose directions lie in the cone over the
+    /// quadrilateral `corners` (in order around it; for a tile, the directions through its
+    /// outer pixel corners, half a pixel outside the pixel centres), on `span`.
+    #[must_use]
+    pub fn gather(
+        program: &FieldProgram,
+        origin: DVec3,
+        corners: [DVec3; 4],
+        span: Interval,
+    ) -> Self {
+        let reach = reach_of(span);
+        let behind = (-reach.lo).max(0.0);
+        let beam = Beam::new(origin, corners, pad_of(program), behind);
+        let mut items = Vec::new();
+        program
+            .lookup_parts()
+            .0
+            .for_each_in_beam(&beam, |i, bounds| items.push((i, *bounds)));
+        Self { span, items }
+    }
+
+    /// Primitives in the list.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Whether no primitive's box may meet the bundle.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+}
+
 /// Point questions on one ray after which its candidates are binned: the marches that take a
 /// handful of steps never pay for the bins, sphere tracing's hundreds of steps do once.
 const CELLS_AFTER: u32 = 32;
@@ -209,25 +276,52 @@ impl<'a> RayField<'a> {
     /// Gathers the candidates of `ray` on `span` from `program` (one BVH traversal).
     #[must_use]
     pub fn new(program: &'a FieldProgram, ray: &Ray, span: Interval) -> Self {
-        let (bvh, unbounded) = program.lookup_parts();
-        let b = bvh.bounds();
-        // Widening absorbs the rounding of `ray.at(t)` against the slab test: a point query's
-        // box containing the point must be in the list.
-        let pad = if b.is_empty() {
-            0.0
-        } else {
-            1e-9 * (b.diagonal() + b.min.abs().max(b.max.abs()).max_element())
-        };
-        let margin = 1e-3 * (1.0 + span.width());
-        let reach = Interval {
-            lo: span.lo - margin,
-            hi: span.hi + margin,
-        };
+        let (bvh, _) = program.lookup_parts();
+        Self::gather(program, ray, span, |near, push| {
+            bvh.for_each_near(near, push)
+        })
+    }
+
+    /// As [`RayField::new`] for a ray of the bundle `tile` was gathered for: the tile's list
+    /// filtered by the BVH walk's own test on each box, which gives the walk's candidates in
+    /// its order (a box the ray meets has every enclosing node's box met too), so every
+    /// question is answered bit for bit as by [`RayField::new`].
+    #[must_use]
+    pub fn from_tile(
+        program: &'a FieldProgram,
+        ray: &Ray,
+        span: Interval,
+        tile: &TileCandidates,
+    ) -> Self {
+        debug_assert!(
+            tile.span == span,
+            "a tile list serves the span it was gathered for"
+        );
+        Self::gather(program, ray, span, |near, push| {
+            for (i, bounds) in &tile.items {
+                if let Some(interval) = near.interval(bounds) {
+                    push(*i, bounds, interval);
+                }
+            }
+        })
+    }
+
+    /// The field with the bounded candidates `walk` pushes, in its order, then the unbounded
+    /// ones. `walk` receives the test that decides which boxes the ray's list keeps.
+    fn gather(
+        program: &'a FieldProgram,
+        ray: &Ray,
+        span: Interval,
+        walk: impl FnOnce(&NearRay, &mut dyn FnMut(u32, &Aabb, Interval)),
+    ) -> Self {
+        let (_, unbounded) = program.lookup_parts();
+        let reach = reach_of(span);
         let mut candidates = Candidates::recycled();
         let support =
             |i: u32| program.primitives()[i as usize].support_interval(ray, program.kernel_of(i));
         let inv = ray.direction.recip();
-        bvh.for_each_near_ray(ray, reach, pad, |i, bounds, near| {
+        let near = NearRay::new(ray, reach, pad_of(program));
+        walk(&near, &mut |i, bounds, near| {
             let line = bounds
                 .ray_interval_with(ray, inv, Interval::ENTIRE)
                 .unwrap_or(NO_SUPPORT);

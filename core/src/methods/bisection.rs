@@ -6,7 +6,6 @@
 //! is a crossing. One step is one enclosure computed.
 
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
@@ -67,12 +66,16 @@ impl<E> RayTracer for Bisector<'_, E>
 where
     E: Fn(&RayField, Interval, &mut Trace) -> Option<Interval> + Sync,
 {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let s = &self.settings;
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
-            bisect(&field, part, s, mode, trace, |i, trace| {
-                (self.enclosure)(&field, i, trace)
+        trace_supports(field, span, mode, s.max_steps, |part, trace| {
+            bisect(field, part, s, mode, trace, |i, trace| {
+                (self.enclosure)(field, i, trace)
             });
         })
     }

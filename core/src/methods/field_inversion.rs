@@ -8,9 +8,7 @@
 //! guaranteed bound for the blended surface: the statistics count its misses.
 
 use super::MethodId;
-use crate::bounds::interval::Interval;
 use crate::field::blend::BlendTree;
-use crate::field::geometry::Ray;
 use crate::field::kernel::{CLIP_EPSILON, Kernel};
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
@@ -101,11 +99,15 @@ impl Method for FieldInversion {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let s = &self.settings;
         let c = self.program.isovalue();
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+        trace_supports(field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
             let mut previous = t;
             let mut in_span = 0;
@@ -118,7 +120,7 @@ impl RayTracer for Prepared<'_> {
                 let unit = (f / self.norm) * (1.0 - CLIP_EPSILON) + CLIP_EPSILON;
                 let distance = self.radius * (self.sigma * (-unit.ln()).max(0.0).sqrt() - 1.0);
                 if f >= c && s.protocol.refines_field_inversion() {
-                    let t = self.refine(&field, (previous, t), trace);
+                    let t = self.refine(field, (previous, t), trace);
                     trace.push_crossing(Crossing { t, entering: true });
                     return;
                 }

@@ -8,7 +8,7 @@
 
 use crate::bounds::inclusion::{self, ForwardInclusion, Offset};
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::geometry::{Ray, quadratic_roots};
+use crate::field::geometry::quadratic_roots;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
@@ -153,16 +153,20 @@ impl<B> RayTracer for Marcher<'_, B>
 where
     B: Fn(&RayField, f64, f64, f64, f64) -> ForwardInclusion + Sync,
 {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        self.trace_into(Trace::default(), ray, span, mode)
+    fn program(&self) -> &FieldProgram {
+        self.program
     }
 
-    fn trace_logged(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        self.trace_into(Trace::default(), field, mode)
+    }
+
+    fn trace_field_logged(&self, field: &RayField, mode: TraceMode) -> Trace {
         let logged = Trace {
             log: Some(Vec::new()),
             ..Trace::default()
         };
-        self.trace_into(logged, ray, span, mode)
+        self.trace_into(logged, field, mode)
     }
 }
 
@@ -170,14 +174,20 @@ impl<B> Marcher<'_, B>
 where
     B: Fn(&RayField, f64, f64, f64, f64) -> ForwardInclusion + Sync,
 {
-    fn trace_into(&self, trace: Trace, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn trace_into(&self, trace: Trace, field: &RayField, mode: TraceMode) -> Trace {
         let s = &self.settings;
-        let field = RayField::new(self.program, ray, span);
-        trace_supports_into(trace, &field, span, mode, s.max_steps, |part, trace| {
-            march(&field, part, s, mode, trace, |t, f, d, h| {
-                (self.bound)(&field, t, f, d, h)
-            });
-        })
+        trace_supports_into(
+            trace,
+            field,
+            field.span(),
+            mode,
+            s.max_steps,
+            |part, trace| {
+                march(field, part, s, mode, trace, |t, f, d, h| {
+                    (self.bound)(field, t, f, d, h)
+                });
+            },
+        )
     }
 }
 

@@ -205,13 +205,29 @@ pub trait Method: Sync {
 
 /// A method bound to one scene, ready to trace rays from any thread.
 pub trait RayTracer: Sync {
-    /// Traces `ray` over `span`.
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace;
+    /// The scene.
+    fn program(&self) -> &FieldProgram;
 
-    /// As [`RayTracer::trace`], with the step log of the marching methods ([`StepRecord`]);
-    /// the other methods give none (`log` stays `None`).
+    /// Traces the ray of `field` over the span it was gathered for: the caller chose where
+    /// the ray's candidate primitives come from ([`RayField::new`] walks the BVH;
+    /// [`RayField::from_tile`] filters a screen tile's list, as the renderer does for camera
+    /// rays). The march is the same either way.
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace;
+
+    /// As [`RayTracer::trace_field`], with the step log of the marching methods
+    /// ([`StepRecord`]); the other methods give none (`log` stays `None`).
+    fn trace_field_logged(&self, field: &RayField, mode: TraceMode) -> Trace {
+        self.trace_field(field, mode)
+    }
+
+    /// Traces `ray` over `span`.
+    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+        self.trace_field(&RayField::new(self.program(), ray, span), mode)
+    }
+
+    /// As [`RayTracer::trace`], with the step log of the marching methods.
     fn trace_logged(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        self.trace(ray, span, mode)
+        self.trace_field_logged(&RayField::new(self.program(), ray, span), mode)
     }
 }
 

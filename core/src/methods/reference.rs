@@ -10,7 +10,6 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
@@ -62,55 +61,53 @@ impl Prepared<'_> {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let c = self.program.isovalue();
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(
-            &field,
-            span,
-            mode,
-            self.settings.max_steps,
-            |part, trace| {
-                let mut stack = vec![part];
-                while let Some(i) = stack.pop() {
-                    trace.steps += 1;
-                    let jet = field.jet(i);
-                    let mid = 0.5 * (i.lo + i.hi);
-                    trace.evaluations += 1;
-                    let f_mid = field.along(mid).0;
-                    // The Lipschitz test: `f` stays within `reach` of `f(mid)` on the interval.
-                    let reach = 0.5 * i.width() * jet.d1.magnitude();
-                    let lipschitz_range = Interval::new(f_mid - reach, f_mid + reach);
-                    if excludes_isovalue(jet.value, c) || excludes_isovalue(lipschitz_range, c) {
-                        continue;
-                    }
-                    if i.width() > self.resolution {
-                        stack.push(Interval::new(mid, i.hi));
-                        stack.push(Interval::new(i.lo, mid));
-                        continue;
-                    }
-                    let (mut lo, mut hi) = (i.lo, i.hi);
-                    let below_lo = self.below(&field, lo, trace);
-                    if below_lo == self.below(&field, hi, trace) {
-                        continue;
-                    }
-                    for _ in 0..20 {
-                        let mid = 0.5 * (lo + hi);
-                        if self.below(&field, mid, trace) == below_lo {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                        }
-                    }
-                    trace.push_crossing(Crossing {
-                        t: 0.5 * (lo + hi),
-                        entering: below_lo,
-                    });
-                    if mode == TraceMode::Opaque {
-                        return;
+        trace_supports(field, span, mode, self.settings.max_steps, |part, trace| {
+            let mut stack = vec![part];
+            while let Some(i) = stack.pop() {
+                trace.steps += 1;
+                let jet = field.jet(i);
+                let mid = 0.5 * (i.lo + i.hi);
+                trace.evaluations += 1;
+                let f_mid = field.along(mid).0;
+                // The Lipschitz test: `f` stays within `reach` of `f(mid)` on the interval.
+                let reach = 0.5 * i.width() * jet.d1.magnitude();
+                let lipschitz_range = Interval::new(f_mid - reach, f_mid + reach);
+                if excludes_isovalue(jet.value, c) || excludes_isovalue(lipschitz_range, c) {
+                    continue;
+                }
+                if i.width() > self.resolution {
+                    stack.push(Interval::new(mid, i.hi));
+                    stack.push(Interval::new(i.lo, mid));
+                    continue;
+                }
+                let (mut lo, mut hi) = (i.lo, i.hi);
+                let below_lo = self.below(field, lo, trace);
+                if below_lo == self.below(field, hi, trace) {
+                    continue;
+                }
+                for _ in 0..20 {
+                    let mid = 0.5 * (lo + hi);
+                    if self.below(field, mid, trace) == below_lo {
+                        lo = mid;
+                    } else {
+                        hi = mid;
                     }
                 }
-            },
-        )
+                trace.push_crossing(Crossing {
+                    t: 0.5 * (lo + hi),
+                    entering: below_lo,
+                });
+                if mode == TraceMode::Opaque {
+                    return;
+                }
+            }
+        })
     }
 }

@@ -303,20 +303,24 @@ impl Prepared<'_> {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let s = &self.settings;
         let free_limits = s.protocol.scalis_support_limits_are_free();
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
-            let mut points = self.breakpoints(&field, part);
+        trace_supports(field, span, mode, s.max_steps, |part, trace| {
+            let mut points = self.breakpoints(field, part);
             if free_limits {
-                let Some(start) = self.sphere_step_in(&field, part) else {
+                let Some(start) = self.sphere_step_in(field, part) else {
                     return;
                 };
                 points.retain(|&t| t > start);
                 points.insert(0, start);
             }
-            let mut b = self.hermite(&field, points[0], trace);
+            let mut b = self.hermite(field, points[0], trace);
             for &t in &points[1..] {
                 if trace.steps >= s.max_steps {
                     return;
@@ -324,10 +328,10 @@ impl RayTracer for Prepared<'_> {
                 let e = if free_limits && t == part.hi {
                     self.at_support_limit(t)
                 } else {
-                    self.hermite(&field, t, trace)
+                    self.hermite(field, t, trace)
                 };
                 let found = trace.crossings.len();
-                self.trace_piece(&field, (b, e), mode, trace);
+                self.trace_piece(field, (b, e), mode, trace);
                 if mode == TraceMode::Opaque && trace.crossings.len() > found {
                     return;
                 }

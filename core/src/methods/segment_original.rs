@@ -14,7 +14,6 @@
 
 use super::MethodId;
 use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::{FieldProgram, PrimitiveSlope};
 use crate::field::ray_field::RayField;
 
@@ -85,16 +84,14 @@ impl Prepared<'_> {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(
-            &field,
-            span,
-            mode,
-            self.settings.max_steps,
-            |part, trace| {
-                self.march(&field, part, mode, trace);
-            },
-        )
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
+        trace_supports(field, span, mode, self.settings.max_steps, |part, trace| {
+            self.march(field, part, mode, trace);
+        })
     }
 }

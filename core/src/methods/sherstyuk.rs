@@ -13,7 +13,7 @@
 use super::MethodId;
 use crate::bounds::interval::Interval;
 use crate::field::blend::BlendTree;
-use crate::field::geometry::{Ray, quadratic_roots};
+use crate::field::geometry::quadratic_roots;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
@@ -214,11 +214,15 @@ impl Prepared<'_> {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let s = &self.settings;
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
-            self.trace_part(&field, part, mode, trace);
+        trace_supports(field, span, mode, s.max_steps, |part, trace| {
+            self.trace_part(field, part, mode, trace);
         })
     }
 }

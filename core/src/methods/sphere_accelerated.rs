@@ -6,8 +6,6 @@
 //! the field is on the other side of the isovalue `min_step` further on.
 
 use super::MethodId;
-use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
@@ -57,23 +55,27 @@ impl Prepared<'_> {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let s = &self.settings;
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+        trace_supports(field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
             // (previous radius, previous step); None right after a start or a crossing.
             let mut history: Option<(f64, f64)> = None;
-            let mut current = self.radius(&field, t, trace);
+            let mut current = self.radius(field, t, trace);
             while t < part.hi && trace.steps < s.max_steps {
                 trace.steps += 1;
                 let (r1, inside) = current;
                 if r1 < s.epsilon {
                     // Confirm the crossing on the other side, as the marching methods do.
-                    if self.radius(&field, t + s.min_step, trace).1 == inside {
+                    if self.radius(field, t + s.min_step, trace).1 == inside {
                         t += r1.max(f64::EPSILON * t.abs());
                         history = None;
-                        current = self.radius(&field, t, trace);
+                        current = self.radius(field, t, trace);
                         continue;
                     }
                     trace.push_crossing(Crossing {
@@ -85,7 +87,7 @@ impl RayTracer for Prepared<'_> {
                     }
                     t += r1 + s.min_step;
                     history = None;
-                    current = self.radius(&field, t, trace);
+                    current = self.radius(field, t, trace);
                     continue;
                 }
                 let mut dt = r1;
@@ -95,10 +97,10 @@ impl RayTracer for Prepared<'_> {
                         dt = (r1 + BETA * r1 * (d + r1 - r0) / denominator).max(r1);
                     }
                 }
-                let mut next = self.radius(&field, t + dt, trace);
+                let mut next = self.radius(field, t + dt, trace);
                 if dt > r1 && (dt > r1 + next.0 || next.1 != inside) {
                     dt = r1;
-                    next = self.radius(&field, t + dt, trace);
+                    next = self.radius(field, t + dt, trace);
                 }
                 history = Some((r1, dt));
                 t += dt;

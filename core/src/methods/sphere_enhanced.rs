@@ -8,8 +8,6 @@
 //! isovalue `min_step` further on.
 
 use super::MethodId;
-use crate::bounds::interval::Interval;
-use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
@@ -47,11 +45,15 @@ impl Method for EnhancedSphereTracing {
 }
 
 impl RayTracer for Prepared<'_> {
-    fn trace(&self, ray: &Ray, span: Interval, mode: TraceMode) -> Trace {
+    fn program(&self) -> &FieldProgram {
+        self.program
+    }
+
+    fn trace_field(&self, field: &RayField, mode: TraceMode) -> Trace {
+        let span = field.span();
         let s = &self.settings;
         let c = self.program.isovalue();
-        let field = RayField::new(self.program, ray, span);
-        trace_supports(&field, span, mode, s.max_steps, |part, trace| {
+        trace_supports(field, span, mode, s.max_steps, |part, trace| {
             let mut t = part.lo;
             let relaxed = s.protocol.over_relaxation();
             let mut omega = relaxed;
