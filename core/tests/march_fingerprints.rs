@@ -35,11 +35,13 @@ const AIMED: usize = 64;
 type Job = (String, FieldProgram, Vec<(Ray, Interval)>);
 
 /// One (scene, method) pair's outcome over the fixed rays.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug)]
 struct Fingerprint {
     rays: usize,
     steps: u64,
     hits: usize,
+    /// Sum of the first crossings' parameters: where a change moves depths, by how much.
+    depths: f64,
     /// FNV-1a over every ray's steps, evaluations and crossings (bits of `t`, direction).
     hash: u64,
 }
@@ -47,8 +49,8 @@ struct Fingerprint {
 impl Fingerprint {
     fn line(&self, key: &str) -> String {
         format!(
-            "{key} rays={} steps={} hits={} hash={:016x}",
-            self.rays, self.steps, self.hits, self.hash
+            "{key} rays={} steps={} hits={} depths={:.17e} hash={:016x}",
+            self.rays, self.steps, self.hits, self.depths, self.hash
         )
     }
 }
@@ -130,6 +132,7 @@ fn fingerprint(
         rays: rays.len(),
         steps: 0,
         hits: 0,
+        depths: 0.0,
         hash: 0xcbf2_9ce4_8422_2325,
     };
     for (k, (ray, span)) in rays.iter().enumerate() {
@@ -142,6 +145,7 @@ fn fingerprint(
         let trace = tracer.trace(ray, *span, mode);
         print.steps += u64::from(trace.steps);
         print.hits += usize::from(!trace.crossings.is_empty());
+        print.depths += trace.first().map_or(0.0, |c| c.t);
         fnv(&mut print.hash, u64::from(trace.steps));
         fnv(&mut print.hash, u64::from(trace.evaluations));
         for crossing in &trace.crossings {

@@ -54,6 +54,19 @@ impl GaussLegendre {
         RULE.get_or_init(|| Self::new(SCALIS_ORDER))
     }
 
+    /// The rule with the fewest nodes that integrates polynomials of `degree` exactly
+    /// (`⌈(degree + 1)/2⌉` nodes; up to degree 23, the 12-point rule past it).
+    #[must_use]
+    pub fn exact_for_degree(degree: usize) -> &'static Self {
+        const MOST: usize = SCALIS_ORDER;
+        static RULES: [OnceLock<GaussLegendre>; MOST] = [const { OnceLock::new() }; MOST];
+        let n = (degree + 1).div_ceil(2).clamp(1, MOST);
+        if degree + 1 > 2 * MOST {
+            return Self::scalis();
+        }
+        RULES[n - 1].get_or_init(|| Self::new(n))
+    }
+
     /// `∫_a^b g` by this rule, split into `panels` equal panels.
     pub fn integrate(&self, a: f64, b: f64, panels: usize, mut g: impl FnMut(f64) -> f64) -> f64 {
         let panels = panels.max(1);
@@ -88,6 +101,26 @@ fn legendre(n: usize, x: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_smallest_exact_rule_integrates_its_degree_exactly() {
+        for degree in 0..=23 {
+            let rule = GaussLegendre::exact_for_degree(degree);
+            assert_eq!(
+                rule.nodes.len(),
+                (degree + 1).div_ceil(2).max(1),
+                "{degree}"
+            );
+            // ∫_{-1}^{3} (t + 0.5)^degree
+            let exact = (3.5_f64.powi(degree as i32 + 1) - (-0.5_f64).powi(degree as i32 + 1))
+                / (degree as f64 + 1.0);
+            let got = rule.integrate(-1.0, 3.0, 1, |t| (t + 0.5).powi(degree as i32));
+            assert!(
+                (got - exact).abs() < 1e-12 * exact.abs().max(1.0),
+                "{degree}: {got} vs {exact}"
+            );
+        }
+    }
 
     #[test]
     fn integrates_polynomials_of_degree_2n_minus_1_exactly() {

@@ -1,6 +1,7 @@
 //! SCALIS segments: `f(p) = N ∫₀^L K(|p − q(s)|²/τ(s)²) / τ(s) ds` (scalis 2021 eq. 8,
 //! MATH.md §3), with the integral clipped to the kernel support and evaluated by Gauss–Legendre
-//! quadrature in `u = ln τ` (or in arc length when the radius barely varies).
+//! quadrature in `u = ln τ` (or in arc length when the radius barely varies; with `m + 1` nodes,
+//! exact, for a constant radius and a compact polynomial kernel).
 //!
 //! Derivative bounds along a ray differentiate under the integral:
 //! `f′ = N∫ K′(x)·2w/τ³ ds` and `f″ = N∫ (K″(x)·4w²/τ⁵ + K′(x)·2/τ³) ds` with
@@ -59,7 +60,15 @@ impl ScalisSegment {
             return;
         };
         let c = &self.cone;
-        let rule = GaussLegendre::scalis();
+        // A constant radius and a compact polynomial kernel `(1 − x/σ²)^m` make the integrands
+        // polynomials in `s` (of degree 2m for the value, 2m − 1 for the gradient), which
+        // `m + 1` nodes integrate exactly (MATH.md §3); otherwise the 12-point rule.
+        let rule = match k.compact_power() {
+            Some((m, _)) if c.slope == 0.0 => {
+                GaussLegendre::exact_for_degree(2 * usize::try_from(m).unwrap_or(0))
+            }
+            _ => GaussLegendre::scalis(),
+        };
         let tau1 = c.radius + c.slope * l1;
         let panels = if k.is_clipped() {
             // Wide, non-polynomial kernels: panels about two local radii long.
