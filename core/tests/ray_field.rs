@@ -37,6 +37,9 @@ fn compare(program: &FieldProgram, field: &RayField, rng: &mut SplitMix64) -> Op
         if !same_bits(a.0, b.0) || !same_bits(a.1, b.1) {
             return Some(format!("along({t}) after {k} questions: {a:?} vs {b:?}"));
         }
+        if !same_bits(field.value(t), b.0) {
+            return Some(format!("value({t}): {} vs {}", field.value(t), b.0));
+        }
         if k % 4 != 0 {
             continue;
         }

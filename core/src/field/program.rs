@@ -236,6 +236,23 @@ impl FieldProgram {
         })
     }
 
+    /// The value of [`FieldProgram::value_gradient_in`], bit for bit, without the gradients
+    /// (the blends' values never depend on their operands' gradients).
+    pub(crate) fn value_in(&self, lookup: &impl PointLookup, p: DVec3) -> f64 {
+        self.with_group_slots((0.0, DVec3::ZERO), |slots| {
+            lookup.near(p, |i| {
+                let v = self.primitives[i as usize].value(p, self.kernel_of(i));
+                slots[self.groups_of[i as usize] as usize].0 += v;
+            });
+            self.clamp_group_slots(slots, |slot| {
+                if slot.0 < 0.0 {
+                    *slot = (0.0, DVec3::ZERO);
+                }
+            });
+            blend::value_gradient(&self.blend, slots, self.isovalue).0
+        })
+    }
+
     /// Restriction to a ray: `(f(t), f′(t))`.
     #[must_use]
     pub fn along_ray(&self, ray: &Ray, t: f64) -> (f64, f64) {

@@ -377,6 +377,15 @@ impl<'a> RayField<'a> {
         (v, g.dot(self.ray.direction))
     }
 
+    /// `f(t)`: bit for bit the value of [`RayField::along`], without the derivative.
+    #[must_use]
+    pub fn value(&self, t: f64) -> f64 {
+        if !self.reach.contains(t) {
+            return self.program.along_ray(&self.ray, t).0;
+        }
+        self.program.value_in(&AtParameter(self, t), self.ray.at(t))
+    }
+
     /// As [`FieldProgram::ray_jet`].
     #[must_use]
     pub fn jet(&self, span: Interval) -> Jet {

@@ -40,8 +40,8 @@ fn bisect(
             continue;
         }
         trace.evaluations += 2;
-        let below_lo = field.along(i.lo).0 < c;
-        if below_lo == (field.along(i.hi).0 < c) {
+        let below_lo = field.value(i.lo) < c;
+        if below_lo == (field.value(i.hi) < c) {
             continue;
         }
         trace.push_crossing(Crossing {

@@ -6,7 +6,7 @@ use crate::bounds::bottom_up::{Degree, field_inclusion};
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::marching::Marcher;
+use super::marching::{Marcher, Slope};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `bottom-up-linear`.
@@ -29,6 +29,7 @@ impl Method for BottomUpLinear {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Used,
             bound: |field: &RayField, t, f, d, h| {
                 field_inclusion(field, (t, f, d, h), Degree::Linear)
             },

@@ -115,7 +115,7 @@ impl RayTracer for Prepared<'_> {
                 trace.steps += 1;
                 in_span += 1;
                 trace.evaluations += 1;
-                let f = field.along(t).0;
+                let f = field.value(t);
                 // Undo the clipping as for a single atom: K = (1 − ε)·K_c + ε.
                 let unit = (f / self.norm) * (1.0 - CLIP_EPSILON) + CLIP_EPSILON;
                 let distance = self.radius * (self.sigma * (-unit.ln()).max(0.0).sqrt() - 1.0);
@@ -148,7 +148,7 @@ impl Prepared<'_> {
         while inside - outside > self.settings.epsilon {
             let mid = 0.5 * (outside + inside);
             trace.evaluations += 1;
-            if field.along(mid).0 >= c {
+            if field.value(mid) >= c {
                 inside = mid;
             } else {
                 outside = mid;

@@ -8,7 +8,7 @@ use crate::bounds::inclusion::ForwardInclusion;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::marching::{Marcher, mixed_inclusion};
+use super::marching::{Marcher, Slope, mixed_inclusion};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `linear-mixed`.
@@ -31,6 +31,7 @@ impl Method for LinearMixed {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Used,
             bound: |field: &RayField, t, f, d, h| {
                 mixed_inclusion(field, (t, f, d, h), |g, _, jet, h| {
                     ForwardInclusion::linear(g, jet, h)

@@ -8,7 +8,7 @@ use crate::bounds::interval::Interval;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::marching::Marcher;
+use super::marching::{Marcher, Slope};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `linear-taylor`.
@@ -31,6 +31,7 @@ impl Method for LinearTaylor {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Unused,
             bound: |field: &RayField, t, f, _, h| {
                 ForwardInclusion::linear(f, &field.jet(Interval::new(t, t + h)), h)
             },

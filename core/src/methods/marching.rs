@@ -25,11 +25,19 @@ pub(crate) fn first_reach(start: f64, offset: Offset, target: f64, limit: f64) -
         .reduce(f64::min)
 }
 
+/// Whether a marching method's bound uses `f′(t)`: where it does not, the march evaluates the
+/// field without its gradient and passes NaN as `f′(t)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Slope {
+    Used,
+    Unused,
+}
+
 /// Marches over `part` with `bound(t, f(t), f′(t), h)`, appending to `trace`.
 pub(crate) fn march(
     field: &RayField,
     part: Interval,
-    settings: &TraceSettings,
+    (settings, slope): (&TraceSettings, Slope),
     mode: TraceMode,
     trace: &mut Trace,
     bound: impl Fn(f64, f64, f64, f64) -> ForwardInclusion,
@@ -42,7 +50,12 @@ pub(crate) fn march(
     while t < part.hi && trace.steps < settings.max_steps {
         trace.steps += 1;
         trace.evaluations += 1;
-        let (f, d) = field.along(t);
+        // The derivative only where the bound or the step log uses it (`f` is the same).
+        let (f, d) = if slope == Slope::Used || trace.log.is_some() {
+            field.along(t)
+        } else {
+            (field.value(t), f64::NAN)
+        };
         let inside = f >= c;
         if let Some((t_prev, was_inside)) = previous
             && was_inside != inside
@@ -80,7 +93,7 @@ pub(crate) fn march(
                 // Confirm: the field must be on the other side of c just past the root.
                 trace.evaluations += 1;
                 let beyond = t + s + settings.min_step;
-                if (field.along(beyond).0 >= c) == inside {
+                if (field.value(beyond) >= c) == inside {
                     t += s.max(f64::EPSILON * t.abs());
                     h = settings.min_step;
                     continue;
@@ -121,7 +134,7 @@ fn bisect_sign_change(
     while hi - lo > settings.epsilon {
         let mid = 0.5 * (lo + hi);
         trace.evaluations += 1;
-        if (field.along(mid).0 >= field.program().isovalue()) == lo_inside {
+        if (field.value(mid) >= field.program().isovalue()) == lo_inside {
             lo = mid;
         } else {
             hi = mid;
@@ -146,6 +159,8 @@ pub(crate) fn symmetric(start: f64, lambda: f64, length: f64) -> ForwardInclusio
 pub(crate) struct Marcher<'a, B> {
     pub(crate) program: &'a FieldProgram,
     pub(crate) settings: TraceSettings,
+    /// Whether `bound` uses `f′(t)`.
+    pub(crate) slope: Slope,
     pub(crate) bound: B,
 }
 
@@ -183,7 +198,7 @@ where
             mode,
             s.max_steps,
             |part, trace| {
-                march(field, part, s, mode, trace, |t, f, d, h| {
+                march(field, part, (s, self.slope), mode, trace, |t, f, d, h| {
                     (self.bound)(field, t, f, d, h)
                 });
             },

@@ -237,8 +237,8 @@ fn jump_crossing(field: &RayField, t: f64, trace: &mut Trace) -> Option<Crossing
     let inset = 1e-9 * (1.0 + t.abs());
     let c = field.program().isovalue();
     trace.evaluations += 2;
-    let before = field.along(t - inset).0 >= c;
-    let after = field.along(t + inset).0 >= c;
+    let before = field.value(t - inset) >= c;
+    let after = field.value(t + inset) >= c;
     (before != after).then_some(Crossing { t, entering: after })
 }
 

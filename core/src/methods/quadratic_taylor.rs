@@ -9,7 +9,7 @@ use crate::bounds::interval::Interval;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::marching::Marcher;
+use super::marching::{Marcher, Slope};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `quadratic-taylor`.
@@ -32,6 +32,7 @@ impl Method for QuadraticTaylor {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Used,
             bound: |field: &RayField, t, f, d, h| {
                 ForwardInclusion::quadratic(f, d, &field.jet(Interval::new(t, t + h)), h)
             },

@@ -56,7 +56,7 @@ impl Method for Reference {
 impl Prepared<'_> {
     fn below(&self, field: &RayField, t: f64, trace: &mut Trace) -> bool {
         trace.evaluations += 1;
-        field.along(t).0 < self.program.isovalue()
+        field.value(t) < self.program.isovalue()
     }
 }
 
@@ -75,7 +75,7 @@ impl RayTracer for Prepared<'_> {
                 let jet = field.jet(i);
                 let mid = 0.5 * (i.lo + i.hi);
                 trace.evaluations += 1;
-                let f_mid = field.along(mid).0;
+                let f_mid = field.value(mid);
                 // The Lipschitz test: `f` stays within `reach` of `f(mid)` on the interval.
                 let reach = 0.5 * i.width() * jet.d1.magnitude();
                 let lipschitz_range = Interval::new(f_mid - reach, f_mid + reach);

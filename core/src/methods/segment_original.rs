@@ -60,7 +60,7 @@ impl Prepared<'_> {
         while t < part.hi && trace.steps < self.settings.max_steps {
             trace.steps += 1;
             trace.evaluations += 1;
-            let f = field.along(t).0;
+            let f = field.value(t);
             let inside = f >= c;
             if was_inside.is_some_and(|w| w != inside) {
                 trace.push_crossing(Crossing {

@@ -8,7 +8,7 @@ use crate::bounds::interval::Interval;
 use crate::field::program::{FieldProgram, PrimitiveSlope};
 use crate::field::ray_field::RayField;
 
-use super::marching::{Marcher, symmetric};
+use super::marching::{Marcher, Slope, symmetric};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `segment`.
@@ -31,6 +31,7 @@ impl Method for SegmentTracing {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Unused,
             bound: |field: &RayField, t, f, _, h| {
                 symmetric(
                     f,

@@ -9,7 +9,7 @@ use super::MethodId;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::marching::{Marcher, symmetric};
+use super::marching::{Marcher, Slope, symmetric};
 use super::{Method, RayTracer, TraceSettings};
 
 /// `sphere`.
@@ -33,6 +33,7 @@ impl Method for SphereTracing {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Unused,
             bound: move |_: &RayField, _, f, _, _| symmetric(f, lipschitz, f64::INFINITY),
         })
     }

@@ -48,7 +48,7 @@ impl Method for AcceleratedSphereTracing {
 impl Prepared<'_> {
     fn radius(&self, field: &RayField, t: f64, trace: &mut Trace) -> (f64, bool) {
         trace.evaluations += 1;
-        let f = field.along(t).0;
+        let f = field.value(t);
         let c = self.program.isovalue();
         ((f - c).abs() / self.lipschitz, f >= c)
     }

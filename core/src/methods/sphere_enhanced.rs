@@ -62,7 +62,7 @@ impl RayTracer for Prepared<'_> {
             while t < part.hi && trace.steps < s.max_steps {
                 trace.steps += 1;
                 trace.evaluations += 1;
-                let f = field.along(t).0;
+                let f = field.value(t);
                 let inside = f >= c;
                 let radius = (f - c).abs() / self.lipschitz;
                 let crossed_side = side.is_some_and(|was| was != inside);
@@ -78,7 +78,7 @@ impl RayTracer for Prepared<'_> {
                 if radius < s.epsilon {
                     // Confirm the crossing on the other side, as the marching methods do.
                     trace.evaluations += 1;
-                    let beyond = field.along(t + s.min_step).0 >= c;
+                    let beyond = field.value(t + s.min_step) >= c;
                     if beyond == inside {
                         t += radius.max(f64::EPSILON * t.abs());
                         omega = 1.0;

@@ -14,7 +14,7 @@ use crate::bounds::interval::Interval;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
 
-use super::marching::{Marcher, symmetric};
+use super::marching::{Marcher, Slope, symmetric};
 use super::normalised_field::{normalising_kernel, scalis_kernel, thinnest_radius_on};
 use super::{Method, RayTracer, TraceSettings};
 
@@ -44,6 +44,7 @@ impl Method for NormalizedSphereTracing {
         Box::new(Marcher {
             program,
             settings,
+            slope: Slope::Unused,
             bound: move |field: &RayField, t, f, _, h| {
                 let window = if per_ray {
                     field.span()

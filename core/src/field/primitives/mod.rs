@@ -66,8 +66,10 @@ impl Primitive {
         }
     }
 
-    /// Value at `p`.
+    /// Value at `p`: bit for bit the value [`Primitive::value_gradient`] gives, without the
+    /// gradient.
     #[must_use]
+    #[inline]
     pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {
         match self {
             Self::Point(x) => x.value(p, k),

@@ -32,8 +32,11 @@ impl PointBlob {
 
     /// Value at `p`.
     #[must_use]
+    #[inline]
     pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {
-        self.norm * k.value((p - self.center).length_squared() / (self.radius * self.radius))
+        // The arithmetic of `value_gradient`'s value, bit for bit.
+        let inv_r2 = 1.0 / (self.radius * self.radius);
+        self.norm * k.value((p - self.center).length_squared() * inv_r2)
     }
 
     /// Bounding box of the support.

@@ -196,8 +196,10 @@ impl ShapePrimitive {
     /// Value at `p`.
     #[must_use]
     pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {
+        // The arithmetic of `value_gradient`'s value, bit for bit.
+        let inv_r2 = 1.0 / (self.radius * self.radius);
         let (d2, _) = self.distance_sq(p);
-        self.norm * k.value(d2 / (self.radius * self.radius))
+        self.norm * k.value(d2 * inv_r2)
     }
 
     /// Half extents of a local box bounding the support (`None` for the unbounded plane).
