@@ -18,7 +18,6 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use common::assets;
-use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::frame::{PinholeCamera, far_distance};
 use skeletrace_core::methods::{self, Method, TraceMode, TraceSettings};
@@ -105,20 +104,8 @@ fn rays(scene: &Scene, program: &FieldProgram) -> Vec<(Ray, Interval)> {
             (ray, Interval::new(0.0, far))
         })
         .collect();
-    let bounds = program.support_bounds();
-    let diagonal = bounds.diagonal();
     let mut rng = SplitMix64::new(0x5eed);
-    for _ in 0..AIMED {
-        let i = rng.below(program.primitives().len());
-        let target = program.primitives()[i]
-            .support_aabb(program.kernel_of(i as u32))
-            .map_or(bounds.center(), |b| b.center());
-        let dir = DVec3::from_array(rng.direction());
-        out.push((
-            Ray::new(target - diagonal * dir, dir),
-            Interval::new(0.0, 2.0 * diagonal),
-        ));
-    }
+    out.extend((0..AIMED).map(|_| common::aimed_ray(program, &mut rng)));
     out
 }
 

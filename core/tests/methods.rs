@@ -233,13 +233,7 @@ fn compare_with_reference_under(
     let mut rng = SplitMix64::new(seed);
     let mut failures = Vec::new();
     for _ in 0..rays {
-        let i = rng.below(program.primitives().len());
-        let target = program.primitives()[i]
-            .support_aabb(program.kernel_of(i as u32))
-            .map_or(bounds.center(), |b| b.center());
-        let dir = DVec3::from_array(rng.direction());
-        let ray = Ray::new(target - diagonal * dir, dir);
-        let span = Interval::new(0.0, 2.0 * diagonal);
+        let (ray, span) = common::aimed_ray(program, &mut rng);
         let want = reference.trace(&ray, span, TraceMode::Opaque).first();
         for (id, conservative, tracer) in &tracers {
             let name = id.name();

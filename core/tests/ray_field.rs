@@ -78,21 +78,9 @@ fn compare(program: &FieldProgram, field: &RayField, rng: &mut SplitMix64) -> Op
 
 /// Rays aimed at random primitives, then the protocol's rays.
 fn check_program(program: &FieldProgram, label: &str, seed: u64) -> Vec<String> {
-    let bounds = program.support_bounds();
-    let diagonal = bounds.diagonal();
     let mut rng = SplitMix64::new(seed);
     let mut rays: Vec<(Ray, Interval)> = (0..60)
-        .map(|_| {
-            let i = rng.below(program.primitives().len());
-            let target = program.primitives()[i]
-                .support_aabb(program.kernel_of(i as u32))
-                .map_or(bounds.center(), |b| b.center());
-            let dir = DVec3::from_array(rng.direction());
-            (
-                Ray::new(target - diagonal * dir, dir),
-                Interval::new(0.0, 2.0 * diagonal),
-            )
-        })
+        .map(|_| common::aimed_ray(program, &mut rng))
         .collect();
     rays.extend(protocol_rays(program, 60, seed));
     rays.iter()

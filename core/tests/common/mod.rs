@@ -340,3 +340,22 @@ pub fn assert_no_failures(failures: &[String], what: &str) {
         failures[0]
     );
 }
+
+/// A ray through the centre of a random primitive's support box from a random direction,
+/// starting one support-box diagonal before it, and its span (two diagonals).
+pub fn aimed_ray(
+    program: &skeletrace_core::FieldProgram,
+    rng: &mut SplitMix64,
+) -> (skeletrace_core::Ray, skeletrace_core::Interval) {
+    let bounds = program.support_bounds();
+    let diagonal = bounds.diagonal();
+    let i = rng.below(program.primitives().len());
+    let target = program.primitives()[i]
+        .support_aabb(program.kernel_of(i as u32))
+        .map_or(bounds.center(), |b| b.center());
+    let dir = glam::DVec3::from_array(rng.direction());
+    (
+        skeletrace_core::Ray::new(target - diagonal * dir, dir),
+        skeletrace_core::Interval::new(0.0, 2.0 * diagonal),
+    )
+}
