@@ -13,6 +13,7 @@ const MARCH: &str = include_str!("../shaders/march.wgsl");
 const PARTS: &str = include_str!("../shaders/parts.wgsl");
 const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
 const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
+const SPHERE_ACCELERATED: &str = include_str!("../shaders/sphere_accelerated.wgsl");
 const INTERVAL: &str = include_str!("../shaders/interval.wgsl");
 const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
 const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
@@ -50,6 +51,8 @@ pub enum GpuMethod {
     Sphere,
     /// `sphere-enhanced`.
     SphereEnhanced,
+    /// `sphere-accelerated`.
+    SphereAccelerated,
     /// `segment` (point blobs, segments, planes).
     Segment,
     /// `linear-taylor` (point blobs, segments, planes).
@@ -72,9 +75,10 @@ pub enum GpuMethod {
 
 impl GpuMethod {
     /// Every GPU method.
-    pub const ALL: [Self; 11] = [
+    pub const ALL: [Self; 12] = [
         Self::Sphere,
         Self::SphereEnhanced,
+        Self::SphereAccelerated,
         Self::Segment,
         Self::LinearTaylor,
         Self::QuadraticTaylor,
@@ -92,6 +96,7 @@ impl GpuMethod {
         match self {
             Self::Sphere => MethodId::Sphere,
             Self::SphereEnhanced => MethodId::SphereEnhanced,
+            Self::SphereAccelerated => MethodId::SphereAccelerated,
             Self::Segment => MethodId::Segment,
             Self::LinearTaylor => MethodId::LinearTaylor,
             Self::QuadraticTaylor => MethodId::QuadraticTaylor,
@@ -205,6 +210,7 @@ impl GpuMethod {
         let family = match self {
             Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
             Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
+            Self::SphereAccelerated => format!("{SPHERE_ACCELERATED}\n{PARTS}"),
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
@@ -385,6 +391,7 @@ mod tests {
             ("parts.wgsl", PARTS),
             ("sphere.wgsl", SPHERE),
             ("sphere_enhanced.wgsl", SPHERE_ENHANCED),
+            ("sphere_accelerated.wgsl", SPHERE_ACCELERATED),
             ("interval.wgsl", INTERVAL),
             ("primitive_jets.wgsl", PRIMITIVE_JETS),
             ("inclusion.wgsl", INCLUSION),
