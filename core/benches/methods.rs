@@ -1,13 +1,18 @@
 //! Time per ray of every method on the `blobs` and `tree` assets and on 1000 summed blobs
 //! (`generate blobs --groups 1 --size 1000`, issue 18), with the statistics protocol's rays (six
-//! axis directions from the faces of the support box), single-threaded. Criterion reports time per ray as the inverse of the
+//! axis directions from the faces of the support box), single-threaded; and time per pixel of
+//! whole 64×64 frames (camera rays from screen-tile candidate lists, normals, shading) for one
+//! method of each family, on rayon's pool (`RAYON_NUM_THREADS=1` for one thread). Criterion reports time per ray as the inverse of the
 //! element throughput; `skeletrace stats` reports the same quantity with the step counts.
 
 use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use skeletrace_core::compile;
+use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
 use skeletrace_core::cpu::stats::protocol_rays;
+use skeletrace_core::frame::FieldShading;
 use skeletrace_core::methods::{self, MethodId, TraceMode, TraceSettings};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::{FieldProgram, Scene};
@@ -45,9 +50,41 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
     group.finish();
 }
 
-fn methods_per_ray(c: &mut Criterion) {
-    bench_scene(c, "blobs", &asset("blobs"));
-    bench_scene(c, "tree", &asset("tree"));
+/// Side of the benchmarked frames.
+const FRAME: usize = 64;
+
+fn bench_frames(c: &mut Criterion, name: &str, scene: &Scene) {
+    let compiled = compile(scene);
+    let mut group = c.benchmark_group(format!("frame/{name}"));
+    group.throughput(Throughput::Elements((FRAME * FRAME) as u64));
+    group.sample_size(10);
+    let options = RenderOptions {
+        width: FRAME,
+        height: FRAME,
+        shadows: false,
+        shading: FieldShading::default(),
+    };
+    for id in [
+        MethodId::Sphere,
+        MethodId::Segment,
+        MethodId::QuadraticTaylor,
+        MethodId::BottomUpQuadratic,
+        MethodId::ScalisQuadratic,
+    ] {
+        let method = id.method();
+        if method.supports(&compiled.program).is_err() {
+            continue;
+        }
+        let tracer = method.prepare(&compiled.program, compiled.settings);
+        let renderer = Renderer::new(&compiled, tracer.as_ref(), compiled.settings);
+        group.bench_function(BenchmarkId::from_parameter(id.name()), |b| {
+            b.iter(|| black_box(renderer.render(&scene.camera, options)));
+        });
+    }
+    group.finish();
+}
+
+fn thousand_blobs() -> Scene {
     let options = GenerateOptions {
         seed: 1,
         size: Some(1000),
@@ -55,9 +92,17 @@ fn methods_per_ray(c: &mut Criterion) {
         ..GenerateOptions::default()
     };
     match generate(GeneratorKind::Blobs, &options) {
-        Ok(scene) => bench_scene(c, "blobs-1000", &scene),
+        Ok(scene) => scene,
         Err(e) => panic!("{e}"),
     }
+}
+
+fn methods_per_ray(c: &mut Criterion) {
+    bench_scene(c, "blobs", &asset("blobs"));
+    bench_scene(c, "tree", &asset("tree"));
+    bench_scene(c, "blobs-1000", &thousand_blobs());
+    bench_frames(c, "tree", &asset("tree"));
+    bench_frames(c, "blobs-1000", &thousand_blobs());
 }
 
 criterion_group!(benches, methods_per_ray);
