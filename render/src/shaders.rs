@@ -13,7 +13,6 @@ const MARCH: &str = include_str!("../shaders/march.wgsl");
 const PARTS: &str = include_str!("../shaders/parts.wgsl");
 const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
 const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
-const SPHERE_ACCELERATED: &str = include_str!("../shaders/sphere_accelerated.wgsl");
 const INTERVAL: &str = include_str!("../shaders/interval.wgsl");
 const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
 const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
@@ -51,8 +50,6 @@ pub enum GpuMethod {
     Sphere,
     /// `sphere-enhanced`.
     SphereEnhanced,
-    /// `sphere-accelerated`.
-    SphereAccelerated,
     /// `segment` (point blobs, segments, planes).
     Segment,
     /// `linear-taylor` (point blobs, segments, planes).
@@ -75,10 +72,9 @@ pub enum GpuMethod {
 
 impl GpuMethod {
     /// Every GPU method.
-    pub const ALL: [Self; 12] = [
+    pub const ALL: [Self; 11] = [
         Self::Sphere,
         Self::SphereEnhanced,
-        Self::SphereAccelerated,
         Self::Segment,
         Self::LinearTaylor,
         Self::QuadraticTaylor,
@@ -96,7 +92,6 @@ impl GpuMethod {
         match self {
             Self::Sphere => MethodId::Sphere,
             Self::SphereEnhanced => MethodId::SphereEnhanced,
-            Self::SphereAccelerated => MethodId::SphereAccelerated,
             Self::Segment => MethodId::Segment,
             Self::LinearTaylor => MethodId::LinearTaylor,
             Self::QuadraticTaylor => MethodId::QuadraticTaylor,
@@ -210,7 +205,6 @@ impl GpuMethod {
         let family = match self {
             Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
             Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
-            Self::SphereAccelerated => format!("{SPHERE_ACCELERATED}\n{PARTS}"),
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
@@ -391,7 +385,6 @@ mod tests {
             ("parts.wgsl", PARTS),
             ("sphere.wgsl", SPHERE),
             ("sphere_enhanced.wgsl", SPHERE_ENHANCED),
-            ("sphere_accelerated.wgsl", SPHERE_ACCELERATED),
             ("interval.wgsl", INTERVAL),
             ("primitive_jets.wgsl", PRIMITIVE_JETS),
             ("inclusion.wgsl", INCLUSION),

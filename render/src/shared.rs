@@ -150,11 +150,6 @@ pub fn wgsl_constants() -> String {
         u32_const(&mut out, name, bound as u32);
     }
     u32_const(&mut out, "MAX_GROUPS", MAX_GROUPS as u32);
-    f32_const(
-        &mut out,
-        "SPHERE_ACCELERATED_BETA",
-        skeletrace_core::methods::sphere_accelerated::BETA,
-    );
     // Field shading (2014 notes §12.4), the CPU's constants (core frame.rs).
     u32_const(&mut out, "SOFT_SHADOW_STEPS", shading::SOFT_SHADOW_STEPS);
     f32_const(&mut out, "SOFTNESS", shading::SOFTNESS);

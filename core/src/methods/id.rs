@@ -146,7 +146,6 @@ impl MethodId {
             self,
             Self::Sphere
                 | Self::SphereEnhanced
-                | Self::SphereAccelerated
                 | Self::Segment
                 | Self::LinearTaylor
                 | Self::QuadraticTaylor

@@ -27,7 +27,7 @@ mod segment_original;
 mod segment_tracing;
 mod sherstyuk;
 mod sphere;
-pub mod sphere_accelerated;
+mod sphere_accelerated;
 mod sphere_enhanced;
 mod sphere_normalized;
 

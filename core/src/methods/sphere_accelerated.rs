@@ -11,8 +11,8 @@ use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
-/// Extrapolation weight β (the GPU shader's too).
-pub const BETA: f64 = 0.95;
+/// Extrapolation weight.
+const BETA: f64 = 0.95;
 
 /// `sphere-accelerated`.
 pub struct AcceleratedSphereTracing;
