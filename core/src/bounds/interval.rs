@@ -144,14 +144,12 @@ impl Interval {
     pub fn scale(self, k: f64) -> Self {
         Self::new(mul_ends(self.lo, k), mul_ends(self.hi, k))
     }
-}
 
-impl Interval {
     /// `self · o` for `o` of positive members only (`o.lo > 0`): the end points of `*` (equal
     /// numbers; where both are zeros their signs may differ), since the order of the products
     /// is known (the larger factor of `self` gives the larger products), with two products and
-    /// comparisons fewer. For the hot loops of the
-    /// SCALIS bounds, where `o` is a power of `1/τ` (issue 18).
+    /// comparisons fewer. For the hot loops of the SCALIS bounds, where `o` is a power of `1/τ`
+    /// (issue 18).
     #[must_use]
     #[inline]
     pub fn times_positive(self, o: Self) -> Self {

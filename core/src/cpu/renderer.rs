@@ -106,6 +106,11 @@ impl<'a> Renderer<'a> {
         };
         let span = Interval::new(0.0, context.far);
         let (columns, rows) = (w.div_ceil(TILE), h.div_ceil(TILE));
+        // Tile `k`'s pixel columns `x0..x1` and rows `y0..y1`.
+        let tile_pixels = |k: usize| {
+            let (x0, y0) = ((k % columns) * TILE, (k / columns) * TILE);
+            ((x0, (x0 + TILE).min(w)), (y0, (y0 + TILE).min(h)))
+        };
         // One BVH walk per tile gathers its camera rays' candidates (`TileCandidates`); tiles
         // are scheduled over the threads, each tile's rays traced together.
         let tiles: Option<Vec<Vec<Pixel>>> = (0..columns * rows)
@@ -114,8 +119,7 @@ impl<'a> Renderer<'a> {
                 if cancel.is_cancelled() {
                     return None;
                 }
-                let (x0, y0) = ((tile % columns) * TILE, (tile / columns) * TILE);
-                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+                let ((x0, x1), (y0, y1)) = tile_pixels(tile);
                 let corners = pinhole.tile_corners((x0, x1), (y0, y1), w, h);
                 let candidates =
                     TileCandidates::gather(self.program, pinhole.origin(), corners, span);
@@ -123,9 +127,12 @@ impl<'a> Renderer<'a> {
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let ray = pinhole.ray(x, y, w, h);
-                        let field = RayField::from_tile(self.program, &ray, span, &candidates);
-                        let trace = self.tracer.trace_field(&field, TraceMode::Opaque);
-                        drop(field);
+                        // The field is dropped before shading, so that the shadow rays'
+                        // fields reuse its arrays.
+                        let trace = {
+                            let field = RayField::from_tile(self.program, &ray, span, &candidates);
+                            self.tracer.trace_field(&field, TraceMode::Opaque)
+                        };
                         let mut steps = 0;
                         let (colour, depth) =
                             self.shade_trace(&ray, &trace, 0, &context, &mut steps);
@@ -140,8 +147,7 @@ impl<'a> Renderer<'a> {
         let mut depth = vec![f64::INFINITY; w * h];
         let mut steps = vec![0; w * h];
         for (tile, pixels) in tiles.iter().enumerate() {
-            let (x0, y0) = ((tile % columns) * TILE, (tile / columns) * TILE);
-            let x1 = (x0 + TILE).min(w);
+            let ((x0, x1), (y0, _)) = tile_pixels(tile);
             for (k, pixel) in pixels.iter().enumerate() {
                 let i = (y0 + k / (x1 - x0)) * w + x0 + k % (x1 - x0);
                 (colour[i], depth[i], steps[i]) = *pixel;

@@ -155,7 +155,7 @@ impl Bvh {
     }
 }
 
-/// The test of [`Bvh::for_each_near_ray`] on one box: where the ray is inside the box widened
+/// The test of [`Bvh::for_each_near`] on one box: where the ray is inside the box widened
 /// by `pad` on `span`. Without the exact handling of a zero direction component: `f64::min` and
 /// `max` ignore NaN (an origin on a slab plane).
 #[derive(Clone, Copy, Debug)]

@@ -220,9 +220,29 @@ impl FieldProgram {
     }
 
     pub(crate) fn value_gradient_in(&self, lookup: &impl PointLookup, p: DVec3) -> (f64, DVec3) {
+        self.blended_at(lookup, p, |primitive, k| primitive.value_gradient(p, k))
+    }
+
+    /// The value of [`FieldProgram::value_gradient_in`], bit for bit, without the gradients
+    /// (the blends' values never depend on their operands' gradients).
+    pub(crate) fn value_in(&self, lookup: &impl PointLookup, p: DVec3) -> f64 {
+        self.blended_at(lookup, p, |primitive, k| {
+            (primitive.value(p, k), DVec3::ZERO)
+        })
+        .0
+    }
+
+    /// The blend of the groups' sums of `primitive_at` over the primitives `lookup` finds at
+    /// `p` (negative group sums clamped to 0).
+    fn blended_at(
+        &self,
+        lookup: &impl PointLookup,
+        p: DVec3,
+        primitive_at: impl Fn(&Primitive, &KernelProfile) -> (f64, DVec3),
+    ) -> (f64, DVec3) {
         self.with_group_slots((0.0, DVec3::ZERO), |slots| {
             lookup.near(p, |i| {
-                let (v, g) = self.primitives[i as usize].value_gradient(p, self.kernel_of(i));
+                let (v, g) = primitive_at(&self.primitives[i as usize], self.kernel_of(i));
                 let slot = &mut slots[self.groups_of[i as usize] as usize];
                 slot.0 += v;
                 slot.1 += g;
@@ -233,23 +253,6 @@ impl FieldProgram {
                 }
             });
             blend::value_gradient(&self.blend, slots, self.isovalue)
-        })
-    }
-
-    /// The value of [`FieldProgram::value_gradient_in`], bit for bit, without the gradients
-    /// (the blends' values never depend on their operands' gradients).
-    pub(crate) fn value_in(&self, lookup: &impl PointLookup, p: DVec3) -> f64 {
-        self.with_group_slots((0.0, DVec3::ZERO), |slots| {
-            lookup.near(p, |i| {
-                let v = self.primitives[i as usize].value(p, self.kernel_of(i));
-                slots[self.groups_of[i as usize] as usize].0 += v;
-            });
-            self.clamp_group_slots(slots, |slot| {
-                if slot.0 < 0.0 {
-                    *slot = (0.0, DVec3::ZERO);
-                }
-            });
-            blend::value_gradient(&self.blend, slots, self.isovalue).0
         })
     }
 
