@@ -41,10 +41,11 @@ struct Primitive {
     kind: u32,
     group: u32,
     occluder: f32,     // radius of a ball inside the surface (0: none; buffers.rs occluder_radius)
-    pad1: u32,
+    extra: u32,
     a: vec4<f32>,
     b: vec4<f32>,
     c: vec4<f32>,
+    d: vec4<f32>,
     bound: vec4<f32>,
 };
 

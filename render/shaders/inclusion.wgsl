@@ -109,60 +109,126 @@ fn offset_at(o: vec2<f32>, s: f32) -> f32 {
     return s * (o.x + o.y * s);
 }
 
-// Maximum of the groups' inclusions (appendix C), or their minimum when `negated` (the
-// maximum of the negations, negated): one Bézier hull over all of them on the shortest of their
-// intervals, as inclusion.rs ForwardInclusion::max. A pairwise fold would differ: each partial
-// hull is re-evaluated on a shorter interval.
-fn groups_max(groups: array<Inclusion, MAX_GROUPS>, negated: bool) -> Inclusion {
-    var h = groups[0].length;
-    for (var g = 1u; g < globals.group_count; g++) {
-        h = min(h, groups[g].length);
+// The groups' inclusions composed through the blend (inclusion.rs blend), which
+// `compose_groups` (blend_wgsl.rs, generated per scene) nests in the shape of the scene's tree:
+// sums add, maxima, minima and differences take the Bézier hull, a Ricci blend with at most one
+// operand that may be positive is that operand's positive part. `valid` is false where no rule
+// applies (the smooth operators, a Ricci blend of several positive operands, an operator
+// without operands), and the caller bounds the whole field instead.
+struct Composed {
+    inclusion: Inclusion,
+    valid: bool,
+};
+
+fn composed_add(a: Composed, b: Composed) -> Composed {
+    return Composed(inclusion_add(a.inclusion, b.inclusion), a.valid && b.valid);
+}
+
+fn composed_neg(a: Composed) -> Composed {
+    return Composed(inclusion_neg(a.inclusion), a.valid);
+}
+
+fn composed_shift(a: Composed, by: f32) -> Composed {
+    var out = a;
+    out.inclusion.start += by;
+    return out;
+}
+
+// The maximum of inclusions (appendix C): one Bézier hull over all of them on the shortest of
+// their intervals h, as inclusion.rs ForwardInclusion::max (a pairwise fold would differ: each
+// partial hull is re-evaluated on a shorter interval). Started with the first operand, each
+// further one added, then ended.
+struct Hull {
+    best: Inclusion,
+    c: vec3<f32>,
+    valid: bool,
+};
+
+fn hull_start(a: Composed, h: f32) -> Hull {
+    let i = a.inclusion;
+    return Hull(i, vec3<f32>(i.start, i.start + 0.5 * h * i.upper.x, i.start + offset_at(i.upper, h)),
+                a.valid);
+}
+
+fn hull_add(acc: Hull, a: Composed, h: f32) -> Hull {
+    let i = a.inclusion;
+    var out = acc;
+    // The last of equal starts, as Iterator::max_by.
+    if i.start >= acc.best.start {
+        out.best = i;
     }
-    var best = groups[0];
-    var c0 = -INF;
-    var c1 = -INF;
-    var c2 = -INF;
-    for (var g = 0u; g < globals.group_count; g++) {
-        var item = groups[g];
-        if negated {
-            item = inclusion_neg(item);
-        }
-        // The last of equal starts, as Iterator::max_by.
-        if g == 0u || item.start >= best.start {
-            best = item;
-        }
-        c0 = max(c0, item.start);
-        c1 = max(c1, item.start + 0.5 * h * item.upper.x);
-        c2 = max(c2, item.start + offset_at(item.upper, h));
-    }
-    var upper = best.upper;
+    out.c = max(acc.c, vec3<f32>(i.start, i.start + 0.5 * h * i.upper.x, i.start + offset_at(i.upper, h)));
+    out.valid = acc.valid && a.valid;
+    return out;
+}
+
+fn hull_end(acc: Hull, h: f32) -> Composed {
+    var upper = acc.best.upper;
     if h > 0.0 {
-        upper = vec2<f32>(2.0 * (c1 - c0) / h, (c0 - 2.0 * c1 + c2) / (h * h));
+        upper = vec2<f32>(2.0 * (acc.c.y - acc.c.x) / h, (acc.c.x - 2.0 * acc.c.y + acc.c.z) / (h * h));
     }
-    let out = Inclusion(c0, best.lower, upper, h);
-    if negated {
-        return inclusion_neg(out);
+    return Composed(Inclusion(acc.c.x, acc.best.lower, upper, h), acc.valid);
+}
+
+// max(f, 0) (inclusion.rs positive_part).
+fn positive_part(a: Composed) -> Composed {
+    let h = a.inclusion.length;
+    let zero = Composed(Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h), true);
+    return hull_end(hull_add(hull_start(a, h), zero, h), h);
+}
+
+// The largest value of an inclusion's upper parabola on its interval (inclusion.rs upper_max).
+fn upper_max(a: Inclusion) -> f32 {
+    let h = a.length;
+    var top = max(a.start, a.start + offset_at(a.upper, h));
+    if a.upper.y < 0.0 {
+        let apex = -a.upper.x / (2.0 * a.upper.y);
+        if apex > 0.0 && apex < h {
+            top = max(top, a.start + offset_at(a.upper, apex));
+        }
+    }
+    return top;
+}
+
+// A Ricci blend's inclusion: the operands that may be positive are counted, the last kept.
+struct RicciInclusion {
+    positive: u32,
+    only: Composed,
+    h: f32,
+    valid: bool,
+};
+
+fn ricci_inclusion_start() -> RicciInclusion {
+    return RicciInclusion(0u, Composed(Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), INF), true),
+                          INF, true);
+}
+
+fn ricci_inclusion_add(acc: RicciInclusion, a: Composed) -> RicciInclusion {
+    var out = acc;
+    out.h = min(acc.h, a.inclusion.length);
+    out.valid = acc.valid && a.valid;
+    if upper_max(a.inclusion) > 0.0 {
+        out.positive += 1u;
+        out.only = a;
     }
     return out;
 }
 
-// The groups' inclusions composed through the blend (inclusion.rs blend): summed, or their
-// maximum or minimum hull. Not for the smooth operators, which have no composition rule.
-fn compose_groups(groups: array<Inclusion, MAX_GROUPS>) -> Inclusion {
-    if globals.blend_operator == BLEND_SUM {
-        var out = groups[0];
-        for (var g = 1u; g < globals.group_count; g++) {
-            out = inclusion_add(out, groups[g]);
-        }
+fn ricci_inclusion_end(acc: RicciInclusion) -> Composed {
+    if acc.positive == 0u {
+        return Composed(Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), acc.h), acc.valid);
+    } else if acc.positive == 1u {
+        var out = positive_part(acc.only);
+        out.valid = acc.valid;
         return out;
     }
-    return groups_max(groups, globals.blend_operator == BLEND_MIN);
+    return Composed(acc.only.inclusion, false);
 }
 
 // Bottom-up inclusion of the field (bottom_up.rs field_inclusion): point blobs by their own
 // rule, other primitives by their Taylor inclusion of the same degree, summed per group and
 // composed; the linear one is linearized after the composition.
-fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Inclusion {
+fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Composed {
     var groups: array<Inclusion, MAX_GROUPS>;
     for (var g = 0u; g < MAX_GROUPS; g++) {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
@@ -194,16 +260,22 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
         }
         groups[g] = inclusion_add(groups[g], own);
     }
-    let out = compose_groups(groups);
-    if quadratic {
-        return out;
+    // Groups holding an HRBF set are clamped at 0: max(f, 0) (bottom_up.rs field_inclusion).
+    for (var g = 0u; g < globals.group_count; g++) {
+        if kernels[g].clamped != 0u {
+            groups[g] = positive_part(Composed(groups[g], true)).inclusion;
+        }
     }
-    return linearized(out);
+    var out = compose_groups(groups);
+    if !quadratic {
+        out.inclusion = linearized(out.inclusion);
+    }
+    return out;
 }
 
 // Mixed inclusion (forward-inclusion 2023 §7.2; marching.rs mixed_inclusion): each group's own
 // Taylor inclusion from its value, slope and jet, composed through the blend.
-fn mixed(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Inclusion {
+fn mixed(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Composed {
     let values = groups_at(sp, ray, t);
     let jets = group_jets(sp, ray, t, t + h);
     var groups: array<Inclusion, MAX_GROUPS>;
@@ -218,21 +290,25 @@ fn mixed(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bo
 }
 
 fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
-    let composable = globals.blend_operator < BLEND_SMOOTH_UNION;
     if METHOD == BOUND_SEGMENT {
         return symmetric(f, summed_lipschitz(sp, ray, t, t + h), h);
-    } else if METHOD == BOUND_BOTTOM_UP_QUADRATIC && composable {
-        return bottom_up(sp, ray, t, h, true);
-    } else if METHOD == BOUND_BOTTOM_UP_LINEAR && composable {
-        return bottom_up(sp, ray, t, h, false);
-    } else if METHOD == BOUND_LINEAR_MIXED && composable {
-        return mixed(sp, ray, t, h, false);
-    } else if METHOD == BOUND_QUADRATIC_MIXED && composable {
-        return mixed(sp, ray, t, h, true);
+    }
+    var composed = Composed(Inclusion(f, vec2<f32>(0.0), vec2<f32>(0.0), h), false);
+    if METHOD == BOUND_BOTTOM_UP_QUADRATIC {
+        composed = bottom_up(sp, ray, t, h, true);
+    } else if METHOD == BOUND_BOTTOM_UP_LINEAR {
+        composed = bottom_up(sp, ray, t, h, false);
+    } else if METHOD == BOUND_LINEAR_MIXED {
+        composed = mixed(sp, ray, t, h, false);
+    } else if METHOD == BOUND_QUADRATIC_MIXED {
+        composed = mixed(sp, ray, t, h, true);
+    }
+    if composed.valid {
+        return composed.inclusion;
     }
     // Below: Taylor inclusions of the whole field, also the bottom-up and mixed methods'
-    // fallback for the smooth operators, which have no forward-inclusion composition rule
-    // (bottom_up.rs field_inclusion, marching.rs mixed_inclusion).
+    // fallback where the blend has no forward-inclusion composition rule (bottom_up.rs
+    // field_inclusion, marching.rs mixed_inclusion).
     let jet = ray_jet(sp, ray, t, t + h);
     if METHOD == BOUND_LINEAR_TAYLOR || METHOD == BOUND_BOTTOM_UP_LINEAR
         || METHOD == BOUND_LINEAR_MIXED {

@@ -49,10 +49,14 @@ fn jet_smooth_max(a: Jet, b: Jet, width: f32) -> Jet {
 
 // ---- interval arithmetic on (lo, hi) pairs (interval.rs) ----
 
-// End-point product with the interval convention 0 · ∞ = 0.
+// End-point product with the interval conventions 0 · ∞ = 0 and x · ∞ = ±∞ for x ≠ 0: INF
+// stands for ∞ and stays INF (an infinite f″ bound must still read as infinite after scaling).
 fn mul_ends(a: f32, b: f32) -> f32 {
     if a == 0.0 || b == 0.0 {
         return 0.0;
+    }
+    if abs(a) >= INF || abs(b) >= INF {
+        return sign(a) * sign(b) * INF;
     }
     return a * b;
 }
@@ -166,6 +170,52 @@ fn jet_recip(f: Jet) -> Jet {
     let d2a = i_mul(i_mul(i_scale(i_square(f.d1), 2.0), r2), r);
     let d2b = i_mul(f.d2, r2);
     return Jet(r, -i_mul(f.d1, r2).yx, vec2<f32>(d2a.x - d2b.y, d2a.y - d2b.x));
+}
+
+fn jet_constant(c: f32) -> Jet {
+    return Jet(vec2<f32>(c), vec2<f32>(0.0), vec2<f32>(0.0));
+}
+
+fn jet_sub(f: Jet, g: Jet) -> Jet {
+    return Jet(f.value - g.value.yx, f.d1 - g.d1.yx, f.d2 - g.d2.yx);
+}
+
+// f², exact in the value.
+fn jet_square(f: Jet) -> Jet {
+    return Jet(i_square(f.value), i_scale(i_mul(f.value, f.d1), 2.0),
+               i_scale(i_square(f.d1) + i_mul(f.value, f.d2), 2.0));
+}
+
+fn i_sqrt(a: vec2<f32>) -> vec2<f32> {
+    return sqrt(max(a, vec2<f32>(0.0)));
+}
+
+// √f on the non-negative part of f: r′ = f′/2r, r″ = (f″ − 2r′²)/2r.
+fn jet_sqrt(f: Jet) -> Jet {
+    let r = i_sqrt(f.value);
+    let half_inv = i_scale(i_recip(r), 0.5);
+    let d1 = i_mul(f.d1, half_inv);
+    let d2 = i_mul(f.d2 - i_scale(i_square(d1), 2.0).yx, half_inv);
+    return Jet(r, d1, d2);
+}
+
+// √f where √f ≥ floor > 0 (interval.rs sqrt_above): f clamped below at floor², for results
+// that feed max(√f − floor′, 0) with floor′ ≥ floor.
+fn jet_sqrt_above(f: Jet, floor: f32) -> Jet {
+    let f2 = floor * floor;
+    return jet_sqrt(Jet(max(f.value, vec2<f32>(f2)), f.d1, f.d2));
+}
+
+// max(f, 0)², C¹ in f; a lower end of exactly 0 (from a clamp) counts as straddling 0.
+fn jet_positive_part_squared(f: Jet) -> Jet {
+    if f.value.x > 0.0 {
+        return jet_square(f);
+    } else if f.value.y <= 0.0 {
+        return jet_constant(0.0);
+    }
+    let pos = vec2<f32>(0.0, f.value.y);
+    return Jet(i_square(pos), hull_with(i_scale(i_mul(pos, f.d1), 2.0), 0.0),
+               hull_with(i_scale(i_square(f.d1) + i_mul(pos, f.d2), 2.0), 0.0));
 }
 
 fn jet_div(f: Jet, g: Jet) -> Jet {

@@ -20,7 +20,6 @@ struct Globals {
     tiles_y: u32,
     primitive_count: u32,
     group_count: u32,
-    blend_operator: u32,        // BLEND_*
     max_steps: u32,
     epsilon: f32,
     min_step: f32,
@@ -38,10 +37,11 @@ struct Globals {
     heat_view: u32,             // 0 shaded, 1 step heat map
     shading_flags: u32,         // 1 soft shadows, 2 ambient occlusion
     shading_scale: f32,
-    blend_width: f32,           // width of the smooth operators
     steps_per_dispatch: u32,    // of a marching method (parts.wgsl)
     pad0: u32,
     pad1: u32,
+    pad2: u32,
+    pad3: u32,
 };
 
 // Twin of `GpuPrimitive`. kind: KIND_*.
@@ -49,10 +49,11 @@ struct Primitive {
     kind: u32,
     group: u32,
     occluder: f32,     // radius of a ball inside the surface (0: none; buffers.rs occluder_radius)
-    pad1: u32,
-    a: vec4<f32>,      // point: centre, radius | segment: start (smaller radius), radius | plane: normal, offset
-    b: vec4<f32>,      // segment: axis, length | plane: radius
-    c: vec4<f32>,      // x: normalisation, y: radius slope
+    extra: u32,        // HRBF term: its set's box in `boxes`
+    a: vec4<f32>,      // point: centre, radius | segment: start (smaller radius), radius | plane: normal, offset | shape: centre, radius | HRBF: centre, α
+    b: vec4<f32>,      // segment: axis, length | plane: radius | shape: dimensions (buffers.rs solid_dimensions) | HRBF: β, constant
+    c: vec4<f32>,      // x: normalisation | segment: y radius slope | shape: yzw local y axis | HRBF: linear part
+    d: vec4<f32>,      // shape, HRBF box: local x axis, w handedness
     bound: vec4<f32>,  // bounding sphere of the support; w < 0: unbounded
 };
 
@@ -75,7 +76,7 @@ fn cone_of(prim: Primitive) -> Cone {
 struct Kernel {
     family: u32,
     kinked: u32,
-    pad0: u32,
+    clamped: u32,      // the group's field is clamped at 0 (it holds an HRBF set)
     pad1: u32,
     exponent: f32,     // m (compact) or n (Cauchy)
     inv_sigma2: f32,
@@ -104,6 +105,8 @@ struct Light {
 @group(0) @binding(8) var<storage, read_write> out_depth: array<f32>;
 @group(0) @binding(9) var<storage, read_write> out_steps: array<u32>;
 @group(0) @binding(10) var<storage, read_write> suspensions: array<Suspension>;
+// The HRBF sets' boxes, three per set: local y axis, local minimum and maximum corners.
+@group(0) @binding(12) var<storage, read> boxes: array<vec4<f32>>;
 
 const INF: f32 = 3.0e38;
 // Size of a ray's support window (see RaySupports).
@@ -194,6 +197,10 @@ fn primitive_value_gradient(i: u32, p: vec3<f32>) -> vec4<f32> {
         return distance_segment(prim, k, p);
     } else if prim.kind == KIND_SCALIS_SEGMENT {
         return scalis_segment(prim, k, p);
+    } else if prim.kind == KIND_HRBF {
+        return hrbf(prim, p);
+    } else if prim.kind != KIND_PLANE {
+        return shape(prim, k, p);
     }
     // Plane: kernel of the squared distance to the plane, over ρ².
     let n = prim.a.xyz;
@@ -201,6 +208,109 @@ fn primitive_value_gradient(i: u32, p: vec3<f32>) -> vec4<f32> {
     let inv_r2 = 1.0 / (prim.b.x * prim.b.x);
     let v = kernel_d1(k, s * s * inv_r2);
     return vec4<f32>(prim.c.x * v.x, (prim.c.x * v.y * inv_r2 * 2.0 * s) * n);
+}
+
+// A shape's local frame (shapes.rs ShapePrimitive.frame), its axes as columns; `v * m` takes a
+// world vector to the local frame, `m * v` back.
+fn shape_frame(prim: Primitive) -> mat3x3<f32> {
+    let x = prim.d.xyz;
+    let y = prim.c.yzw;
+    return mat3x3<f32>(x, y, prim.d.w * cross(x, y));
+}
+
+// Per axis, how far q lies outside the slab |q| ≤ e, signed as q.
+fn box_excess(q: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
+    return sign(q) * max(abs(q) - e, vec3<f32>(0.0));
+}
+
+// Unit vector from the local y axis towards q, in the xz plane (0 on the axis).
+fn radial_direction(q: vec3<f32>) -> vec3<f32> {
+    let rho = length(q.xz);
+    if rho > 0.0 {
+        return vec3<f32>(q.x / rho, 0.0, q.z / rho);
+    }
+    return vec3<f32>(0.0);
+}
+
+// Squared distance from p to the solid of a box, rounded box, torus or cylinder, and its world
+// gradient (shapes.rs distance_sq).
+fn shape_distance_sq(prim: Primitive, p: vec3<f32>) -> vec4<f32> {
+    let m = shape_frame(prim);
+    let q = (p - prim.a.xyz) * m;
+    let e = prim.b;
+    var d2 = 0.0;
+    var g = vec3<f32>(0.0);
+    if prim.kind == KIND_BOX {
+        let x = box_excess(q, e.xyz);
+        d2 = dot(x, x);
+        g = 2.0 * x;
+    } else if prim.kind == KIND_ROUNDED_BOX {
+        let x = box_excess(q, e.xyz - vec3<f32>(e.w));
+        let inner = length(x);
+        let out = max(inner - e.w, 0.0);
+        if out > 0.0 {
+            d2 = out * out;
+            g = (2.0 * out / inner) * x;
+        }
+    } else if prim.kind == KIND_TORUS {
+        let a = length(q.xz) - e.x;
+        let tube = length(vec2<f32>(a, q.y));
+        let out = max(tube - e.y, 0.0);
+        if out > 0.0 {
+            d2 = out * out;
+            g = (2.0 * out / tube) * (a * radial_direction(q) + vec3<f32>(0.0, q.y, 0.0));
+        }
+    } else {
+        let gr = max(length(q.xz) - e.x, 0.0);
+        let gy = sign(q.y) * max(abs(q.y) - e.y, 0.0);
+        d2 = gr * gr + gy * gy;
+        g = 2.0 * (gr * radial_direction(q) + vec3<f32>(0.0, gy, 0.0));
+    }
+    return vec4<f32>(d2, m * g);
+}
+
+// A box, rounded box, torus or cylinder (shapes.rs value_gradient): N₀·K(d²/ρ²).
+fn shape(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
+    let inv_r2 = 1.0 / (prim.a.w * prim.a.w);
+    let d = shape_distance_sq(prim, p);
+    let v = kernel_d1(k, d.x * inv_r2);
+    return vec4<f32>(prim.c.x * v.x, (prim.c.x * v.y * inv_r2) * d.yzw);
+}
+
+// The frame of an HRBF term's box, its axes as columns, and the box's local corners
+// (hrbf.rs HrbfTerm bounds, frame).
+struct HrbfBox {
+    frame: mat3x3<f32>,
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+};
+
+fn hrbf_box(prim: Primitive) -> HrbfBox {
+    let x = prim.d.xyz;
+    let y = boxes[prim.extra].xyz;
+    return HrbfBox(mat3x3<f32>(x, y, prim.d.w * cross(x, y)), boxes[prim.extra + 1u].xyz,
+                   boxes[prim.extra + 2u].xyz);
+}
+
+// One term of an HRBF set (hrbf.rs value_gradient), 0 outside its set's box:
+// α r³ + 3r β·v + a·p + b with v = p − centre, r = |v|.
+fn hrbf(prim: Primitive, p: vec3<f32>) -> vec4<f32> {
+    let bx = hrbf_box(prim);
+    let q = p * bx.frame;
+    if any(q < bx.lo) || any(q > bx.hi) {
+        return vec4<f32>(0.0);
+    }
+    let alpha = prim.a.w;
+    let beta = prim.b.xyz;
+    let v = p - prim.a.xyz;
+    let r = length(v);
+    let bv = dot(beta, v);
+    let value = alpha * r * r * r + 3.0 * r * bv + dot(prim.c.xyz, p) + prim.b.w;
+    var gradient = 3.0 * alpha * r * v + 3.0 * r * beta + prim.c.xyz;
+    if r > 0.0 {
+        gradient += (3.0 * bv / r) * v;
+    }
+    return vec4<f32>(value, gradient);
 }
 
 // Homothetic-distance segment (segment.rs): closest homothetic point and the envelope gradient.
@@ -376,8 +486,48 @@ fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
         let t0 = (-r - s0) / su;
         let t1 = (r - s0) / su;
         return vec2<f32>(min(t0, t1), max(t0, t1));
+    } else if prim.kind == KIND_DISTANCE_SEGMENT || prim.kind == KIND_SCALIS_SEGMENT {
+        return cone_interval(ray, prim, reach);
+    } else if prim.kind == KIND_HRBF {
+        // The set's box (hrbf.rs support_interval).
+        let bx = hrbf_box(prim);
+        return box_interval(ray.origin * bx.frame, ray.dir * bx.frame, bx.lo, bx.hi);
     }
-    return cone_interval(ray, prim, reach);
+    return shape_interval(ray, prim, prim.a.w * reach);
+}
+
+// Interval of the line o + t u inside the box [lo, hi] (geometry.rs Aabb::ray_interval);
+// empty: x > y.
+fn box_interval(o: vec3<f32>, u: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
+    var span = vec2<f32>(-INF, INF);
+    for (var axis = 0; axis < 3; axis++) {
+        if u[axis] == 0.0 {
+            // Parallel to the slab: all of the line or none of it.
+            if o[axis] < lo[axis] || o[axis] > hi[axis] {
+                return vec2<f32>(INF, -INF);
+            }
+            continue;
+        }
+        let ta = (lo[axis] - o[axis]) / u[axis];
+        let tb = (hi[axis] - o[axis]) / u[axis];
+        span = vec2<f32>(max(span.x, min(ta, tb)), min(span.y, max(ta, tb)));
+    }
+    return span;
+}
+
+// Interval of the ray inside the local box bounding a shape's support (shapes.rs
+// support_interval, local_bound): a superset of the support's own interval.
+fn shape_interval(ray: Ray, prim: Primitive, reach: f32) -> vec2<f32> {
+    let e = prim.b;
+    var half = e.xyz + vec3<f32>(reach);
+    if prim.kind == KIND_TORUS {
+        let r = e.x + e.y + reach;
+        half = vec3<f32>(r, e.y + reach, r);
+    } else if prim.kind == KIND_CYLINDER {
+        half = vec3<f32>(e.x + reach, e.y + reach, e.x + reach);
+    }
+    let m = shape_frame(prim);
+    return box_interval((ray.origin - prim.a.xyz) * m, ray.dir * m, -half, half);
 }
 
 // ---- the pixel's ray and its supports ----
@@ -482,35 +632,39 @@ fn smooth_max(a: vec4<f32>, b: vec4<f32>, width: f32) -> vec4<f32> {
     return vec4<f32>(b.x + h * (a.x - b.x) + width * h * (1.0 - h), h * a.yzw + (1.0 - h) * b.yzw);
 }
 
-// Blend of the group values and gradients (blend.rs value_gradient, flat trees only): sum, max,
-// min, or the smooth union / intersection folded over the groups in index order.
-fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
-    let n = globals.group_count;
-    let op = globals.blend_operator;
-    if op == BLEND_SUM {
-        var s = vec4<f32>(0.0);
-        for (var g = 0u; g < n; g++) {
-            s += values[g];
-        }
-        return s;
+// The operators of the blend (blend.rs value_gradient) on values with gradients, which
+// `blend_groups` (blend_wgsl.rs, generated per scene) nests in the shape of the scene's tree.
+
+// max and min keep the first of equal values.
+fn value_max(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return select(a, b, b.x > a.x);
+}
+
+fn value_min(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return select(a, b, b.x < a.x);
+}
+
+// min(a, 2c − b), a on ties.
+fn value_difference(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    let complement = 2.0 * globals.isovalue - b.x;
+    return select(vec4<f32>(complement, -b.yzw), a, a.x <= complement);
+}
+
+// The Ricci blend R = (Σ max(fᵢ, 0)^p)^(1/p) with ∇R = Σ (fᵢ/R)^(p−1) ∇fᵢ over the positive
+// operands: the terms of the sum, its root (0 when nothing is positive), the gradient's terms.
+fn ricci_power(f: vec4<f32>, p: f32) -> f32 {
+    return select(0.0, pow(f.x, p), f.x > 0.0);
+}
+
+fn ricci_root(sum: f32, p: f32) -> f32 {
+    return select(0.0, pow(sum, 1.0 / p), sum > 0.0);
+}
+
+fn ricci_slope(f: vec4<f32>, root: f32, p: f32) -> vec3<f32> {
+    if f.x > 0.0 && root > 0.0 {
+        return pow(f.x / root, p - 1.0) * f.yzw;
     }
-    if op >= BLEND_SMOOTH_UNION {
-        // The intersection is −smooth_max(−a, −b).
-        let sign = select(1.0, -1.0, op == BLEND_SMOOTH_INTERSECTION);
-        var folded = sign * values[0];
-        for (var g = 1u; g < n; g++) {
-            folded = smooth_max(folded, sign * values[g], globals.blend_width);
-        }
-        return sign * folded;
-    }
-    var best = values[0];
-    for (var g = 1u; g < n; g++) {
-        let v = values[g];
-        if (op == BLEND_MAX && v.x > best.x) || (op == BLEND_MIN && v.x < best.x) {
-            best = v;
-        }
-    }
-    return best;
+    return vec3<f32>(0.0);
 }
 
 fn add_primitive(values: ptr<function, array<vec4<f32>, MAX_GROUPS>>, i: u32, p: vec3<f32>) {
@@ -530,6 +684,12 @@ fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32
         }
         if t <= s.y {
             add_primitive(&values, (*sp).ids[j], p);
+        }
+    }
+    // Groups holding an HRBF set are clamped at 0 (program.rs clamp_group_slots).
+    for (var g = 0u; g < globals.group_count; g++) {
+        if kernels[g].clamped != 0u && values[g].x < 0.0 {
+            values[g] = vec4<f32>(0.0);
         }
     }
     return values;

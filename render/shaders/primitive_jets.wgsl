@@ -165,6 +165,119 @@ fn plane_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     return jet_scale(jet_compose(k, x), prim.c.x);
 }
 
+// The jet of max(c − e, 0)² + max(−e − c, 0)² for the local coordinate c = o + u t: the
+// squared distance to the slab |c| ≤ e along one axis.
+fn slab_excess_sq(o: f32, u: f32, e: f32, lo: f32, hi: f32) -> Jet {
+    let c = jet_affine(o, u, lo, hi);
+    return jet_add(jet_positive_part_squared(jet_sub(c, jet_constant(e))),
+                   jet_positive_part_squared(jet_sub(jet_constant(-e), c)));
+}
+
+// The jet of a box, rounded box, torus or cylinder over [lo, hi] (shapes.rs ray_jet and
+// distance_sq_jet): the squared distance to the solid built from jets of the local
+// coordinates, over ρ², composed with the kernel.
+fn shape_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let prim = primitives[i];
+    let k = kernels[prim.group];
+    let m = shape_frame(prim);
+    let o = (ray.origin - prim.a.xyz) * m;
+    let u = ray.dir * m;
+    let e = prim.b;
+    var d2: Jet;
+    if prim.kind == KIND_BOX || prim.kind == KIND_ROUNDED_BOX {
+        let rounded = prim.kind == KIND_ROUNDED_BOX;
+        let half = e.xyz - select(vec3<f32>(0.0), vec3<f32>(e.w), rounded);
+        d2 = jet_add(jet_add(slab_excess_sq(o.x, u.x, half.x, lo, hi),
+                             slab_excess_sq(o.y, u.y, half.y, lo, hi)),
+                     slab_excess_sq(o.z, u.z, half.z, lo, hi));
+        if rounded {
+            d2 = jet_positive_part_squared(jet_sub(jet_sqrt_above(d2, e.w), jet_constant(e.w)));
+        }
+    } else {
+        let radial_sq = jet_quadratic(u.x * u.x + u.z * u.z, 2.0 * (o.x * u.x + o.z * u.z),
+                                      o.x * o.x + o.z * o.z, lo, hi);
+        if prim.kind == KIND_TORUS {
+            // Distance to the local y axis: 1-Lipschitz along a line and convex, which keeps its
+            // jet finite where the ray passes through the axis.
+            let lateral = length(u.xz);
+            var rho = jet_sqrt(radial_sq);
+            let d1 = vec2<f32>(max(rho.d1.x, -lateral), min(rho.d1.y, lateral));
+            rho.d1 = select(vec2<f32>(-lateral, lateral), d1, d1.x <= d1.y);
+            rho.d2.x = max(rho.d2.x, 0.0);
+            let a = jet_sub(rho, jet_constant(e.x));
+            let tube = jet_sqrt_above(jet_add(jet_square(a), jet_square(jet_affine(o.y, u.y, lo, hi))), e.y);
+            d2 = jet_positive_part_squared(jet_sub(tube, jet_constant(e.y)));
+        } else {
+            d2 = jet_add(jet_positive_part_squared(jet_sub(jet_sqrt_above(radial_sq, e.x), jet_constant(e.x))),
+                         slab_excess_sq(o.y, u.y, e.y, lo, hi));
+        }
+    }
+    return jet_scale(jet_compose(k, jet_scale(d2, 1.0 / (prim.a.w * prim.a.w))), prim.c.x);
+}
+
+// q/√(q + h²), 0 where both vanish (hrbf.rs ratio_sq).
+fn ratio_sq(q: f32, h2: f32) -> f32 {
+    let r = sqrt(q + h2);
+    return select(0.0, q / r, r > 0.0);
+}
+
+// s/√(s² + h²), 0 where both vanish.
+fn s_over_r(s: f32, h2: f32) -> f32 {
+    let r = sqrt(s * s + h2);
+    return select(0.0, s / r, r > 0.0);
+}
+
+// (2q + h²)/√(q + h²), 0 where both vanish.
+fn bend_at(q: f32, h2: f32) -> f32 {
+    let r = sqrt(q + h2);
+    return select(0.0, (2.0 * q + h2) / r, r > 0.0);
+}
+
+// The jet of HRBF term i over [lo, hi] inside its set's box (hrbf.rs ray_jet, whose docs derive
+// it): with s the parameter from the point of the line closest to the centre, h the line's
+// distance to it and r = √(s² + h²), every factor of f, f′, f″ is monotone in s or in s², so
+// its range comes from the interval's ends.
+fn hrbf_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
+    let prim = primitives[i];
+    let u = ray.dir;
+    let affine = jet_affine(dot(prim.c.xyz, ray.origin) + prim.b.w, dot(prim.c.xyz, u), lo, hi);
+    let alpha = prim.a.w;
+    let beta = prim.b.xyz;
+    if alpha == 0.0 && all(beta == vec3<f32>(0.0)) {
+        return affine;
+    }
+    let w = ray.origin - prim.a.xyz;
+    let along = dot(w, u);
+    let perpendicular = w - along * u;
+    let h2 = dot(perpendicular, perpendicular);
+    let h = sqrt(h2);
+    let b = dot(beta, u);
+    let a = dot(beta, perpendicular);
+    let a_over_h = select(0.0, a / h, h > 0.0);
+    let s0 = lo + along;
+    let s1 = hi + along;
+    let q = i_square(i_new(s0, s1));
+    // Monotone in s: r·s and s/r.
+    let rs = i_new(s0 * sqrt(s0 * s0 + h2), s1 * sqrt(s1 * s1 + h2));
+    let sr = i_new(s_over_r(s0, h2), s_over_r(s1, h2));
+    // Monotone in s²: r, s²/r, (2s² + h²)/r and h/r.
+    let r = i_new(sqrt(q.x + h2), sqrt(q.y + h2));
+    let s2r = i_new(ratio_sq(q.x, h2), ratio_sq(q.y, h2));
+    let bend = i_new(bend_at(q.x, h2), bend_at(q.y, h2));
+    var h_over_r2 = vec2<f32>(0.0);
+    if h2 > 0.0 {
+        h_over_r2 = i_new(h2 / (q.y + h2), h2 / (q.x + h2));
+    }
+    let h_over_r3 = i_new(pow_end(h_over_r2.x, 1.5), pow_end(h_over_r2.y, 1.5));
+    let cube = i_new(r.x * r.x * r.x, r.y * r.y * r.y);
+    let value = i_scale(cube, alpha) + i_scale(r, 3.0 * a) + i_scale(rs, 3.0 * b);
+    let d1 = i_scale(rs, 3.0 * alpha) + i_scale(sr, 3.0 * a) + i_scale(s2r, 3.0 * b)
+        + i_scale(r, 3.0 * b);
+    let d2 = i_scale(bend, 3.0 * alpha) + i_scale(h_over_r3, 3.0 * a_over_h)
+        + i_scale(i_mul(sr, h_over_r2), 3.0 * b) + i_scale(sr, 6.0 * b);
+    return jet_add(Jet(value, d1, d2), affine);
+}
+
 // The jet of |ray(t) − centre|² / radius² over [lo, hi]: a distance segment's squared
 // homothetic distance where the closest point is an end cap (segment.rs `cap`).
 fn cap_jet(ray: Ray, centre: vec3<f32>, radius: f32, lo: f32, hi: f32) -> Jet {
@@ -227,8 +340,12 @@ fn primitive_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
         return distance_segment_jet(ray, i, lo, hi);
     } else if kind == KIND_SCALIS_SEGMENT {
         return scalis_jet(ray, i, lo, hi);
+    } else if kind == KIND_PLANE {
+        return plane_jet(ray, i, lo, hi);
+    } else if kind == KIND_HRBF {
+        return hrbf_jet(ray, i, lo, hi);
     }
-    return plane_jet(ray, i, lo, hi);
+    return shape_jet(ray, i, lo, hi);
 }
 
 // The jet of an overlapping item over [lo, hi] (primitives/mod.rs ray_jet): taken on the part
@@ -261,45 +378,128 @@ fn group_jets(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> arr
         let g = primitives[item.id].group;
         groups[g] = jet_add(groups[g], item_jet(ray, item, lo, hi));
     }
+    // Groups holding an HRBF set are clamped at 0 (program.rs clamp_group_slots).
+    for (var g = 0u; g < globals.group_count; g++) {
+        if kernels[g].clamped != 0u {
+            groups[g] = jet_max(groups[g], jet_constant(0.0));
+        }
+    }
     return groups;
 }
 
-fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
-    let groups = group_jets(sp, ray, lo, hi);
-    let n = globals.group_count;
-    let op = globals.blend_operator;
-    if op >= BLEND_SMOOTH_UNION {
-        // The smooth intersection is −smooth_max(−a, −b).
-        let intersection = op == BLEND_SMOOTH_INTERSECTION;
-        var folded = groups[0];
-        if intersection {
-            folded = jet_neg(folded);
-        }
-        for (var g = 1u; g < n; g++) {
-            var next = groups[g];
-            if intersection {
-                next = jet_neg(next);
-            }
-            folded = jet_smooth_max(folded, next, globals.blend_width);
-        }
-        if intersection {
-            folded = jet_neg(folded);
-        }
-        return folded;
+// x^q for an interval end x ≥ 0 (Rust's powf at 0: 0^0 = 1, 0^q = ∞ for q < 0).
+fn pow_end(x: f32, q: f32) -> f32 {
+    if q == 0.0 {
+        return 1.0;
+    } else if x <= 0.0 {
+        return select(INF, 0.0, q > 0.0);
     }
-    var out = groups[0];
-    for (var g = 1u; g < n; g++) {
-        if op == BLEND_SUM {
-            out = jet_add(out, groups[g]);
-        } else if op == BLEND_MAX {
-            out = jet_max(out, groups[g]);
-        } else {
-            out = jet_neg(jet_max(jet_neg(out), jet_neg(groups[g])));
-        }
+    return pow(x, q);
+}
+
+// The blend's operators on jets (blend.rs jet), which `blend_jets` (blend_wgsl.rs, generated
+// per scene) nests in the shape of the scene's tree.
+
+// min(f, g) = −max(−f, −g).
+fn jet_min(f: Jet, g: Jet) -> Jet {
+    return jet_neg(jet_max(jet_neg(f), jet_neg(g)));
+}
+
+// min(a, 2c − b).
+fn jet_difference(a: Jet, b: Jet) -> Jet {
+    return jet_min(a, jet_sub(jet_constant(2.0 * globals.isovalue), b));
+}
+
+// The Ricci blend's jet (blend.rs ricci_jet, whose docs derive it) in two passes over the
+// operands. The first gathers the operands that may be positive: how many, the last of them,
+// the sum of their positive parts (the blend for p = 1) and the p-th powers of the ends of their
+// clamped values gᵢ = max(fᵢ, 0).
+struct RicciEnds {
+    positive: u32,
+    only: Jet,
+    sum: Jet,
+    lo: f32,
+    hi: f32,
+};
+
+fn ricci_ends_start() -> RicciEnds {
+    return RicciEnds(0u, jet_constant(0.0), jet_constant(0.0), 0.0, 0.0);
+}
+
+// gᵢ with the C¹ clamp: where fᵢ crosses 0, gᵢ′ and gᵢ″ are hulled with 0.
+fn ricci_part(f: Jet) -> Jet {
+    if f.value.x >= 0.0 {
+        return f;
+    }
+    return Jet(vec2<f32>(0.0, f.value.y), hull_with(f.d1, 0.0), hull_with(f.d2, 0.0));
+}
+
+fn ricci_ends_add(acc: RicciEnds, f: Jet, p: f32) -> RicciEnds {
+    if f.value.y <= 0.0 {
+        return acc;
+    }
+    let g = ricci_part(f);
+    return RicciEnds(acc.positive + 1u, f, jet_add(acc.sum, jet_max(f, jet_constant(0.0))),
+                     acc.lo + pow_end(g.value.x, p), acc.hi + pow_end(g.value.y, p));
+}
+
+// The second pass: the blend's value range, the weights uᵢ^(p−1) on the operands' slopes and
+// curvatures, and the convexity term's sup Σ uᵢ^(p−2) gᵢ′².
+struct RicciWeights {
+    value: vec2<f32>,
+    d1: vec2<f32>,
+    weighted_d2: vec2<f32>,
+    curvature: f32,
+};
+
+fn ricci_weights_start(ends: RicciEnds, p: f32) -> RicciWeights {
+    return RicciWeights(vec2<f32>(pow_end(ends.lo, 1.0 / p), pow_end(ends.hi, 1.0 / p)),
+                        vec2<f32>(0.0), vec2<f32>(0.0), 0.0);
+}
+
+fn ricci_weights_add(acc: RicciWeights, f: Jet, p: f32) -> RicciWeights {
+    if f.value.y <= 0.0 {
+        return acc;
+    }
+    let g = ricci_part(f);
+    var u = vec2<f32>(g.value.x / acc.value.y, 1.0);
+    if acc.value.x > 0.0 {
+        u.y = min(g.value.y / acc.value.x, 1.0);
+    }
+    let weight = vec2<f32>(pow_end(u.x, p - 1.0), pow_end(u.y, p - 1.0));
+    var out = acc;
+    out.d1 += i_mul(weight, g.d1);
+    out.weighted_d2 += i_mul(weight, g.d2);
+    let slope_squared = i_square(g.d1).y;
+    if slope_squared > 0.0 {
+        out.curvature += mul_ends(pow_end(select(u.x, u.y, p >= 2.0), p - 2.0), slope_squared);
     }
     return out;
 }
 
+fn ricci_jet_finish(ends: RicciEnds, w: RicciWeights, p: f32) -> Jet {
+    if ends.positive == 0u {
+        return jet_constant(0.0);
+    } else if ends.positive == 1u {
+        return jet_max(ends.only, jet_constant(0.0));
+    } else if p == 1.0 {
+        return ends.sum;
+    }
+    let curvature = max(w.curvature - i_square(w.d1).x, 0.0);
+    var t_hi = 0.0;
+    if curvature > 0.0 {
+        t_hi = select(INF, (p - 1.0) * curvature / w.value.x, w.value.x > 0.0 && curvature < INF);
+    }
+    return Jet(w.value, w.d1, vec2<f32>(w.weighted_d2.x, w.weighted_d2.y + t_hi));
+}
+
+// The field's jet over [lo, hi] (blend.rs jet): the group jets through the scene's blend.
+fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
+    return blend_jets(group_jets(sp, ray, lo, hi));
+}
+
+// Segment tracing's Lipschitz bound over [lo, hi] (blend.rs lipschitz): per group, the sum of
+// its items' largest |f′|, through the scene's blend (`blend_lipschitz`).
 fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> f32 {
     var groups: array<f32, MAX_GROUPS>;
     let items = support_count(sp);
@@ -311,9 +511,5 @@ fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) 
         let d1 = item_jet(ray, item, lo, hi).d1;
         groups[primitives[item.id].group] += max(abs(d1.x), abs(d1.y));
     }
-    var out = 0.0;
-    for (var g = 0u; g < globals.group_count; g++) {
-        out = select(max(out, groups[g]), out + groups[g], globals.blend_operator == BLEND_SUM);
-    }
-    return out;
+    return blend_lipschitz(groups);
 }

@@ -1,12 +1,10 @@
 //! The scene packed for the GPU: `#[repr(C)]` + bytemuck twins of the WGSL structs in
 //! `shaders/prelude.wgsl`, built from a [`Compiled`] scene.
 //!
-//! The GPU evaluates point blobs, distance and SCALIS segments and planes, up to
-//! [`MAX_GROUPS`] groups combined by one sum, max, min, smooth union or smooth intersection
-//! (flat blend trees: every asset's, and every one the editor's blend menu builds except
-//! difference and Ricci). Other scenes (boxes, tori, cylinders, HRBF sets, difference or Ricci
-//! blends, nested trees) are refused with a message, and the caller falls back to the CPU
-//! tracer.
+//! The GPU evaluates every primitive — point blobs, distance and SCALIS segments, planes, boxes,
+//! rounded boxes, tori, cylinders and HRBF terms — in up to [`MAX_GROUPS`] groups under any
+//! blend tree (compiled to WGSL: [`BlendWgsl`]). Scenes with more groups are refused with a
+//! message, and the caller falls back to the CPU tracer.
 
 use bytemuck::{Pod, Zeroable};
 use skeletrace_core::FieldProgram;
@@ -16,7 +14,7 @@ use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::{Primitive, Solid};
 use skeletrace_core::model::scene::Light;
 
-pub use crate::shared::BlendOperator;
+use crate::blend_wgsl::BlendWgsl;
 pub use crate::shared::MAX_GROUPS;
 use crate::shared::{KernelFamily, LightKind, PrimitiveKind};
 
@@ -31,14 +29,21 @@ pub struct GpuPrimitive {
     /// Radius of the occluder sphere (0: none): a ball inside the surface, centred on a point
     /// blob or on a distance segment's larger end ([`occluder_radius`]).
     pub occluder: f32,
-    /// Padding.
-    pub pad: u32,
-    /// Point: centre and radius; segment: start (smaller radius) and radius; plane: normal, offset.
+    /// HRBF term: index in [`PackedScene::boxes`] of its set's box (three `vec4`s: the frame's
+    /// local `y` axis, the box's local minimum and maximum corners).
+    pub extra: u32,
+    /// Point: centre and radius; segment: start (smaller radius) and radius; plane: normal,
+    /// offset; other shapes: centre and radius `ρ`.
     pub a: [f32; 4],
-    /// Segment: unit axis and length; plane: radius in `x`.
+    /// Segment: unit axis and length; plane: radius in `x`; other shapes: the solid's
+    /// dimensions ([`solid_dimensions`]).
     pub b: [f32; 4],
-    /// `x`: normalisation, `y`: radius slope.
+    /// `x`: normalisation; segment: `y` radius slope; shapes but planes: `yzw` the local `y`
+    /// axis.
     pub c: [f32; 4],
+    /// Shapes but planes: the local `x` axis, and in `w` the frame's handedness (±1): the local
+    /// `z` axis is `w·(x × y)`.
+    pub d: [f32; 4],
     /// Bounding sphere of the support; `w < 0` for unbounded supports.
     pub bound: [f32; 4],
 }
@@ -51,8 +56,10 @@ pub struct GpuKernel {
     pub family: u32,
     /// Whether `K′` jumps at the support boundary.
     pub kinked: u32,
+    /// Whether the group's field is clamped at 0 (it holds an HRBF set).
+    pub clamped: u32,
     /// Padding.
-    pub pad: [u32; 2],
+    pub pad: u32,
     /// `m` (compact) or `n = i/2` (Cauchy).
     pub exponent: f32,
     /// `1/σ²`.
@@ -88,75 +95,79 @@ pub struct PackedScene {
     pub materials: Vec<[f32; 4]>,
     /// Lights.
     pub lights: Vec<GpuLight>,
-    /// Blend operator over all groups.
-    pub blend: BlendOperator,
-    /// Width of the smooth operators (0 for the others).
-    pub blend_width: f32,
+    /// The blend tree as WGSL.
+    pub blend: BlendWgsl,
+    /// The boxes of the HRBF sets, three `vec4`s each ([`GpuPrimitive::extra`]).
+    pub boxes: Vec<[f32; 4]>,
 }
 
 fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
 
-/// The blend operator of a flat tree whose leaves are every group once, if it is one, with the
-/// width of the smooth operators. Sums, maxima and minima take their leaves in any order; the
-/// smooth operators fold their operands left to right (blend.rs), and the shaders fold groups
-/// in index order, so their leaves must be the groups in that order.
-fn flat_blend(blend: &BlendTree, groups: usize) -> Option<(BlendOperator, f32)> {
-    let (op, width, children) = match blend {
-        BlendTree::Group(0) if groups == 1 => return Some((BlendOperator::Sum, 0.0)),
-        BlendTree::Sum(v) => (BlendOperator::Sum, 0.0, v),
-        BlendTree::Max(v) => (BlendOperator::Max, 0.0, v),
-        BlendTree::Min(v) => (BlendOperator::Min, 0.0, v),
-        BlendTree::SmoothUnion { width, of } => (BlendOperator::SmoothUnion, *width as f32, of),
-        BlendTree::SmoothIntersection { width, of } => {
-            (BlendOperator::SmoothIntersection, *width as f32, of)
+/// Whether each group's own field bounds the blended field from below wherever it is at least
+/// the isovalue, which the tile binning's occluders need: some leaf of the group must be reached
+/// from the root through sums, maxima, smooth unions (≥ the maximum) and Ricci blends (≥ their
+/// largest positive operand) only, with every other operand of each sum on the way
+/// non-negative (no difference or smooth intersection below it, which may go negative).
+fn occluding_groups(tree: &BlendTree, groups: usize) -> Vec<bool> {
+    fn non_negative(tree: &BlendTree) -> bool {
+        match tree {
+            BlendTree::Group(_) => true,
+            BlendTree::Difference(..) | BlendTree::SmoothIntersection { .. } => false,
+            BlendTree::Sum(v)
+            | BlendTree::Max(v)
+            | BlendTree::Min(v)
+            | BlendTree::Ricci { of: v, .. }
+            | BlendTree::SmoothUnion { of: v, .. } => v.iter().all(non_negative),
         }
-        _ => return None,
-    };
-    if matches!(
-        op,
-        BlendOperator::SmoothUnion | BlendOperator::SmoothIntersection
-    ) {
-        let in_order = children.len() == groups
-            && children
-                .iter()
-                .enumerate()
-                .all(|(k, c)| *c == BlendTree::Group(k as u32));
-        return in_order.then_some((op, width));
     }
-    let mut seen = vec![false; groups];
-    for c in children {
-        match c {
-            BlendTree::Group(i) if (*i as usize) < groups && !seen[*i as usize] => {
-                seen[*i as usize] = true;
+    fn mark(tree: &BlendTree, out: &mut [bool]) {
+        match tree {
+            BlendTree::Group(g) => {
+                if let Some(o) = out.get_mut(*g as usize) {
+                    *o = true;
+                }
             }
-            _ => return None,
+            BlendTree::Sum(v) => {
+                for (k, child) in v.iter().enumerate() {
+                    let others = v.iter().enumerate().all(|(j, c)| j == k || non_negative(c));
+                    if others {
+                        mark(child, out);
+                    }
+                }
+            }
+            BlendTree::Max(v)
+            | BlendTree::Ricci { of: v, .. }
+            | BlendTree::SmoothUnion { of: v, .. } => {
+                for child in v {
+                    mark(child, out);
+                }
+            }
+            BlendTree::Min(_)
+            | BlendTree::Difference(..)
+            | BlendTree::SmoothIntersection { .. } => {}
         }
     }
-    seen.iter().all(|s| *s).then_some((op, width))
+    let mut out = vec![false; groups];
+    mark(tree, &mut out);
+    out
 }
 
-/// The shader kind of a primitive, or why the GPU backend does not evaluate it: the one place
-/// that says which primitives the GPU has shaders for.
-fn gpu_kind(p: &Primitive) -> Result<PrimitiveKind, String> {
+/// The shader kind of a primitive (`Primitive.kind` in prelude.wgsl).
+fn gpu_kind(p: &Primitive) -> PrimitiveKind {
     match p {
-        Primitive::Point(_) => Ok(PrimitiveKind::Point),
-        Primitive::Distance(_) => Ok(PrimitiveKind::DistanceSegment),
-        Primitive::Scalis(_) => Ok(PrimitiveKind::ScalisSegment),
+        Primitive::Point(_) => PrimitiveKind::Point,
+        Primitive::Distance(_) => PrimitiveKind::DistanceSegment,
+        Primitive::Scalis(_) => PrimitiveKind::ScalisSegment,
         Primitive::Shape(s) => match s.solid {
-            Solid::Plane { .. } => Ok(PrimitiveKind::Plane),
-            other => Err(format!(
-                "the GPU backend does not evaluate {} shapes yet",
-                match other {
-                    Solid::Box { .. } => "box",
-                    Solid::RoundedBox { .. } => "rounded box",
-                    Solid::Torus { .. } => "torus",
-                    _ => "cylinder",
-                }
-            )),
+            Solid::Plane { .. } => PrimitiveKind::Plane,
+            Solid::Box { .. } => PrimitiveKind::Box,
+            Solid::RoundedBox { .. } => PrimitiveKind::RoundedBox,
+            Solid::Torus { .. } => PrimitiveKind::Torus,
+            Solid::Cylinder { .. } => PrimitiveKind::Cylinder,
         },
-        Primitive::Hrbf(_) => Err("the GPU backend does not evaluate HRBF sets yet".to_owned()),
+        Primitive::Hrbf(_) => PrimitiveKind::Hrbf,
     }
 }
 
@@ -194,6 +205,25 @@ fn occluder_radius(
     }
 }
 
+/// The dimensions of a solid as `GpuPrimitive.b` of the shapes other than the plane: a box's half
+/// extents (and a rounded box's rounding in `w`), a torus's major and minor radii, a cylinder's
+/// radius and half height (a plane's normal and offset, which its `a` holds).
+fn solid_dimensions(solid: Solid) -> [f32; 4] {
+    match solid {
+        Solid::Box { half_extents } => f4(half_extents, 0.0),
+        Solid::RoundedBox {
+            half_extents,
+            rounding,
+        } => f4(half_extents, rounding),
+        Solid::Torus { major, minor } => [major as f32, minor as f32, 0.0, 0.0],
+        Solid::Cylinder {
+            radius,
+            half_height,
+        } => [radius as f32, half_height as f32, 0.0, 0.0],
+        Solid::Plane { normal, offset } => f4(normal, offset),
+    }
+}
+
 fn kernel(k: Kernel) -> GpuKernel {
     let profile = skeletrace_core::field::kernel::KernelProfile::new(k);
     let (family, exponent, sigma, clip) = match k {
@@ -219,7 +249,8 @@ fn kernel(k: Kernel) -> GpuKernel {
     GpuKernel {
         family: family as u32,
         kinked: u32::from(profile.is_kinked()),
-        pad: [0; 2],
+        clamped: 0,
+        pad: 0,
         exponent: exponent as f32,
         inv_sigma2: (1.0 / (sigma * sigma)) as f32,
         support_sq: profile.support_sq() as f32,
@@ -230,29 +261,19 @@ fn kernel(k: Kernel) -> GpuKernel {
 }
 
 impl PackedScene {
-    /// `Err` with the reason when the GPU backend does not evaluate `program` (too many groups,
-    /// a nested blend, a primitive it has no shader for), without packing anything; otherwise
-    /// the blend operator over the groups and its width.
+    /// `Err` with the reason when the GPU backend does not evaluate `program` (too many
+    /// groups), without packing anything.
     ///
     /// # Errors
     /// What the GPU lacks for this scene.
-    pub fn check(program: &FieldProgram) -> Result<(BlendOperator, f32), String> {
+    pub fn check(program: &FieldProgram) -> Result<(), String> {
         let groups = program.group_count();
         if groups > MAX_GROUPS {
             return Err(format!(
                 "the GPU backend handles at most {MAX_GROUPS} groups (this scene has {groups})"
             ));
         }
-        let blend = flat_blend(program.blend(), groups).ok_or_else(|| {
-            "the GPU backend handles one sum, max, min or smooth union/intersection (of the \
-             groups in order) over all groups; this scene's blend tree is nested or uses \
-             difference/Ricci"
-                .to_owned()
-        })?;
-        for p in program.primitives() {
-            gpu_kind(p)?;
-        }
-        Ok(blend)
+        Ok(())
     }
 
     /// Packs a compiled scene.
@@ -262,68 +283,103 @@ impl PackedScene {
     pub fn new(compiled: &Compiled) -> Result<Self, String> {
         let program = &compiled.program;
         let groups = program.group_count();
-        let (blend, blend_width) = Self::check(program)?;
-        // Occluders hold where a primitive's own field bounds the blended field from below:
-        // sums of non-negative kernels, maxima and the smooth union (≥ the maximum).
-        let occluding = matches!(
-            blend,
-            BlendOperator::Sum | BlendOperator::Max | BlendOperator::SmoothUnion
-        );
+        Self::check(program)?;
+        let blend = BlendWgsl::new(program.blend());
+        let occluding = occluding_groups(program.blend(), groups);
         let mut primitives = Vec::with_capacity(program.primitives().len());
+        let mut boxes = Vec::new();
         for (i, p) in program.primitives().iter().enumerate() {
             let k = program.kernel_of(i as u32);
             let group = program.group_of(i as u32) as u32;
             let bound = p.support_aabb(k).map_or([0.0, 0.0, 0.0, -1.0], |b| {
                 f4(b.center(), 0.5 * b.diagonal())
             });
-            let kind = gpu_kind(p)?;
-            let (a, b, c) = match p {
+            let kind = gpu_kind(p);
+            let mut extra = 0;
+            let (a, b, c, d) = match p {
                 Primitive::Point(x) => (
                     f4(x.center, x.radius),
                     [0.0; 4],
                     [x.norm as f32, 0.0, 0.0, 0.0],
+                    [0.0; 4],
                 ),
                 Primitive::Distance(x) => (
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
                     [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
+                    [0.0; 4],
                 ),
                 Primitive::Scalis(x) => (
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
                     [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
+                    [0.0; 4],
                 ),
                 Primitive::Shape(s) => match s.solid {
                     Solid::Plane { normal, offset } => (
                         f4(normal, offset),
                         [s.radius as f32, 0.0, 0.0, 0.0],
                         [s.norm as f32, 0.0, 0.0, 0.0],
+                        [0.0; 4],
                     ),
-                    // `gpu_kind` refused every other shape above.
-                    _ => continue,
+                    solid => {
+                        let (x, y) = (s.frame.x_axis, s.frame.y_axis);
+                        let handedness = x.cross(y).dot(s.frame.z_axis).signum();
+                        (
+                            f4(s.center, s.radius),
+                            solid_dimensions(solid),
+                            [s.norm as f32, y.x as f32, y.y as f32, y.z as f32],
+                            f4(x, handedness),
+                        )
+                    }
                 },
-                Primitive::Hrbf(_) => continue,
+                Primitive::Hrbf(h) => {
+                    let (x, y) = (h.frame.x_axis, h.frame.y_axis);
+                    let handedness = x.cross(y).dot(h.frame.z_axis).signum();
+                    let set_box = [f4(y, 0.0), f4(h.bounds.min, 0.0), f4(h.bounds.max, 0.0)];
+                    // The terms of one set share its box: stored once.
+                    if boxes.len() < 3 || boxes[boxes.len() - 3..] != set_box {
+                        boxes.extend_from_slice(&set_box);
+                    }
+                    extra = (boxes.len() - 3) as u32;
+                    (
+                        f4(h.center, h.alpha),
+                        f4(h.beta, h.constant),
+                        f4(h.linear, 0.0),
+                        f4(x, handedness),
+                    )
+                }
             };
             primitives.push(GpuPrimitive {
                 kind: kind as u32,
                 group,
-                occluder: if occluding {
+                occluder: if occluding[group as usize] {
                     occluder_radius(p, k, program.isovalue())
                 } else {
                     0.0
                 },
-                pad: 0,
+                extra,
                 a,
                 b,
                 c,
+                d,
                 bound,
             });
         }
         Ok(Self {
             primitives,
             kernels: (0..groups)
-                .map(|g| kernel(program.group_kernel_spec(g)))
+                .map(|g| GpuKernel {
+                    clamped: u32::from(program.group_is_clamped(g)),
+                    ..kernel(program.group_kernel_spec(g))
+                })
                 .collect(),
+            // A storage buffer is never empty.
+            boxes: if boxes.is_empty() {
+                vec![[0.0; 4]]
+            } else {
+                boxes
+            },
             materials: compiled
                 .materials
                 .iter()
@@ -375,7 +431,6 @@ impl PackedScene {
                 })
                 .collect(),
             blend,
-            blend_width,
         })
     }
 }
@@ -409,5 +464,65 @@ mod tests {
             }
         }
         assert!(packed("tree").primitives.iter().all(|p| p.occluder == 0.0));
+    }
+
+    fn groups(n: u32) -> Vec<BlendTree> {
+        (0..n).map(BlendTree::Group).collect()
+    }
+
+    /// Occluders are kept for the groups that bound the blend from below, and only those.
+    #[test]
+    fn occluders_are_kept_for_the_groups_that_bound_the_blend() {
+        // Ricci(Difference(0, 1), 2): the carved group and the carving one do not.
+        assert_eq!(
+            occluding_groups(
+                &BlendTree::Ricci {
+                    p: 4.0,
+                    of: vec![
+                        BlendTree::Difference(
+                            Box::new(BlendTree::Group(0)),
+                            Box::new(BlendTree::Group(1))
+                        ),
+                        BlendTree::Group(2)
+                    ]
+                },
+                3
+            ),
+            [false, false, true]
+        );
+        // A sum with an operand that may be negative: no operand bounds it.
+        let difference =
+            BlendTree::Difference(Box::new(BlendTree::Group(1)), Box::new(BlendTree::Group(2)));
+        assert_eq!(
+            occluding_groups(
+                &BlendTree::Sum(vec![BlendTree::Group(0), difference.clone()]),
+                3
+            ),
+            [false, false, false]
+        );
+        assert_eq!(
+            occluding_groups(&BlendTree::Max(vec![BlendTree::Group(0), difference]), 3),
+            [true, false, false]
+        );
+        assert_eq!(
+            occluding_groups(
+                &BlendTree::SmoothUnion {
+                    width: 0.3,
+                    of: vec![BlendTree::Sum(groups(2)), BlendTree::Min(groups(3))]
+                },
+                3
+            ),
+            [true, true, false]
+        );
+        assert_eq!(
+            occluding_groups(
+                &BlendTree::SmoothIntersection {
+                    width: 0.3,
+                    of: groups(2)
+                },
+                2
+            ),
+            [false, false]
+        );
     }
 }

@@ -77,8 +77,6 @@ pub struct GpuGlobals {
     pub primitive_count: u32,
     /// Groups.
     pub group_count: u32,
-    /// `BlendOperator` code.
-    pub blend_operator: u32,
     /// Step budget per ray.
     pub max_steps: u32,
     /// Trace settings (`TraceSettings`).
@@ -113,12 +111,10 @@ pub struct GpuGlobals {
     pub shading_flags: u32,
     /// Scale of the field shading distances.
     pub shading_scale: f32,
-    /// Width of the smooth blend operators.
-    pub blend_width: f32,
     /// Steps a marching method takes per ray in one dispatch.
     pub steps_per_dispatch: u32,
     /// Padding to 16 bytes.
-    pub pad: [u32; 2],
+    pub pad: [u32; 4],
 }
 
 /// The uploaded scene.
@@ -130,6 +126,7 @@ struct SceneBuffers {
     kernels: wgpu::Buffer,
     materials: wgpu::Buffer,
     lights: wgpu::Buffer,
+    boxes: wgpu::Buffer,
     /// Per-method constants of the scene.
     method: MethodConstants,
     isovalue: f32,
@@ -154,7 +151,6 @@ impl SceneBuffers {
             tiles_y: 0,
             primitive_count: self.packed.primitives.len() as u32,
             group_count: self.packed.kernels.len() as u32,
-            blend_operator: self.packed.blend as u32,
             max_steps: settings.max_steps,
             epsilon: settings.epsilon as f32,
             min_step: settings.min_step as f32,
@@ -172,9 +168,8 @@ impl SceneBuffers {
             heat_view: 0,
             shading_flags: 0,
             shading_scale: 1.0,
-            blend_width: self.packed.blend_width,
             steps_per_dispatch,
-            pad: [0; 2],
+            pad: [0; 4],
         }
     }
 }
@@ -522,6 +517,15 @@ impl GpuRenderer {
     pub fn set_scene(&mut self, compiled: &Arc<Compiled>) -> Result<(), BackendError> {
         let program = &compiled.program;
         let packed = PackedScene::new(compiled).map_err(BackendError::Unsupported)?;
+        // The pipelines hold the blend tree's code (blend_wgsl.rs): a new tree needs new ones.
+        if self
+            .scene
+            .as_ref()
+            .is_some_and(|old| old.packed.blend != packed.blend)
+        {
+            self.trace_pipelines.clear();
+            self.ray_pipelines.clear();
+        }
         let method = MethodConstants::of(program);
         let isovalue = program.isovalue() as f32;
         if let Some(old) = &mut self.scene
@@ -529,6 +533,7 @@ impl GpuRenderer {
             && old.packed.kernels.len() == packed.kernels.len()
             && old.packed.materials.len() == packed.materials.len()
             && old.packed.lights.len() == packed.lights.len()
+            && old.packed.boxes.len() == packed.boxes.len()
         {
             let changed: Vec<usize> = (0..packed.primitives.len())
                 .filter(|&i| old.packed.primitives[i] != packed.primitives[i])
@@ -545,6 +550,8 @@ impl GpuRenderer {
                 .write_buffer(&old.materials, 0, bytemuck::cast_slice(&packed.materials));
             self.queue
                 .write_buffer(&old.lights, 0, bytemuck::cast_slice(&packed.lights));
+            self.queue
+                .write_buffer(&old.boxes, 0, bytemuck::cast_slice(&packed.boxes));
             old.packed = packed;
             old.method = method;
             old.isovalue = isovalue;
@@ -559,19 +566,13 @@ impl GpuRenderer {
             kernels: storage(d, "kernels", bytemuck::cast_slice(&packed.kernels)),
             materials: storage(d, "materials", bytemuck::cast_slice(&packed.materials)),
             lights: storage(d, "lights", bytemuck::cast_slice(&packed.lights)),
+            boxes: storage(d, "HRBF boxes", bytemuck::cast_slice(&packed.boxes)),
             compiled: Arc::clone(compiled),
             packed,
             method,
             isovalue,
         });
         self.check().map_err(BackendError::DeviceFailed)
-    }
-
-    fn trace_pipeline(&mut self, method: GpuMethod) -> &wgpu::ComputePipeline {
-        let device = &self.device;
-        self.trace_pipelines
-            .entry(method)
-            .or_insert_with(|| pipeline(device, &method.source(), "trace_pixels"))
     }
 
     /// `lists` in storage buffers, for every batch of [`GpuRenderer::trace_rays`].
@@ -601,16 +602,15 @@ impl GpuRenderer {
         self.ready_for(&[method], View::Steps { steps_max: 1 }, settings)?;
         let device = self.device.clone();
         let d = &device;
-        let source = method.source();
-        let pipeline = self
-            .ray_pipelines
-            .entry(method)
-            .or_insert_with(|| pipeline(d, &source, "trace_rays"))
-            .clone();
         let scene = self
             .scene
             .as_ref()
             .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
+        let pipeline = self
+            .ray_pipelines
+            .entry(method)
+            .or_insert_with(|| pipeline(d, &method.source(&scene.packed.blend), "trace_rays"))
+            .clone();
         let n = rays.len() as u32;
         let globals = GpuGlobals {
             width: n,
@@ -656,6 +656,7 @@ impl GpuRenderer {
                 entry(9, &steps),
                 entry(10, &suspensions),
                 entry(11, &ray_buffer),
+                entry(12, &scene.boxes),
             ],
         });
         let dispatches = if method.resumable() {
@@ -805,8 +806,12 @@ impl GpuRenderer {
         if let View::Shaded(shading) = view {
             check_shading_budget(&compiled, shading).map_err(BackendError::Unsupported)?;
         }
-        for &m in methods {
-            self.trace_pipeline(m);
+        if let Some(scene) = &self.scene {
+            for &m in methods {
+                self.trace_pipelines.entry(m).or_insert_with(|| {
+                    pipeline(&self.device, &m.source(&scene.packed.blend), "trace_pixels")
+                });
+            }
         }
         Ok(compiled)
     }
@@ -1002,6 +1007,7 @@ impl GpuRenderer {
                     entry(8, depth),
                     entry(9, steps),
                     entry(10, &outputs.suspensions),
+                    entry(12, &scene.boxes),
                 ],
             });
             // A marching method goes on from where each ray stopped until every budget is spent.

@@ -7,6 +7,7 @@
 //! frames are compared with.
 
 pub mod async_readback;
+pub mod blend_wgsl;
 pub mod buffers;
 pub mod gpu_backend;
 pub mod gpu_renderer;

@@ -3,9 +3,10 @@
 
 use skeletrace_core::FieldProgram;
 use skeletrace_core::field::kernel::Kernel;
-use skeletrace_core::field::primitives::{Primitive, Solid};
+use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::methods::{MethodId, Protocol};
 
+use crate::blend_wgsl::BlendWgsl;
 use crate::shared::{MarchBound, wgsl_constants};
 
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
@@ -148,28 +149,7 @@ impl GpuMethod {
             .primitives()
             .iter()
             .all(|p| matches!(p, Primitive::Point(_)));
-        // The inclusion shaders bound point blobs, distance and SCALIS segments and planes.
-        let bounded = program.primitives().iter().all(|p| match p {
-            Primitive::Point(_) | Primitive::Distance(_) | Primitive::Scalis(_) => true,
-            Primitive::Shape(s) => matches!(s.solid, Solid::Plane { .. }),
-            Primitive::Hrbf(_) => false,
-        });
         match self {
-            Self::Segment
-            | Self::LinearTaylor
-            | Self::QuadraticTaylor
-            | Self::BottomUpQuadratic
-            | Self::BottomUpLinear
-            | Self::LinearMixed
-            | Self::QuadraticMixed
-                if !bounded =>
-            {
-                Err(format!(
-                    "{} runs on the GPU for point blobs, segments and planes only (its bounds for \
-                     HRBF sets and other shapes are CPU-only)",
-                    self.name()
-                ))
-            }
             Self::FieldInversion
                 if !only_points
                     || (0..program.group_count()).any(|g| {
@@ -198,10 +178,10 @@ impl GpuMethod {
         !matches!(self, Self::ScalisQuadratic | Self::FieldInversion)
     }
 
-    /// The composed compute shader: the shared constants, the prelude, the method family, the
-    /// entry point.
+    /// The composed compute shader for a scene whose blend tree compiles to `blend`: the
+    /// shared constants, the prelude, the blend, the method family, the entry point.
     #[must_use]
-    pub fn source(self) -> String {
+    pub fn source(self, blend: &BlendWgsl) -> String {
         let family = match self {
             Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
             Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
@@ -222,20 +202,25 @@ impl GpuMethod {
                     _ => MarchBound::BottomUpQuadratic,
                 };
                 format!(
-                    "const METHOD: u32 = {}u;\n{MARCH}\n{INTERVAL}\n{PRIMITIVE_JETS}\n{INCLUSION}\n{PARTS}",
-                    bound as u32
+                    "const METHOD: u32 = {}u;\n{MARCH}\n{INTERVAL}\n{PRIMITIVE_JETS}\n{INCLUSION}\n{}\n{PARTS}",
+                    bound as u32, blend.bounds
                 )
             }
             Self::ScalisQuadratic => SCALIS.to_owned(),
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
-        format!("{}\n{PRELUDE}\n{family}\n{HEAT}\n{MAIN}", wgsl_constants())
+        format!(
+            "{}\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
+            wgsl_constants(),
+            blend.values
+        )
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use skeletrace_core::field::blend::BlendTree;
 
     fn validate(name: &str, source: &str) {
         let module = match naga::front::wgsl::parse_str(source) {
@@ -305,16 +290,16 @@ mod tests {
         use crate::buffers::{GpuKernel, GpuLight, GpuPrimitive};
         use crate::gpu_renderer::GpuGlobals;
         use crate::tile_binning::GpuBinning;
-        let trace = GpuMethod::QuadraticTaylor.source();
+        let trace = GpuMethod::QuadraticTaylor.source(&summed(2));
         let binning = binning_source();
         check_twin(
             &trace,
             "Globals",
             rust_layout!(GpuGlobals: origin, far, forward, tan_half_fov, right, aspect, up,
                 isovalue, width, height, tiles_x, tiles_y, primitive_count, group_count,
-                blend_operator, max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
+                max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
                 gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
-                output_width, heat_max, heat_view, shading_flags, shading_scale, blend_width,
+                output_width, heat_max, heat_view, shading_flags, shading_scale,
                 steps_per_dispatch),
         );
         check_twin(
@@ -327,14 +312,14 @@ mod tests {
             check_twin(
                 source,
                 "Primitive",
-                rust_layout!(GpuPrimitive: kind, group, occluder, a, b, c, bound),
+                rust_layout!(GpuPrimitive: kind, group, occluder, extra, a, b, c, d, bound),
             );
         }
         check_twin(
             &trace,
             "Kernel",
-            rust_layout!(GpuKernel: family, kinked, exponent, inv_sigma2, support_sq, clip,
-                clip_scale),
+            rust_layout!(GpuKernel: family, kinked, clamped, exponent, inv_sigma2, support_sq,
+                clip, clip_scale),
         );
         check_twin(&trace, "Light", rust_layout!(GpuLight: vector, colour));
         check_twin(
@@ -409,7 +394,7 @@ mod tests {
     /// WGSL struct must agree.
     #[test]
     fn suspension_bytes_match_the_wgsl_struct() {
-        let source = GpuMethod::Sphere.source();
+        let source = GpuMethod::Sphere.source(&summed(2));
         let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{e}"));
         let span = module
             .types
@@ -438,10 +423,40 @@ mod tests {
         assert_eq!(with_shaders, said);
     }
 
+    /// The blend of a scene without one: the sum of its groups.
+    fn summed(groups: u32) -> BlendWgsl {
+        BlendWgsl::new(&BlendTree::Sum((0..groups).map(BlendTree::Group).collect()))
+    }
+
+    /// Every method's shader with the default blend, and the inclusion family's (which holds
+    /// every blend function) with a tree of every operator, nested, and with empty operators.
     #[test]
     fn every_composed_shader_parses_and_validates() {
         for method in GpuMethod::ALL {
-            validate(method.name(), &method.source());
+            validate(method.name(), &method.source(&summed(3)));
+        }
+        let g = BlendTree::Group;
+        let every = BlendTree::SmoothIntersection {
+            width: 0.3,
+            of: vec![
+                BlendTree::Ricci {
+                    p: 2.5,
+                    of: vec![
+                        BlendTree::Difference(
+                            Box::new(g(0)),
+                            Box::new(BlendTree::Max(vec![g(1), g(2)])),
+                        ),
+                        BlendTree::Min(vec![g(2), g(0), BlendTree::Sum(vec![])]),
+                    ],
+                },
+                BlendTree::SmoothUnion {
+                    width: 0.5,
+                    of: vec![g(1), BlendTree::Max(vec![])],
+                },
+            ],
+        };
+        for method in [GpuMethod::QuadraticMixed, GpuMethod::Sphere] {
+            validate(method.name(), &method.source(&BlendWgsl::new(&every)));
         }
         validate("binning", &binning_source());
         validate("blit", &blit_source());

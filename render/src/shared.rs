@@ -23,22 +23,16 @@ pub enum PrimitiveKind {
     ScalisSegment = 2,
     /// A plane (kernel of the distance to it).
     Plane = 3,
-}
-
-/// `Globals.blend_operator`: one operator over all groups.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u32)]
-pub enum BlendOperator {
-    /// Sum.
-    Sum = 0,
-    /// Maximum.
-    Max = 1,
-    /// Minimum.
-    Min = 2,
-    /// Smooth union (polynomial smooth maximum) of the groups in order.
-    SmoothUnion = 3,
-    /// Smooth intersection of the groups in order.
-    SmoothIntersection = 4,
+    /// A box (kernel of the distance to it, shapes.rs).
+    Box = 4,
+    /// A box with rounded edges.
+    RoundedBox = 5,
+    /// A solid torus around its local `y` axis.
+    Torus = 6,
+    /// A capped solid cylinder along its local `y` axis.
+    Cylinder = 7,
+    /// One term of an HRBF set (hrbf.rs).
+    Hrbf = 8,
 }
 
 /// `Kernel.family`.
@@ -114,20 +108,13 @@ pub fn wgsl_constants() -> String {
         ("KIND_DISTANCE_SEGMENT", PrimitiveKind::DistanceSegment),
         ("KIND_SCALIS_SEGMENT", PrimitiveKind::ScalisSegment),
         ("KIND_PLANE", PrimitiveKind::Plane),
+        ("KIND_BOX", PrimitiveKind::Box),
+        ("KIND_ROUNDED_BOX", PrimitiveKind::RoundedBox),
+        ("KIND_TORUS", PrimitiveKind::Torus),
+        ("KIND_CYLINDER", PrimitiveKind::Cylinder),
+        ("KIND_HRBF", PrimitiveKind::Hrbf),
     ] {
         u32_const(&mut out, name, kind as u32);
-    }
-    for (name, op) in [
-        ("BLEND_SUM", BlendOperator::Sum),
-        ("BLEND_MAX", BlendOperator::Max),
-        ("BLEND_MIN", BlendOperator::Min),
-        ("BLEND_SMOOTH_UNION", BlendOperator::SmoothUnion),
-        (
-            "BLEND_SMOOTH_INTERSECTION",
-            BlendOperator::SmoothIntersection,
-        ),
-    ] {
-        u32_const(&mut out, name, op as u32);
     }
     for (name, family) in [
         ("KERNEL_COMPACT_POLYNOMIAL", KernelFamily::CompactPolynomial),

@@ -978,16 +978,16 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
     assert_eq!(h.state().gpu_viewport_counts().map(|c| c.0), traced);
 }
 
-/// Issue 22: the editor traces the default creature and the hand on the window's GPU (forced on
-/// lavapipe as a hardware adapter would take it): the frame goes through the paint callback,
-/// the render thread traces nothing, and no failure sends it back to the CPU. The HRBF scene and
-/// the scene with every shape and operator still go to the CPU (`docs/gpu.md`).
+/// Issue 22: the editor traces the default creature, the hand, the HRBF scene and the scene with
+/// every shape and operator on the window's GPU (forced on lavapipe as a hardware adapter would
+/// take it): the frame goes through the paint callback, the render thread traces nothing, and no
+/// failure sends it back to the CPU.
 #[test]
 fn the_editor_traces_the_creature_and_the_hand_on_the_gpu() {
     if skeletrace_tests::skip_without_gpu("the_editor_traces_the_creature_and_the_hand") {
         return;
     }
-    for name in ["creature", "hand"] {
+    for name in ["creature", "hand", "operators", "hrbf"] {
         let ui_state = UiState {
             backend: BackendChoice::Auto,
             shaded_method: skeletrace_core::MethodId::QuadraticTaylor,

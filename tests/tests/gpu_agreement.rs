@@ -17,8 +17,14 @@
 //!
 //! No march can agree with another better than the two agree with themselves at f32
 //! precision, so where the GPU misses 99 %, the test measures the CPU's self-agreement under
-//! that camera move ([`self_agreement`]), and where the GPU misses that too, the GPU's own,
-//! and asks for the GPU to be within [`PERTURBATION_MARGIN`] of the lower of the two.
+//! that camera move ([`self_agreement`]) and asks for the GPU to be within
+//! [`PERTURBATION_MARGIN`] of it. Where the GPU misses that too, it measures the GPU's own:
+//! each march changes its step count on its own sensitive pixels, and CPU and GPU, which differ
+//! by far more than two ulps, may each land on the other side on theirs, so the two fractions
+//! of changed pixels add: the GPU is held to `CPU's + GPU's self-agreement − 1 −` the margin.
+//! (Random scenes with tori need it: on seed 43 of `shapes_match_the_cpu_tracer`, quadratic
+//! Taylor changes 1.6 % of its step counts on the CPU and 1.4 % on the GPU under the camera
+//! move, and the two backends differ on 2.9 %.)
 //!
 //! Long marches drift: over hundreds of f32 steps the ray parameter's rounding adds up. On the
 //! creature (40×40), sphere tracing takes 128–2 048 steps on most hit pixels; every pixel
@@ -40,10 +46,14 @@ use std::path::Path;
 use glam::DVec3;
 use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
 use skeletrace_core::frame::{Frame, View};
+use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Camera};
 use skeletrace_core::{Scene, compile};
 use skeletrace_render::{GpuMethod, GpuRenderer};
 use skeletrace_tests::gpu_or_skip;
+
+#[path = "../../core/tests/common/mod.rs"]
+mod common;
 
 const SIZE: usize = 40;
 
@@ -187,6 +197,18 @@ fn check_agreement(
     cameras: &[Camera],
     failures: &mut Vec<String>,
 ) -> usize {
+    check_methods_agreement(gpu, label, scene, cameras, &GpuMethod::ALL, failures)
+}
+
+/// [`check_agreement`] for those of `methods` that apply.
+fn check_methods_agreement(
+    gpu: &mut GpuRenderer,
+    label: &str,
+    scene: &Scene,
+    cameras: &[Camera],
+    methods: &[GpuMethod],
+    failures: &mut Vec<String>,
+) -> usize {
     let mut most_hits = 0;
     let compiled = compile(scene);
     let program = &compiled.program;
@@ -194,8 +216,9 @@ fn check_agreement(
     let diagonal = program.support_bounds().diagonal();
     gpu.set_scene(&compiled)
         .unwrap_or_else(|e| panic!("{label}: {e}"));
-    let gpu_methods: Vec<GpuMethod> = GpuMethod::ALL
-        .into_iter()
+    let gpu_methods: Vec<GpuMethod> = methods
+        .iter()
+        .copied()
         .filter(|m| m.supports(program).is_ok())
         .filter(|m| m.id().method().supports(program).is_ok())
         .collect();
@@ -230,9 +253,10 @@ fn check_agreement(
             let a = compare(&cpu_frame, gpu_frame, settings.max_steps);
             // Below 99 %: the allowance the marches' own sensitivity earns (module docs).
             let mut steps_needed = 0.99;
+            let mut cpu_own = 1.0;
             if a.agreeing_steps < steps_needed {
-                let own = self_agreement("CPU", &cpu_frame, &cpu_render, camera);
-                steps_needed = (own - PERTURBATION_MARGIN).min(steps_needed);
+                cpu_own = self_agreement("CPU", &cpu_frame, &cpu_render, camera);
+                steps_needed = (cpu_own - PERTURBATION_MARGIN).min(steps_needed);
             }
             if a.agreeing_steps < steps_needed {
                 let gpu_render = |camera: &Camera| {
@@ -247,7 +271,8 @@ fn check_agreement(
                     .remove(0)
                 };
                 let own = self_agreement("GPU", gpu_frame, gpu_render, camera);
-                steps_needed = (own - PERTURBATION_MARGIN).min(steps_needed);
+                // Each march changes on its own sensitive pixels; the two sets add.
+                steps_needed = (cpu_own + own - 1.0 - PERTURBATION_MARGIN).min(steps_needed);
             }
             eprintln!(
                 "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {}; out of steps: CPU {}, GPU {})  depth {:.1e}  equal steps {:.4}, agreeing {:.4} (held to {steps_needed:.4})  differences {:?}",
@@ -305,7 +330,7 @@ fn gpu_frames_match_the_cpu_tracer() {
     let mut failures = Vec::new();
     // SKELETRACE_GPU_ASSETS=a,b narrows the run while investigating one scene.
     let only = std::env::var("SKELETRACE_GPU_ASSETS").ok();
-    for asset in ["blobs", "molecule", "tree", "creature"] {
+    for asset in ["blobs", "molecule", "tree", "creature", "operators", "hrbf"] {
         if only
             .as_ref()
             .is_some_and(|o| !o.split(',').any(|a| a == asset))
@@ -393,6 +418,153 @@ fn distance_segments_match_the_cpu_tracer() {
     );
     assert!(hits > SIZE * SIZE / 10, "only {hits} pixels hit");
     assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// Boxes, rounded boxes, tori and cylinders (2014 notes §7; shapes.rs) and HRBF sets (2023
+/// eq. 9; hrbf.rs): values, gradients, support intervals and ray jets, on the operators asset
+/// with its groups summed and on random scenes of 2–4 groups of 1–3 primitives of every kind,
+/// summed (seeds 42–45). Before infinite f″ bounds stayed infinite when scaled (interval.wgsl
+/// mul_ends), tori stalled quadratic Taylor on seed 43 and others.
+#[test]
+fn every_primitive_matches_the_cpu_tracer() {
+    let Some(mut gpu) = gpu_or_skip("every_primitive_matches_the_cpu_tracer") else {
+        return;
+    };
+    let mut failures = Vec::new();
+    let mut scene = load("operators");
+    scene.blend = None;
+    let hits = check_agreement(
+        &mut gpu,
+        "operators-summed",
+        &scene,
+        &[scene.camera],
+        &mut failures,
+    );
+    assert!(
+        hits > SIZE * SIZE / 10,
+        "operators-summed: only {hits} pixels hit"
+    );
+    let (mut shapes, mut hrbfs) = (0, 0);
+    for seed in 42..46 {
+        let mut rng = SplitMix64::new(seed);
+        let n = 2 + rng.below(3);
+        let groups = common::random_groups(&mut rng, n);
+        shapes += groups.iter().map(|g| g.shapes.len()).sum::<usize>();
+        hrbfs += groups.iter().map(|g| g.hrbfs.len()).sum::<usize>();
+        let scene = common::scene(groups, None);
+        let label = format!("random-{seed}");
+        let hits = check_agreement(&mut gpu, &label, &scene, &[scene.camera], &mut failures);
+        eprintln!("{label}: {hits} pixels hit");
+    }
+    eprintln!("random scenes: {shapes} shapes, {hrbfs} HRBF sets");
+    assert!(shapes >= 6, "only {shapes} shapes in the random scenes");
+    assert!(hrbfs >= 1, "no HRBF set in the random scenes");
+    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// Blend trees (blend.rs; compiled to WGSL per scene, blend_wgsl.rs): random trees of depth up to
+/// 4 over 2–5 random groups of every primitive kind, every operator — difference, Ricci, smooth
+/// union and intersection, nested — with 1–3 operands each: the first four scenes drawn from
+/// seed 61 whose tree has at least two operators. One method per blend function, since each
+/// tree builds its own pipelines: sphere tracing (values and gradients), segment tracing
+/// (Lipschitz bounds), quadratic Taylor (jets), bottom-up-linear and quadratic-mixed (the
+/// forward-inclusion composition, and the whole-field fallback where it has no rule).
+#[test]
+fn blend_trees_match_the_cpu_tracer() {
+    let Some(mut gpu) = gpu_or_skip("blend_trees_match_the_cpu_tracer") else {
+        return;
+    };
+    let methods = [
+        GpuMethod::Sphere,
+        GpuMethod::Segment,
+        GpuMethod::QuadraticTaylor,
+        GpuMethod::BottomUpLinear,
+        GpuMethod::QuadraticMixed,
+    ];
+    let mut failures = Vec::new();
+    let mut operators = std::collections::BTreeSet::new();
+    let mut rng = SplitMix64::new(61);
+    let mut checked = 0;
+    while checked < 4 {
+        let scene = common::random_nested_scene(&mut rng);
+        let blend = scene.blend.clone().unwrap_or(Blend::Group(0));
+        let mut own = std::collections::BTreeSet::new();
+        collect_operators(&blend, &mut own);
+        if count_operators(&blend) < 2 {
+            continue;
+        }
+        operators.extend(own);
+        checked += 1;
+        let label = format!("nested-{checked}");
+        eprintln!("{label}: {blend:?}");
+        let hits = check_methods_agreement(
+            &mut gpu,
+            &label,
+            &scene,
+            &[scene.camera],
+            &methods,
+            &mut failures,
+        );
+        eprintln!("{label}: {hits} pixels hit");
+    }
+    eprintln!("operators: {operators:?}");
+    assert!(
+        operators.len() >= 5,
+        "only {operators:?} in the random trees"
+    );
+    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// The operator nodes in `blend`.
+fn count_operators(blend: &Blend) -> usize {
+    match blend {
+        Blend::Group(_) => 0,
+        Blend::Difference(a, b) => 1 + count_operators(a) + count_operators(b),
+        Blend::Sum(v) | Blend::Max(v) | Blend::Min(v) => {
+            1 + v.iter().map(count_operators).sum::<usize>()
+        }
+        Blend::Ricci { of, .. }
+        | Blend::SmoothUnion { of, .. }
+        | Blend::SmoothIntersection { of, .. } => 1 + of.iter().map(count_operators).sum::<usize>(),
+    }
+}
+
+/// The names of the operators in `blend`.
+fn collect_operators(blend: &Blend, out: &mut std::collections::BTreeSet<&'static str>) {
+    let children: Vec<&Blend> = match blend {
+        Blend::Group(_) => return,
+        Blend::Sum(v) => {
+            out.insert("sum");
+            v.iter().collect()
+        }
+        Blend::Max(v) => {
+            out.insert("max");
+            v.iter().collect()
+        }
+        Blend::Min(v) => {
+            out.insert("min");
+            v.iter().collect()
+        }
+        Blend::Difference(a, b) => {
+            out.insert("difference");
+            vec![a.as_ref(), b.as_ref()]
+        }
+        Blend::Ricci { of, .. } => {
+            out.insert("ricci");
+            of.iter().collect()
+        }
+        Blend::SmoothUnion { of, .. } => {
+            out.insert("smooth union");
+            of.iter().collect()
+        }
+        Blend::SmoothIntersection { of, .. } => {
+            out.insert("smooth intersection");
+            of.iter().collect()
+        }
+    };
+    for c in children {
+        collect_operators(c, out);
+    }
 }
 
 #[test]

@@ -1,0 +1,409 @@
+//! A scene's blend tree compiled to WGSL (issue 22: "a compiled expression per scene"): four
+//! straight-line functions over the group slots, one per quantity the shaders blend, each the
+//! CPU's rule for every operator —
+//!
+//! - `blend_groups`: values and gradients (core `blend.rs` `value_gradient`),
+//! - `blend_jets`: jets over a ray interval (`blend.rs` `jet`, with `ricci_jet`'s p-norm bounds),
+//! - `blend_lipschitz`: segment tracing's Lipschitz bound (`blend.rs` `lipschitz`),
+//! - `compose_groups`: the forward-inclusion composition (`inclusion.rs` `blend`), `valid` false
+//!   where that has no rule.
+//!
+//! The operators' helpers are WGSL (`prelude.wgsl`, `primitive_jets.wgsl`, `inclusion.wgsl`);
+//! this module only nests their calls in the tree's shape, operands in the tree's order, so the
+//! smooth operators (not associative) fold as on the CPU. Straight-line code keeps every slot
+//! index constant: an interpreter over a stack indexed at run time made lavapipe's compile of
+//! each pipeline take minutes. A scene whose tree changes gets new pipelines
+//! (`GpuRenderer::set_scene`); edits of primitives do not change the tree.
+
+use std::fmt::Write as _;
+
+use skeletrace_core::field::blend::BlendTree;
+
+/// The WGSL of one blend tree: `values` defines `blend_groups` (every shader), `bounds` defines
+/// `blend_jets`, `blend_lipschitz` and `compose_groups` (the inclusion family, whose files define
+/// `Jet` and `Inclusion`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct BlendWgsl {
+    /// `fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32>`.
+    pub values: String,
+    /// `blend_jets`, `blend_lipschitz` and `compose_groups`.
+    pub bounds: String,
+}
+
+impl BlendWgsl {
+    /// The functions for `tree`.
+    #[must_use]
+    pub fn new(tree: &BlendTree) -> Self {
+        let mut bounds = function(
+            "blend_jets(groups: array<Jet, MAX_GROUPS>) -> Jet",
+            tree,
+            jet_node,
+        );
+        bounds.push_str(&function(
+            "blend_lipschitz(groups: array<f32, MAX_GROUPS>) -> f32",
+            tree,
+            lipschitz_node,
+        ));
+        bounds.push_str(&function(
+            "compose_groups(groups: array<Inclusion, MAX_GROUPS>) -> Composed",
+            tree,
+            compose_node,
+        ));
+        Self {
+            values: function(
+                "blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32>",
+                tree,
+                value_node,
+            ),
+            bounds,
+        }
+    }
+}
+
+/// A function body under construction: `let` statements naming each node's result.
+struct Body {
+    text: String,
+    next: usize,
+}
+
+impl Body {
+    /// Binds `expression` to a fresh name and returns the name.
+    fn bind(&mut self, expression: &str) -> String {
+        let name = format!("n{}", self.next);
+        self.next += 1;
+        let _ = writeln!(self.text, "    let {name} = {expression};");
+        name
+    }
+}
+
+type Node = fn(&BlendTree, &mut Body) -> String;
+
+fn function(signature: &str, tree: &BlendTree, node: Node) -> String {
+    let mut body = Body {
+        text: String::new(),
+        next: 0,
+    };
+    let result = node(tree, &mut body);
+    format!("fn {signature} {{\n{}    return {result};\n}}\n", body.text)
+}
+
+/// A WGSL float literal of `v` (as f32).
+fn float(v: f64) -> String {
+    format!("{:?}", v as f32)
+}
+
+/// The tree's operator with its operands, in the tree's order.
+enum Operator<'a> {
+    Sum(&'a [BlendTree]),
+    Max(&'a [BlendTree]),
+    Min(&'a [BlendTree]),
+    Difference(&'a BlendTree, &'a BlendTree),
+    Ricci(f64, &'a [BlendTree]),
+    SmoothUnion(f64, &'a [BlendTree]),
+    SmoothIntersection(f64, &'a [BlendTree]),
+}
+
+fn operator(tree: &BlendTree) -> Result<Operator<'_>, u32> {
+    Ok(match tree {
+        BlendTree::Group(g) => return Err(*g),
+        BlendTree::Sum(v) => Operator::Sum(v),
+        BlendTree::Max(v) => Operator::Max(v),
+        BlendTree::Min(v) => Operator::Min(v),
+        BlendTree::Difference(a, b) => Operator::Difference(a, b),
+        BlendTree::Ricci { p, of } => Operator::Ricci(*p, of),
+        BlendTree::SmoothUnion { width, of } => Operator::SmoothUnion(*width, of),
+        BlendTree::SmoothIntersection { width, of } => Operator::SmoothIntersection(*width, of),
+    })
+}
+
+/// `init`, then `fold(acc, operand)` over the operands: the chain of nested calls.
+fn fold(
+    operands: &[BlendTree],
+    body: &mut Body,
+    node: Node,
+    init: Option<&str>,
+    step: impl Fn(&str, &str) -> String,
+) -> Option<String> {
+    let names: Vec<String> = operands.iter().map(|c| node(c, body)).collect();
+    let mut names = names.into_iter();
+    let mut acc = match init {
+        Some(i) => i.to_owned(),
+        None => names.next()?,
+    };
+    for name in names {
+        acc = body.bind(&step(&acc, &name));
+    }
+    Some(acc)
+}
+
+fn value_node(tree: &BlendTree, body: &mut Body) -> String {
+    let zero = "vec4<f32>(0.0)";
+    let op = match operator(tree) {
+        Err(g) => return body.bind(&format!("values[{g}]")),
+        Ok(op) => op,
+    };
+    match op {
+        Operator::Sum(v) => fold(v, body, value_node, Some(zero), |a, b| format!("{a} + {b}")),
+        Operator::Max(v) => fold(v, body, value_node, None, |a, b| {
+            format!("value_max({a}, {b})")
+        }),
+        Operator::Min(v) => fold(v, body, value_node, None, |a, b| {
+            format!("value_min({a}, {b})")
+        }),
+        Operator::Difference(a, b) => {
+            let (a, b) = (value_node(a, body), value_node(b, body));
+            Some(body.bind(&format!("value_difference({a}, {b})")))
+        }
+        Operator::Ricci(p, v) => {
+            // Σ max(fᵢ, 0)^p, its root R, then Σ (fᵢ/R)^(p−1) ∇fᵢ.
+            let p = float(p);
+            let names: Vec<String> = v.iter().map(|c| value_node(c, body)).collect();
+            let mut sum = "0.0".to_owned();
+            for n in &names {
+                sum = body.bind(&format!("{sum} + ricci_power({n}, {p})"));
+            }
+            let root = body.bind(&format!("ricci_root({sum}, {p})"));
+            let mut gradient = "vec3<f32>(0.0)".to_owned();
+            for n in &names {
+                gradient = body.bind(&format!("{gradient} + ricci_slope({n}, {root}, {p})"));
+            }
+            Some(body.bind(&format!("vec4<f32>({root}, {gradient})")))
+        }
+        Operator::SmoothUnion(w, v) => {
+            let w = float(w);
+            fold(v, body, value_node, None, |a, b| {
+                format!("smooth_max({a}, {b}, {w})")
+            })
+        }
+        Operator::SmoothIntersection(w, v) => {
+            let w = float(w);
+            fold(v, body, value_node, None, |a, b| {
+                format!("-smooth_max(-{a}, -{b}, {w})")
+            })
+        }
+    }
+    .unwrap_or_else(|| body.bind(zero))
+}
+
+fn jet_node(tree: &BlendTree, body: &mut Body) -> String {
+    let zero = "jet_constant(0.0)";
+    let op = match operator(tree) {
+        Err(g) => return body.bind(&format!("groups[{g}]")),
+        Ok(op) => op,
+    };
+    match op {
+        Operator::Sum(v) => fold(v, body, jet_node, Some(zero), |a, b| {
+            format!("jet_add({a}, {b})")
+        }),
+        Operator::Max(v) => fold(v, body, jet_node, None, |a, b| format!("jet_max({a}, {b})")),
+        Operator::Min(v) => fold(v, body, jet_node, None, |a, b| format!("jet_min({a}, {b})")),
+        Operator::Difference(a, b) => {
+            let (a, b) = (jet_node(a, body), jet_node(b, body));
+            Some(body.bind(&format!("jet_difference({a}, {b})")))
+        }
+        Operator::Ricci(p, v) => {
+            // Two passes (blend.rs ricci_jet): the operands' value ends, then their weights.
+            let p = float(p);
+            let names: Vec<String> = v.iter().map(|c| jet_node(c, body)).collect();
+            let mut ends = "ricci_ends_start()".to_owned();
+            for n in &names {
+                ends = body.bind(&format!("ricci_ends_add({ends}, {n}, {p})"));
+            }
+            let mut weights = body.bind(&format!("ricci_weights_start({ends}, {p})"));
+            for n in &names {
+                weights = body.bind(&format!("ricci_weights_add({weights}, {n}, {p})"));
+            }
+            Some(body.bind(&format!("ricci_jet_finish({ends}, {weights}, {p})")))
+        }
+        Operator::SmoothUnion(w, v) => {
+            let w = float(w);
+            fold(v, body, jet_node, None, |a, b| {
+                format!("jet_smooth_max({a}, {b}, {w})")
+            })
+        }
+        Operator::SmoothIntersection(w, v) => {
+            let w = float(w);
+            fold(v, body, jet_node, None, |a, b| {
+                format!("jet_neg(jet_smooth_max(jet_neg({a}), jet_neg({b}), {w}))")
+            })
+        }
+    }
+    .unwrap_or_else(|| body.bind(zero))
+}
+
+fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
+    let op = match operator(tree) {
+        Err(g) => return body.bind(&format!("groups[{g}]")),
+        Ok(op) => op,
+    };
+    let largest = |v: &[BlendTree], body: &mut Body| {
+        fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
+            format!("max({a}, {b})")
+        })
+    };
+    match op {
+        Operator::Sum(v) => fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
+            format!("{a} + {b}")
+        }),
+        Operator::Ricci(p, v) => {
+            // The p-norm of the operands' bounds (Hölder).
+            let p = float(p);
+            let sum = fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
+                format!("{a} + pow_end({b}, {p})")
+            });
+            sum.map(|s| body.bind(&format!("pow_end({s}, 1.0 / {p})")))
+        }
+        Operator::Difference(a, b) => largest(&[a.clone(), b.clone()], body),
+        Operator::Max(v)
+        | Operator::Min(v)
+        | Operator::SmoothUnion(_, v)
+        | Operator::SmoothIntersection(_, v) => largest(v, body),
+    }
+    .unwrap_or_else(|| body.bind("0.0"))
+}
+
+fn compose_node(tree: &BlendTree, body: &mut Body) -> String {
+    let op = match operator(tree) {
+        Err(g) => return body.bind(&format!("Composed(groups[{g}], true)")),
+        Ok(op) => op,
+    };
+    // The Bézier hull of the operands (negated for a minimum, the complement's shift for a
+    // difference) on the shortest of their intervals.
+    let hull = |items: Vec<String>, body: &mut Body| {
+        let mut h = "INF".to_owned();
+        for i in &items {
+            h = body.bind(&format!("min({h}, {i}.inclusion.length)"));
+        }
+        let mut acc = body.bind(&format!("hull_start({}, {h})", items[0]));
+        for i in &items[1..] {
+            acc = body.bind(&format!("hull_add({acc}, {i}, {h})"));
+        }
+        body.bind(&format!("hull_end({acc}, {h})"))
+    };
+    let no_rule = "Composed(groups[0], false)";
+    match op {
+        Operator::Sum(v) => fold(v, body, compose_node, None, |a, b| {
+            format!("composed_add({a}, {b})")
+        }),
+        Operator::Max(v) if !v.is_empty() => {
+            let items = v.iter().map(|c| compose_node(c, body)).collect();
+            Some(hull(items, body))
+        }
+        Operator::Min(v) if !v.is_empty() => {
+            let items = v
+                .iter()
+                .map(|c| {
+                    let n = compose_node(c, body);
+                    body.bind(&format!("composed_neg({n})"))
+                })
+                .collect();
+            let h = hull(items, body);
+            Some(body.bind(&format!("composed_neg({h})")))
+        }
+        Operator::Difference(a, b) => {
+            // −min(a, 2c − b) = max(−a, b − 2c).
+            let a = compose_node(a, body);
+            let b = compose_node(b, body);
+            let items = vec![
+                body.bind(&format!("composed_neg({a})")),
+                body.bind(&format!("composed_shift({b}, -2.0 * globals.isovalue)")),
+            ];
+            let h = hull(items, body);
+            Some(body.bind(&format!("composed_neg({h})")))
+        }
+        Operator::Ricci(_, v) => {
+            let mut acc = "ricci_inclusion_start()".to_owned();
+            for c in v {
+                let n = compose_node(c, body);
+                acc = body.bind(&format!("ricci_inclusion_add({acc}, {n})"));
+            }
+            Some(body.bind(&format!("ricci_inclusion_end({acc})")))
+        }
+        Operator::Max(_)
+        | Operator::Min(_)
+        | Operator::SmoothUnion(..)
+        | Operator::SmoothIntersection(..) => None,
+    }
+    .unwrap_or_else(|| body.bind(no_rule))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The operators asset's `Ricci(p: 4, [Difference(0, 1), 2])`, value by value.
+    #[test]
+    fn a_tree_becomes_nested_helper_calls_in_its_own_order() {
+        let tree = BlendTree::Ricci {
+            p: 4.0,
+            of: vec![
+                BlendTree::Difference(Box::new(BlendTree::Group(0)), Box::new(BlendTree::Group(1))),
+                BlendTree::Group(2),
+            ],
+        };
+        let wgsl = BlendWgsl::new(&tree);
+        assert_eq!(
+            wgsl.values,
+            "fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
+    let n0 = values[0];
+    let n1 = values[1];
+    let n2 = value_difference(n0, n1);
+    let n3 = values[2];
+    let n4 = 0.0 + ricci_power(n2, 4.0);
+    let n5 = n4 + ricci_power(n3, 4.0);
+    let n6 = ricci_root(n5, 4.0);
+    let n7 = vec3<f32>(0.0) + ricci_slope(n2, n6, 4.0);
+    let n8 = n7 + ricci_slope(n3, n6, 4.0);
+    let n9 = vec4<f32>(n6, n8);
+    return n9;
+}
+"
+        );
+        // The smooth intersection folds left to right on the negations; a sum starts at 0.
+        let tree = BlendTree::SmoothIntersection {
+            width: 0.25,
+            of: vec![
+                BlendTree::Sum(vec![BlendTree::Group(1), BlendTree::Group(0)]),
+                BlendTree::Group(2),
+            ],
+        };
+        let values = BlendWgsl::new(&tree).values;
+        assert!(values.contains("let n2 = vec4<f32>(0.0) + n0;"), "{values}");
+        assert!(values.contains("let n3 = n2 + n1;"), "{values}");
+        assert!(
+            values.contains("let n5 = -smooth_max(-n3, -n4, 0.25);"),
+            "{values}"
+        );
+    }
+
+    /// Operators without operands give the CPU's empty results, and the composition has no rule
+    /// for them or for the smooth operators.
+    #[test]
+    fn empty_operators_and_smooth_compositions_have_the_cpus_answers() {
+        let wgsl = BlendWgsl::new(&BlendTree::Max(vec![]));
+        assert!(
+            wgsl.values.contains("let n0 = vec4<f32>(0.0);"),
+            "{}",
+            wgsl.values
+        );
+        assert!(
+            wgsl.bounds.contains("Composed(groups[0], false)"),
+            "{}",
+            wgsl.bounds
+        );
+        let smooth = BlendWgsl::new(&BlendTree::SmoothUnion {
+            width: 0.3,
+            of: vec![BlendTree::Group(0), BlendTree::Group(1)],
+        });
+        assert!(
+            smooth.bounds.contains("Composed(groups[0], false)"),
+            "{}",
+            smooth.bounds
+        );
+        let sum = BlendWgsl::new(&BlendTree::Sum(vec![
+            BlendTree::Group(0),
+            BlendTree::Group(1),
+        ]));
+        assert!(!sum.bounds.contains("false"), "{}", sum.bounds);
+    }
+}
