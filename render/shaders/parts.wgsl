@@ -43,8 +43,23 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             break;
         }
         if state.t >= part.y {
-            part = next_part(sp, ray, part.y);
+            let end = part.y;
+            part = next_part(sp, ray, end);
             state = march_start(part);
+            // Parts that touch meet at an HRBF set's box, where the field may jump across the
+            // isovalue: a crossing at the cut, which no march sees as a sign change inside one
+            // part (methods/mod.rs trace_supports, jump_crossing; the inset a few f32 ulps).
+            if part.x == end && part.x <= part.y {
+                let inset = 5.0e-7 * (1.0 + abs(end));
+                let before = along_ray(sp, ray, end - inset).x >= globals.isovalue;
+                let after = along_ray(sp, ray, end + inset).x >= globals.isovalue;
+                if before != after {
+                    trace.t = end;
+                    trace.hit = true;
+                    trace.entering = after;
+                    break;
+                }
+            }
         }
     }
     return trace;

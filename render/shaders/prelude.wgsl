@@ -152,7 +152,9 @@ fn kernel_raw(k: Kernel, x_in: f32) -> vec3<f32> {
         var p2 = 0.0;
         var p1 = 1.0;
         if m >= 2.0 {
-            p2 = pow(base, m - 2.0);
+            // pow(0, 0) is undefined in WGSL (NaN on lavapipe): at the support boundary the
+            // degree-4 kernel's K″ would be NaN, and a NaN f″ bound stepped over surfaces.
+            p2 = select(pow(base, m - 2.0), 1.0, m == 2.0);
             p1 = p2 * base;
         }
         return vec3<f32>(p1 * base, -m * a * p1, m * (m - 1.0) * a * a * p2);
@@ -730,6 +732,20 @@ fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f3
     }
     if lo == INF {
         return vec2<f32>(INF, -INF);
+    }
+    // The part is cut where the ray enters or leaves an HRBF set's box inside it: the field may
+    // jump there (program.rs ray_support_unions_in, cut_boxes).
+    for (var j = 0u; j < (*sp).count; j++) {
+        if primitives[(*sp).ids[j]].kind != KIND_HRBF {
+            continue;
+        }
+        let s = (*sp).spans[j];
+        if lo < s.x && s.x < hi {
+            hi = s.x;
+        }
+        if lo < s.y && s.y < hi {
+            hi = s.y;
+        }
     }
     // More than RAY_SUPPORTS supports overlap at lo: the window is incomplete there; march a
     // minimum step with what it holds rather than stall.

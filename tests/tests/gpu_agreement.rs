@@ -151,13 +151,22 @@ fn compare(cpu: &Frame, gpu: &Frame, budget: u32) -> Agreement {
             }
         }
     }
+    // Where no pixel has a verdict (both marches ran out of steps everywhere), the hit masks
+    // agree on every pixel there is to compare.
+    let all_if_none = |n: u32| {
+        if with_verdict == 0 {
+            1.0
+        } else {
+            f64::from(n) / with_verdict as f64
+        }
+    };
     Agreement {
         exhausted,
         one_sided,
-        hit_mask: f64::from(same_hit) / with_verdict.max(1) as f64,
+        hit_mask: all_if_none(same_hit),
         worst_depth,
         equal_steps: f64::from(equal) / n as f64,
-        agreeing_steps: f64::from(agreeing) / with_verdict.max(1) as f64,
+        agreeing_steps: all_if_none(agreeing),
         histogram: histogram.into_iter().collect(),
     }
 }
