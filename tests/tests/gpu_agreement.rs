@@ -429,11 +429,12 @@ fn distance_segments_match_the_cpu_tracer() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
-/// Boxes, rounded boxes, tori and cylinders (2014 notes §7; shapes.rs) and HRBF sets (2023
-/// eq. 9; hrbf.rs): values, gradients, support intervals and ray jets, on the operators asset
-/// with its groups summed and on random scenes of 2–4 groups of 1–3 primitives of every kind,
-/// summed (seeds 42–45). Before infinite f″ bounds stayed infinite when scaled (interval.wgsl
-/// mul_ends), tori stalled quadratic Taylor on seed 43 and others.
+/// Boxes, rounded boxes, tori and cylinders (2014 notes §7; shapes.rs): values, gradients,
+/// support intervals and ray jets, on the operators asset with its groups summed and on random
+/// scenes of 2–4 groups of 1–3 primitives of every kind, summed (seeds 42–45, none of which
+/// draws an HRBF set; those are checked on the hrbf asset and in the random blend trees). Before
+/// infinite f″ bounds stayed infinite when scaled (interval.wgsl mul_ends), tori stalled
+/// quadratic Taylor on seed 43 and others.
 #[test]
 fn every_primitive_matches_the_cpu_tracer() {
     let Some(mut gpu) = gpu_or_skip("every_primitive_matches_the_cpu_tracer") else {
@@ -453,21 +454,18 @@ fn every_primitive_matches_the_cpu_tracer() {
         hits > SIZE * SIZE / 10,
         "operators-summed: only {hits} pixels hit"
     );
-    let (mut shapes, mut hrbfs) = (0, 0);
+    let mut shapes = 0;
     for seed in 42..46 {
         let mut rng = SplitMix64::new(seed);
         let n = 2 + rng.below(3);
         let groups = common::random_groups(&mut rng, n);
         shapes += groups.iter().map(|g| g.shapes.len()).sum::<usize>();
-        hrbfs += groups.iter().map(|g| g.hrbfs.len()).sum::<usize>();
         let scene = common::scene(groups, None);
         let label = format!("random-{seed}");
         let hits = check_agreement(&mut gpu, &label, &scene, &[scene.camera], &mut failures);
         eprintln!("{label}: {hits} pixels hit");
     }
-    eprintln!("random scenes: {shapes} shapes, {hrbfs} HRBF sets");
     assert!(shapes >= 6, "only {shapes} shapes in the random scenes");
-    assert!(hrbfs >= 1, "no HRBF set in the random scenes");
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
