@@ -1,7 +1,7 @@
 // Jets of each primitive kind over a ray interval, and of the blended field over a pixel's
 // support window (core: field/primitives/point.rs, segment.rs, scalis.rs, shapes.rs
-// ray_jet; field/program.rs ray_jet and summed_lipschitz), for point blobs, distance and
-// SCALIS segments and planes; scenes with other primitives run these methods on the CPU.
+// ray_jet; hrbf.rs ray_jet; field/program.rs ray_jet and summed_lipschitz), for every
+// primitive kind, blended by the scene's generated code (blend_wgsl.rs).
 
 // The jet of point blob i over [lo, hi] (exact extrema, MATH.md §5).
 fn point_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
