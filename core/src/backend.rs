@@ -77,7 +77,7 @@ pub struct FrameRequest {
     pub methods: Vec<MethodId>,
     /// Shaded view or step heat map.
     pub view: View,
-    /// Exact shadow rays towards every light (CPU only).
+    /// Exact shadow rays towards every light.
     pub shadows: bool,
     /// Trace settings (normally the compiled scene's).
     pub settings: TraceSettings,

@@ -1,6 +1,6 @@
 // Entry point: one invocation per pixel. Traces the pixel's ray with the composed method,
 // writes depth and steps, and the colour of the chosen view: Blinn–Phong (core: cpu/renderer.rs,
-// without shadows and refraction) or the step-count heat map (Turbo polynomial, the same as
+// with its shadow rays, reflection and refraction when the frame has them: trace_path) or the step-count heat map (Turbo polynomial, the same as
 // core::frame::heat_colour, coefficients TURBO_* emitted by shared.rs).
 //
 // Soft shadows and ambient occlusion (core: cpu/shading.rs, 2014 notes §12.4) sample the field at
@@ -89,61 +89,295 @@ fn pack(c: vec3<f32>) -> u32 {
     return b.x | (b.y << 8u) | (b.z << 16u) | (255u << 24u);
 }
 
-fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
+// What a hit shows: the outward normal and the group contributing most (cpu/renderer.rs
+// material_at).
+struct Surface {
+    normal: vec3<f32>,
+    group: u32,
+};
+
+fn surface_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> Surface {
     let groups = groups_at(sp, ray, t);
     let field = blend_groups(groups);
-    let normal = normalize(-field.yzw);
     var best = 0u;
     for (var g = 1u; g < globals.group_count; g++) {
         if groups[g].x > groups[best].x {
             best = g;
         }
     }
-    let albedo = materials[best].xyz;
-    let p = ray.origin + t * ray.dir;
-    let flags = globals.shading_flags;
-    let scale = globals.shading_scale;
-    let lifted = p + 2.0 * globals.min_step * normal;
-    var occlusion = 1.0;
-    if (flags & 2u) != 0u {
-        occlusion = ambient_occlusion(p, normal, scale);
+    return Surface(normalize(-field.yzw), best);
+}
+
+// The direction towards light `l` from `p` and its distance.
+fn towards_light(l: u32, p: vec3<f32>) -> vec4<f32> {
+    let light = lights[l];
+    if u32(light.vector.w) == LIGHT_POINT {
+        let d = light.vector.xyz - p;
+        return vec4<f32>(normalize(d), length(d));
     }
+    return vec4<f32>(normalize(light.vector.xyz), globals.far);
+}
+
+// Where a hit's shadow rays and field shadows start: lifted off the surface.
+fn lifted_point(p: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
+    return p + 2.0 * globals.min_step * normal;
+}
+
+fn occlusion_at(p: vec3<f32>, normal: vec3<f32>) -> f32 {
+    if (globals.shading_flags & 2u) != 0u {
+        return ambient_occlusion(p, normal, globals.shading_scale);
+    }
+    return 1.0;
+}
+
+// Light `l`'s Blinn–Phong term at a hit seen along `view`, `transmitted` the fraction of it an
+// exact shadow ray lets through (1 without shadow rays), times the field's soft shadow.
+fn light_term(l: u32, p: vec3<f32>, normal: vec3<f32>, view: vec3<f32>, albedo: vec3<f32>, occlusion: f32, transmitted_exactly: f32) -> vec3<f32> {
+    let towards = towards_light(l, p);
+    let diffuse = dot(normal, towards.xyz);
+    var transmitted = transmitted_exactly;
+    if diffuse <= 0.0 || transmitted <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if (globals.shading_flags & 1u) != 0u {
+        transmitted *= soft_shadow(lifted_point(p, normal), towards.xyz, towards.w, globals.shading_scale);
+    }
+    let half_vector = normalize(towards.xyz - view);
+    let specular = pow(max(dot(normal, half_vector), 0.0), 48.0) * 0.35;
+    let light = lights[l];
+    return transmitted * (0.5 + 0.5 * occlusion) * light.colour.w * light.colour.xyz * (diffuse * albedo + specular);
+}
+
+// Blinn–Phong with the scene lights, without shadow rays (cpu/renderer.rs shade).
+fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
+    let surface = surface_at(sp, ray, t);
+    let albedo = materials[surface.group].colour.xyz;
+    let p = ray.origin + t * ray.dir;
+    let occlusion = occlusion_at(p, surface.normal);
     var colour = 0.12 * occlusion * albedo;
     for (var l = 0u; l < globals.light_count; l++) {
-        let light = lights[l];
-        var to_light = normalize(light.vector.xyz);
-        var distance = globals.far;
-        if u32(light.vector.w) == LIGHT_POINT {
-            to_light = normalize(light.vector.xyz - p);
-            distance = length(light.vector.xyz - p);
-        }
-        let diffuse = dot(normal, to_light);
-        if diffuse <= 0.0 {
-            continue;
-        }
-        var transmitted = 0.5 + 0.5 * occlusion;
-        if (flags & 1u) != 0u {
-            transmitted *= soft_shadow(lifted, to_light, distance, scale);
-        }
-        let half_vector = normalize(to_light - ray.dir);
-        let specular = pow(max(dot(normal, half_vector), 0.0), 48.0) * 0.35;
-        colour += transmitted * light.colour.w * light.colour.xyz * (diffuse * albedo + specular);
+        colour += light_term(l, p, surface.normal, ray.dir, albedo, occlusion, 1.0);
     }
     return colour;
 }
+
+// Writes a pixel's steps, depth and the colour of the chosen view (`shaded`: linear, or the
+// background where nothing was hit).
+fn write_pixel(px: u32, py: u32, steps: u32, depth: f32, shaded: vec3<f32>) {
+    let out = py * globals.output_width + globals.panel_x + px;
+    out_steps[out] = steps;
+    out_depth[out] = depth;
+    var colour: vec3<f32>;
+    if globals.heat_view == 1u {
+        colour = heat_colour(f32(steps) / max(globals.heat_max, 1.0));
+    } else {
+        colour = vec3<f32>(srgb(shaded.x), srgb(shaded.y), srgb(shaded.z));
+    }
+    out_colour[out] = pack(colour);
+}
+
+// ---- Secondary rays (cpu/renderer.rs shade_trace and transmittance; forward-inclusion 2023
+// §7.2 for transparency) ----
+//
+// With shadow rays or transparent groups, a pixel's colour needs more rays than its own: a
+// shadow ray from each hit towards each light, and at a transparent group's crossing a
+// reflected and a refracted ray, up to MAX_BOUNCES levels. The colour is linear in what each
+// ray sees, so each ray carries its weight in the pixel's colour and the pixel's `Path` keeps
+// the sum, the hit being shaded and the rays still to trace. One ray is traced at a time,
+// through the same suspended marches as the camera ray (parts.wgsl): a dispatch finishes at
+// most one ray of a path, and the renderer dispatches enough for the longest path. Rays other
+// than the camera ray leave the screen tiles and are traced against every primitive, as the
+// CPU traces them. Steps count the camera, reflected and refracted rays, not shadow rays.
+
+// A ray of a pixel's path.
+struct PathRay {
+    origin: vec3<f32>,
+    bounce: u32,         // reflection/refraction level
+    dir: vec3<f32>,
+    kind: u32,           // RAY_CAMERA (a cleared path starts with it), RAY_BOUNCE, RAY_SHADOW
+    weight: vec3<f32>,   // of what the ray sees in the pixel's colour
+    far: f32,            // end of its interval
+};
+
+// Twin of the renderer's PATH_BYTES: cleared before each method's pass.
+struct Path {
+    ray: PathRay,        // being traced
+    colour: vec3<f32>,   // sum so far, linear
+    depth: f32,          // of the camera ray's crossing
+    point: vec3<f32>,    // the hit being shaded
+    steps: u32,          // of the camera and bounce rays finished
+    normal: vec3<f32>,
+    occlusion: f32,
+    view: vec3<f32>,     // direction of the ray that hit
+    light: u32,          // next light of the hit's shading
+    lit: vec3<f32>,      // the hit's shading so far
+    group: u32,          // its material
+    lit_weight: vec3<f32>,
+    stacked: u32,
+    stack: array<PathRay, PATH_STACK>,
+};
+
+@group(0) @binding(13) var<storage, read_write> paths: array<Path>;
+// Paths that a dispatch left unfinished; the renderer clears it before the last dispatch of a
+// batch and reads it after (gpu_renderer.rs), to stop dispatching once every path is done.
+@group(0) @binding(14) var<storage, read_write> unfinished_paths: atomic<u32>;
+
+fn push_ray(path: ptr<function, Path>, ray: PathRay) {
+    if (*path).stacked < PATH_STACK {
+        (*path).stack[(*path).stacked] = ray;
+        (*path).stacked += 1u;
+    }
+}
+
+// The hit of `job` at `trace`: starts its shading and, at a transparent group below the last
+// bounce, stacks the reflected and refracted rays with their Fresnel weights.
+fn begin_hit(path: ptr<function, Path>, sp: ptr<function, RaySupports>, ray: Ray, job: PathRay, trace: Trace) {
+    let surface = surface_at(sp, ray, trace.t);
+    let material = materials[surface.group];
+    let p = ray.origin + trace.t * ray.dir;
+    let occlusion = occlusion_at(p, surface.normal);
+    (*path).point = p;
+    (*path).normal = surface.normal;
+    (*path).occlusion = occlusion;
+    (*path).view = ray.dir;
+    (*path).light = 0u;
+    (*path).group = surface.group;
+    (*path).lit = 0.12 * occlusion * material.colour.xyz;
+    let opacity = material.colour.w;
+    if opacity >= 1.0 || job.bounce >= MAX_BOUNCES {
+        (*path).lit_weight = job.weight;
+        return;
+    }
+    (*path).lit_weight = job.weight * opacity;
+    let glass = job.weight * (1.0 - opacity);
+    let ior = material.ior.x;
+    let facing = select(-surface.normal, surface.normal, dot(surface.normal, ray.dir) < 0.0);
+    let eta = select(ior, 1.0 / ior, trace.entering);
+    let cos_i = -dot(facing, ray.dir);
+    let r0 = (1.0 - ior) / (1.0 + ior);
+    let f0 = r0 * r0;
+    let fresnel = f0 + (1.0 - f0) * pow(1.0 - cos_i, 5.0);
+    let offset = 2.0 * globals.min_step;
+    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    var reflected_weight = glass * fresnel;
+    if k < 0.0 {
+        // Total internal reflection: what passes through is the reflection too.
+        reflected_weight = glass;
+    } else {
+        let refracted = normalize(eta * ray.dir + (eta * cos_i - sqrt(k)) * facing);
+        let tint = mix(material.colour.xyz, vec3<f32>(1.0), 0.5);
+        push_ray(path, PathRay(p - offset * facing, job.bounce + 1u, refracted, RAY_BOUNCE, glass * (1.0 - fresnel) * tint, globals.far));
+    }
+    let reflected = normalize(ray.dir + 2.0 * cos_i * facing);
+    push_ray(path, PathRay(p + offset * facing, job.bounce + 1u, reflected, RAY_BOUNCE, reflected_weight, globals.far));
+}
+
+// Goes on with the hit's lights from `path.light`: the next one facing the hit becomes the
+// shadow ray to trace (true), or, without shadow rays, each is lit directly; once every light
+// is done, the hit's shading joins the pixel's colour (false).
+fn next_light(path: ptr<function, Path>) -> bool {
+    while (*path).light < globals.light_count {
+        let l = (*path).light;
+        let towards = towards_light(l, (*path).point);
+        if dot((*path).normal, towards.xyz) > 0.0 && (globals.secondary & SECONDARY_SHADOW_RAYS) != 0u {
+            (*path).ray = PathRay(lifted_point((*path).point, (*path).normal), 0u, towards.xyz, RAY_SHADOW, vec3<f32>(0.0), towards.w);
+            return true;
+        }
+        let albedo = materials[(*path).group].colour.xyz;
+        (*path).lit += light_term(l, (*path).point, (*path).normal, (*path).view, albedo, (*path).occlusion, 1.0);
+        (*path).light += 1u;
+    }
+    (*path).colour += (*path).lit_weight * (*path).lit;
+    (*path).lit_weight = vec3<f32>(0.0);
+    return false;
+}
+
+// Steps this invocation may still march: the dispatch's allowance (parts.wgsl), shared by the
+// rays of a path that end in one dispatch (trace_path). A method that traces a ray in one
+// dispatch (RESUMABLE false) spends it all on one ray.
+var<private> steps_left: u32;
 
 // Marches `ray` over its gathered supports from where suspension `k` left it, its outcome in
 // `trace`; whether the march finished in this dispatch (a marching method is dispatched until
 // every ray's budget is spent, parts.wgsl).
 fn march_resumed(k: u32, sp: ptr<function, RaySupports>, ray: Ray, trace: ptr<function, Trace>) -> bool {
     var resume = suspensions[k];
+    let before = resume.steps;
     *trace = trace_ray(sp, ray, &resume);
     if (resume.flags & SUSPENDED) != 0u {
         suspensions[k] = resume;
         return false;
     }
     suspensions[k].flags = FINISHED;
+    // A ray that ends counts at least one step, so that the rays of a path are finitely many
+    // per dispatch.
+    let spent = max((*trace).steps - before, 1u);
+    steps_left = select(0u, steps_left - min(spent, steps_left), RESUMABLE);
     return true;
+}
+
+// Advances pixel `pixel`'s path: marches its current ray from where the last dispatch left
+// it and, each time a ray ends, takes in what it saw and goes on with the next ray while the
+// dispatch's allowance lasts; writes the pixel once the path is done.
+fn trace_path(pixel: u32, px: u32, py: u32) {
+    var path = paths[pixel];
+    var supports: RaySupports;
+    let sp = &supports;
+    loop {
+        var job = path.ray;
+        var ray: Ray;
+        if job.kind == RAY_CAMERA {
+            ray = pixel_ray(px, py);
+            job.weight = vec3<f32>(1.0);
+            gather_supports(sp, ray, px, py);
+        } else {
+            ray = Ray(job.origin, job.dir);
+            gather_every(sp, ray, job.far);
+        }
+        var trace: Trace;
+        if !march_resumed(pixel, sp, ray, &trace) {
+            break;
+        }
+        // The ray has ended: the next one starts afresh.
+        suspensions[pixel] = Suspension(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u);
+        if job.kind == RAY_SHADOW {
+            // Opaque groups stop the light, a transparent one lets 1 − opacity through.
+            var transmitted = 1.0;
+            if trace.hit {
+                transmitted = 1.0 - materials[surface_at(sp, ray, trace.t).group].colour.w;
+            }
+            let albedo = materials[path.group].colour.xyz;
+            path.lit += light_term(path.light, path.point, path.normal, path.view, albedo, path.occlusion, transmitted);
+            path.light += 1u;
+        } else {
+            path.steps += trace.steps;
+            if job.kind == RAY_CAMERA {
+                path.depth = select(INF, trace.t, trace.hit);
+            }
+            if trace.hit {
+                begin_hit(&path, sp, ray, job, trace);
+            } else {
+                path.colour += job.weight * background(ray.dir);
+                path.light = globals.light_count;
+                path.lit = vec3<f32>(0.0);
+                path.lit_weight = vec3<f32>(0.0);
+            }
+        }
+        if !next_light(&path) {
+            if path.stacked == 0u {
+                write_pixel(px, py, path.steps, path.depth, path.colour);
+                suspensions[pixel].flags = FINISHED;
+                return;
+            }
+            path.stacked -= 1u;
+            path.ray = path.stack[path.stacked];
+        }
+        if steps_left == 0u {
+            break;
+        }
+    }
+    paths[pixel] = path;
+    atomicAdd(&unfinished_paths, 1u);
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -155,6 +389,11 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     if (suspensions[pixel].flags & FINISHED) != 0u {
         return;
     }
+    steps_left = globals.steps_per_dispatch;
+    if (globals.secondary & SECONDARY_PATHS) != 0u {
+        trace_path(pixel, id.x, id.y);
+        return;
+    }
     let ray = pixel_ray(id.x, id.y);
     var supports: RaySupports;
     let sp = &supports;
@@ -163,20 +402,11 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     if !march_resumed(pixel, sp, ray, &trace) {
         return;
     }
-    let out = id.y * globals.output_width + globals.panel_x + id.x;
-    out_steps[out] = trace.steps;
-    out_depth[out] = select(INF, trace.t, trace.hit);
-    var colour: vec3<f32>;
-    if globals.heat_view == 1u {
-        colour = heat_colour(f32(trace.steps) / max(globals.heat_max, 1.0));
-    } else if trace.hit {
-        let c = shade(sp, ray, trace.t);
-        colour = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
-    } else {
-        let c = background(ray.dir);
-        colour = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
+    var colour = background(ray.dir);
+    if trace.hit {
+        colour = shade(sp, ray, trace.t);
     }
-    out_colour[out] = pack(colour);
+    write_pixel(id.x, id.y, trace.steps, select(INF, trace.t, trace.hit), colour);
 }
 
 // A ray of `stats --backend gpu` (gpu_stats.rs): traced over [0, far] among the primitives of
@@ -201,6 +431,7 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     if (suspensions[k].flags & FINISHED) != 0u {
         return;
     }
+    steps_left = globals.steps_per_dispatch;
     let r = stats_rays[k];
     let ray = Ray(r.origin, r.dir);
     var supports: RaySupports;

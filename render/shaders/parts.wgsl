@@ -2,7 +2,7 @@
 // method file's `march_part` on each part of the ray inside the supports, in order, until a
 // crossing or the step budget.
 //
-// A dispatch marches at most globals.steps_per_dispatch steps of a ray. Lavapipe stops an invocation's
+// A dispatch marches at most `steps_left` steps (globals.steps_per_dispatch at its start; main.wgsl). Lavapipe stops an invocation's
 // loops once they reach 65 535 iterations in all, and each step loops over the support window,
 // so a ray near the 2 048-step budget would be cut short in one dispatch. A ray whose
 // allowance runs out with budget left is suspended: its march state, the end of its part and
@@ -21,7 +21,7 @@ struct MarchState {
 
 fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
     var trace = Trace(0.0, false, false, (*resume).steps);
-    let allowance = min(trace.steps + globals.steps_per_dispatch, globals.max_steps);
+    let allowance = min(trace.steps + steps_left, globals.max_steps);
     var part: vec2<f32>;
     var state: MarchState;
     if ((*resume).flags & SUSPENDED) != 0u {

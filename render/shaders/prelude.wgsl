@@ -38,7 +38,7 @@ struct Globals {
     shading_flags: u32,         // 1 soft shadows, 2 ambient occlusion
     shading_scale: f32,
     steps_per_dispatch: u32,    // of a marching method (parts.wgsl)
-    pad0: u32,
+    secondary: u32,             // SECONDARY_*: the frame's secondary rays (main.wgsl trace_path)
     pad1: u32,
     pad2: u32,
     pad3: u32,
@@ -88,6 +88,12 @@ struct Kernel {
     pad4: f32,
 };
 
+// Twin of `GpuMaterial`: a group's material.
+struct Material {
+    colour: vec4<f32>, // w: opacity
+    ior: vec4<f32>,    // x: index of refraction
+};
+
 // Twin of `GpuLight`. kind 0: directional (vector towards the light), 1: point (position).
 struct Light {
     vector: vec4<f32>, // w: kind
@@ -97,7 +103,7 @@ struct Light {
 @group(0) @binding(0) var<uniform> globals: Globals;
 @group(0) @binding(1) var<storage, read> primitives: array<Primitive>;
 @group(0) @binding(2) var<storage, read> kernels: array<Kernel>;
-@group(0) @binding(3) var<storage, read> materials: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
 @group(0) @binding(5) var<storage, read> tile_ranges: array<vec2<u32>>;
 @group(0) @binding(6) var<storage, read> tile_items: array<u32>;
@@ -548,6 +554,7 @@ struct RaySupports {
     horizon: f32,
     floor: f32,    // of the last fill, kept for a suspended march to refill the same window
     far: f32,      // end of the ray's interval
+    listed: bool,  // the supports come from a tile list; false: every primitive (gather_every)
     ids: array<u32, RAY_SUPPORTS>,
     spans: array<vec2<f32>, RAY_SUPPORTS>,
 };
@@ -568,7 +575,10 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     (*sp).horizon = INF;
     (*sp).floor = floor;
     for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
-        let i = tile_items[j];
+        var i = j;
+        if (*sp).listed {
+            i = tile_items[j];
+        }
         var span = support_interval(ray, i);
         span = vec2<f32>(max(span.x, 0.0), min(span.y, (*sp).far));
         if span.x > span.y || span.y <= floor {
@@ -612,6 +622,17 @@ fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32) {
     let written = arrayLength(&tile_items);
     (*sp).tile_start = min(range.x, written);
     (*sp).tile_end = min(range.y, written);
+    (*sp).listed = true;
+    fill_window(sp, ray, 0.0);
+}
+
+// The supports along `ray` over [0, far] among every primitive: a secondary ray (main.wgsl
+// trace_path) leaves the screen tiles, and is traced against the whole scene as on the CPU.
+fn gather_every(sp: ptr<function, RaySupports>, ray: Ray, far: f32) {
+    (*sp).far = far;
+    (*sp).tile_start = 0u;
+    (*sp).tile_end = globals.primitive_count;
+    (*sp).listed = false;
     fill_window(sp, ray, 0.0);
 }
 

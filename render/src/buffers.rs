@@ -84,6 +84,24 @@ pub struct GpuLight {
     pub colour: [f32; 4],
 }
 
+/// Twin of `Material` in prelude.wgsl: a group's material.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// Base colour; `w`: opacity.
+    pub colour: [f32; 4],
+    /// `x`: index of refraction.
+    pub ior: [f32; 4],
+}
+
+impl GpuMaterial {
+    /// Whether light passes through the group (reflection and refraction, main.wgsl).
+    #[must_use]
+    pub fn transparent(&self) -> bool {
+        self.colour[3] < 1.0
+    }
+}
+
 /// A scene in GPU layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PackedScene {
@@ -91,8 +109,8 @@ pub struct PackedScene {
     pub primitives: Vec<GpuPrimitive>,
     /// One kernel per group.
     pub kernels: Vec<GpuKernel>,
-    /// Base colour per group (`w`: opacity).
-    pub materials: Vec<[f32; 4]>,
+    /// One material per group.
+    pub materials: Vec<GpuMaterial>,
     /// Lights.
     pub lights: Vec<GpuLight>,
     /// The blend tree as WGSL.
@@ -385,7 +403,10 @@ impl PackedScene {
                 .iter()
                 .map(|m| {
                     let c = m.color;
-                    [c[0] as f32, c[1] as f32, c[2] as f32, m.opacity as f32]
+                    GpuMaterial {
+                        colour: [c[0] as f32, c[1] as f32, c[2] as f32, m.opacity as f32],
+                        ior: [m.ior as f32, 0.0, 0.0, 0.0],
+                    }
                 })
                 .collect(),
             lights: compiled

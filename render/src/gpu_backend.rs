@@ -64,9 +64,6 @@ impl FrameBackend for GpuBackend {
         let gpu_method = GpuMethod::from_id(method)
             .ok_or_else(|| format!("{method} has no GPU implementation"))?;
         gpu_method.supports(&compiled.program)?;
-        if request.shadows {
-            return Err("exact shadow rays run on the CPU only".to_owned());
-        }
         PackedScene::check(&compiled.program)?;
         if let View::Shaded(shading) = request.view {
             check_shading_budget(compiled, shading)?;
@@ -92,11 +89,6 @@ impl FrameBackend for GpuBackend {
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        if request.shadows {
-            return Err(BackendError::Unsupported(
-                "exact shadow rays run on the CPU only".to_owned(),
-            ));
-        }
         if self
             .renderer
             .scene()
@@ -109,7 +101,7 @@ impl FrameBackend for GpuBackend {
             &request.camera,
             &request.settings,
             (request.width as u32, request.height as u32),
-            request.view,
+            (request.view, request.shadows),
         )
     }
 }

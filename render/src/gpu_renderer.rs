@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use skeletrace_core::FieldProgram;
 use skeletrace_core::backend::{BackendError, DeviceKind, PassTimes};
 use skeletrace_core::compile::Compiled;
+use skeletrace_core::cpu::renderer::MAX_BOUNCES;
 use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::frame::{
     AO_SAMPLES, FieldShading, Frame, SOFT_SHADOW_STEPS, View, far_distance, shading_scale,
@@ -20,14 +21,19 @@ use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
-use crate::buffers::{GpuPrimitive, PackedScene};
+use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
 use crate::gpu_stats::{GpuStatsRay, RayLists, STATS_ROW, UploadedRayLists};
 use crate::shaders::GpuMethod;
+use crate::shared::secondary;
 use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
 
 /// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
 /// method's rays from one dispatch to the next.
 pub const SUSPENSION_BYTES: u64 = 28;
+
+/// Size of `Path` in main.wgsl: one per pixel of a panel when the frame has secondary rays
+/// (shadow rays, or transparent groups), the pixel's colour so far and the rays still to trace.
+pub const PATH_BYTES: u64 = 384;
 
 /// Steps a marching method takes per ray in one dispatch on a GPU (parts.wgsl): the 2 048-step
 /// budget in eight dispatches, none of them long (the scalis 2021 paper bounds sphere tracing
@@ -113,8 +119,10 @@ pub struct GpuGlobals {
     pub shading_scale: f32,
     /// Steps a marching method takes per ray in one dispatch.
     pub steps_per_dispatch: u32,
+    /// Secondary rays of the frame ([`crate::shared::secondary`]).
+    pub secondary: u32,
     /// Padding to 16 bytes.
-    pub pad: [u32; 4],
+    pub pad: [u32; 3],
 }
 
 /// The uploaded scene.
@@ -169,7 +177,8 @@ impl SceneBuffers {
             shading_flags: 0,
             shading_scale: 1.0,
             steps_per_dispatch,
-            pad: [0; 4],
+            secondary: 0,
+            pad: [0; 3],
         }
     }
 }
@@ -222,6 +231,14 @@ struct OutputBuffers {
     read: [wgpu::Buffer; 3],
     /// One `Suspension` per pixel of a panel, cleared before each method.
     suspensions: wgpu::Buffer,
+    /// One `Path` per pixel of a panel once a frame of this size had secondary rays (one
+    /// `Path` before: the trace pass binds it either way), cleared before each method.
+    paths: wgpu::Buffer,
+    /// Whether `paths` holds one `Path` per pixel.
+    paths_per_pixel: bool,
+    /// The paths a dispatch left unfinished (main.wgsl `unfinished_paths`) and its `MAP_READ`
+    /// copy.
+    unfinished: [wgpu::Buffer; 2],
 }
 
 impl OutputBuffers {
@@ -254,9 +271,99 @@ impl OutputBuffers {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
+            paths: paths_buffer(device, 1),
+            paths_per_pixel: false,
+            unfinished: [
+                buffer_of(
+                    device,
+                    "unfinished paths",
+                    4,
+                    wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::COPY_SRC
+                        | wgpu::BufferUsages::COPY_DST,
+                ),
+                buffer_of(device, "unfinished paths readback", 4, read),
+            ],
             size: (panel_pixels, panels),
         }
     }
+
+    /// Grows `paths` to one `Path` per pixel of a panel.
+    ///
+    /// # Errors
+    /// When that exceeds what the device can bind.
+    fn paths_for_every_pixel(&mut self, device: &wgpu::Device) -> Result<(), String> {
+        if self.paths_per_pixel {
+            return Ok(());
+        }
+        let bytes = self.size.0 * PATH_BYTES;
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(format!(
+                "shadow rays and transparency on the GPU keep {PATH_BYTES} bytes per pixel: \
+                 {} pixels need {bytes} bytes, more than the device binds ({limit}); render \
+                 smaller or on the CPU",
+                self.size.0
+            ));
+        }
+        self.paths = paths_buffer(device, self.size.0);
+        self.paths_per_pixel = true;
+        Ok(())
+    }
+}
+
+/// An uninitialised buffer of `size` bytes.
+fn buffer_of(
+    device: &wgpu::Device,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage,
+        mapped_at_creation: false,
+    })
+}
+
+/// A buffer of `n` `Path`s (main.wgsl).
+fn paths_buffer(device: &wgpu::Device, n: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("secondary ray paths"),
+        size: n * PATH_BYTES,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// The secondary rays of a frame ([`crate::shared::secondary`]) and the most rays one
+/// pixel's path can trace: with transparent groups, every crossing up to [`MAX_BOUNCES`]
+/// levels splits into a reflected and a refracted ray; with shadow rays, each of those rays'
+/// hits adds one per light.
+fn secondary_rays(packed: &PackedScene, shadows: bool, view: View) -> (u32, u32) {
+    let transparent = packed.materials.iter().any(GpuMaterial::transparent);
+    let shadow_rays = shadows && matches!(view, View::Shaded(_)) && !packed.lights.is_empty();
+    if !transparent && !shadow_rays {
+        return (0, 1);
+    }
+    let traced = if transparent {
+        (1 << (MAX_BOUNCES + 1)) - 1
+    } else {
+        1
+    };
+    let per_hit = 1 + if shadow_rays {
+        packed.lights.len() as u32
+    } else {
+        0
+    };
+    let flags = secondary::PATHS
+        | if shadow_rays {
+            secondary::SHADOW_RAYS
+        } else {
+            0
+        };
+    (flags, traced * per_hit)
 }
 
 pub(crate) fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
@@ -699,7 +806,9 @@ impl GpuRenderer {
     }
 
     /// Renders `methods` side by side (`width × height` each) through `camera` on the uploaded
-    /// scene; one frame per method.
+    /// scene; one frame per method. With `shadows`, the shaded view casts exact shadow rays
+    /// towards every light (core `RenderOptions::shadows`); transparent groups reflect and
+    /// refract in either view (main.wgsl `trace_path`).
     ///
     /// # Errors
     /// [`BackendError::Unsupported`] when no scene is uploaded, or a method or the field shading
@@ -710,12 +819,18 @@ impl GpuRenderer {
         camera: &Camera,
         settings: &TraceSettings,
         (width, height): (u32, u32),
-        view: View,
+        (view, shadows): (View, bool),
     ) -> Result<Vec<Frame>, BackendError> {
         let compiled = self.ready_for(methods, view, settings)?;
         let geometry = FrameGeometry::new(camera, width, height);
-        self.trace_frames(&compiled.program, methods, &geometry, settings, view)
-            .map_err(BackendError::DeviceFailed)
+        self.trace_frames(
+            &compiled.program,
+            methods,
+            &geometry,
+            settings,
+            (view, shadows),
+        )
+        .map_err(BackendError::DeviceFailed)
     }
 
     /// Records the trace of `methods` (side by side) through `camera` into `encoder` without
@@ -733,7 +848,7 @@ impl GpuRenderer {
         camera: &Camera,
         settings: &TraceSettings,
         (width, height): (u32, u32),
-        view: View,
+        (view, shadows): (View, bool),
     ) -> Result<(), BackendError> {
         let compiled = self.ready_for(methods, view, settings)?;
         let geometry = FrameGeometry::new(camera, width, height);
@@ -743,7 +858,7 @@ impl GpuRenderer {
             methods,
             &geometry,
             settings,
-            view,
+            (view, shadows),
             (None, false),
         )
         .map_err(BackendError::DeviceFailed)
@@ -824,11 +939,16 @@ impl GpuRenderer {
         methods: &[GpuMethod],
         geometry: &FrameGeometry,
         settings: &TraceSettings,
-        view: View,
+        look: (View, bool),
     ) -> Result<Vec<Frame>, String> {
-        // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each).
+        // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each);
+        // none for frames with secondary rays, whose passes are submitted in batches.
         let passes = 2 + methods.len() as u32;
-        let queries = self.timestamps.then(|| {
+        let secondary = self
+            .scene
+            .as_ref()
+            .is_some_and(|scene| secondary_rays(&scene.packed, look.1, look.0).0 != 0);
+        let queries = (self.timestamps && !secondary).then(|| {
             self.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("pass timestamps"),
                 ty: wgpu::QueryType::Timestamp,
@@ -844,7 +964,7 @@ impl GpuRenderer {
             methods,
             geometry,
             settings,
-            view,
+            look,
             (queries.as_ref(), true),
         )?;
         let d = &self.device;
@@ -914,7 +1034,7 @@ impl GpuRenderer {
         methods: &[GpuMethod],
         geometry: &FrameGeometry,
         settings: &TraceSettings,
-        view: View,
+        (view, shadows): (View, bool),
         (queries, wait): (Option<&wgpu::QuerySet>, bool),
     ) -> Result<(), String> {
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
@@ -954,7 +1074,12 @@ impl GpuRenderer {
         if self.outputs.as_ref().is_none_or(|o| o.size != size) {
             self.outputs = Some(OutputBuffers::new(d, size));
         }
-        let outputs = self.outputs.as_ref().ok_or("no output buffers")?;
+        let (secondary, rays_per_path) = secondary_rays(&scene.packed, shadows, view);
+        let outputs = self.outputs.as_mut().ok_or("no output buffers")?;
+        if secondary != 0 {
+            outputs.paths_for_every_pixel(d)?;
+        }
+        let outputs = &*outputs;
         let [colour, depth, steps] = &outputs.written;
         let far = far_distance(program, &camera);
         let (heat_max, heat_view, shading) = match view {
@@ -984,6 +1109,7 @@ impl GpuRenderer {
                 heat_view,
                 shading_flags,
                 shading_scale: shading_scale(program) as f32,
+                secondary,
                 ..scene.globals(settings, self.steps_per_dispatch)
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -1008,23 +1134,66 @@ impl GpuRenderer {
                     entry(9, steps),
                     entry(10, &outputs.suspensions),
                     entry(12, &scene.boxes),
+                    entry(13, &outputs.paths),
+                    entry(14, &outputs.unfinished[0]),
                 ],
             });
-            // A marching method goes on from where each ray stopped until every budget is spent.
-            let dispatches = if method.resumable() {
+            // A marching method goes on from where each ray stopped until every budget is spent;
+            // a path of secondary rays finishes at most one ray per dispatch, each ray taking
+            // one dispatch more than its steps need (the one that ends it).
+            let per_ray = if method.resumable() {
                 settings.max_steps.div_ceil(self.steps_per_dispatch).max(1)
             } else {
                 1
             };
+            let dispatches = if secondary == 0 {
+                per_ray
+            } else {
+                rays_per_path * (per_ray + 1)
+            };
             encoder.clear_buffer(&outputs.suspensions, 0, None);
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(method.name()),
-                timestamp_writes: timestamp_writes(queries, 2 + panel as u32),
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            for _ in 0..dispatches {
-                pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+            let workgroups = (width.div_ceil(8), height.div_ceil(8));
+            if secondary == 0 || !wait {
+                if secondary != 0 {
+                    encoder.clear_buffer(&outputs.paths, 0, None);
+                }
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(method.name()),
+                    timestamp_writes: timestamp_writes(queries, 2 + panel as u32),
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &group, &[]);
+                for _ in 0..dispatches {
+                    pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
+                }
+            } else {
+                encoder.clear_buffer(&outputs.paths, 0, None);
+                // Batches of one ray's dispatches, until no path is left unfinished.
+                let batches = dispatches.div_ceil(per_ray + 1);
+                for _ in 0..batches {
+                    let pass = |encoder: &mut wgpu::CommandEncoder, dispatches: u32| {
+                        let mut pass =
+                            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, &group, &[]);
+                        for _ in 0..dispatches {
+                            pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
+                        }
+                    };
+                    pass(encoder, per_ray);
+                    encoder.clear_buffer(&outputs.unfinished[0], 0, None);
+                    pass(encoder, 1);
+                    let [counted, read] = &outputs.unfinished;
+                    encoder.copy_buffer_to_buffer(counted, 0, read, 0, 4);
+                    let recorded = std::mem::replace(
+                        encoder,
+                        d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()),
+                    );
+                    self.queue.submit([recorded.finish()]);
+                    if read_back::<u32>(d, read)?.first() == Some(&0) {
+                        break;
+                    }
+                }
             }
         }
         Ok(())

@@ -219,8 +219,9 @@ impl GpuMethod {
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
         format!(
-            "{}\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
+            "{}\nconst RESUMABLE: bool = {};\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
             wgsl_constants(),
+            self.resumable(),
             blend.values
         )
     }
@@ -296,7 +297,7 @@ mod tests {
 
     #[test]
     fn every_struct_shared_with_wgsl_has_the_rust_layout() {
-        use crate::buffers::{GpuKernel, GpuLight, GpuPrimitive};
+        use crate::buffers::{GpuKernel, GpuLight, GpuMaterial, GpuPrimitive};
         use crate::gpu_renderer::GpuGlobals;
         use crate::tile_binning::GpuBinning;
         let trace = GpuMethod::QuadraticTaylor.source(&summed(2));
@@ -309,7 +310,7 @@ mod tests {
                 max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
                 gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
                 output_width, heat_max, heat_view, shading_flags, shading_scale,
-                steps_per_dispatch),
+                steps_per_dispatch, secondary),
         );
         check_twin(
             &binning,
@@ -331,6 +332,7 @@ mod tests {
                 clip, clip_scale),
         );
         check_twin(&trace, "Light", rust_layout!(GpuLight: vector, colour));
+        check_twin(&trace, "Material", rust_layout!(GpuMaterial: colour, ior));
         check_twin(
             &trace,
             "StatsRay",
@@ -399,25 +401,26 @@ mod tests {
         }
     }
 
-    /// The renderer sizes the suspension buffer by `SUSPENSION_BYTES`; naga's layout of the
-    /// WGSL struct must agree.
+    /// The renderer sizes the suspension and path buffers by `SUSPENSION_BYTES` and
+    /// `PATH_BYTES`; naga's layout of the WGSL structs must agree.
     #[test]
-    fn suspension_bytes_match_the_wgsl_struct() {
+    fn per_pixel_state_bytes_match_the_wgsl_structs() {
         let source = GpuMethod::Sphere.source(&summed(2));
         let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{e}"));
-        let span = module
-            .types
-            .iter()
-            .find_map(|(_, ty)| match &ty.inner {
-                naga::TypeInner::Struct { span, .. }
-                    if ty.name.as_deref() == Some("Suspension") =>
-                {
-                    Some(*span)
-                }
-                _ => None,
-            })
-            .unwrap_or_else(|| panic!("no Suspension struct in the prelude"));
-        assert_eq!(u64::from(span), crate::gpu_renderer::SUSPENSION_BYTES);
+        let span_of = |name: &str| {
+            module
+                .types
+                .iter()
+                .find_map(|(_, ty)| match &ty.inner {
+                    naga::TypeInner::Struct { span, .. } if ty.name.as_deref() == Some(name) => {
+                        Some(u64::from(*span))
+                    }
+                    _ => None,
+                })
+                .unwrap_or_else(|| panic!("no {name} struct in the shader"))
+        };
+        assert_eq!(span_of("Suspension"), crate::gpu_renderer::SUSPENSION_BYTES);
+        assert_eq!(span_of("Path"), crate::gpu_renderer::PATH_BYTES);
     }
 
     /// Core's `MethodId::has_gpu_implementation` names exactly the methods with shaders here.

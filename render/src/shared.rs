@@ -5,6 +5,7 @@
 
 use std::fmt::Write as _;
 
+use skeletrace_core::cpu::renderer::MAX_BOUNCES;
 use skeletrace_core::field::quadrature::{GaussLegendre, SCALIS_ORDER};
 use skeletrace_core::frame::{self as shading, TURBO};
 
@@ -77,6 +78,33 @@ pub enum MarchBound {
     QuadraticMixed = 6,
 }
 
+/// `Globals.secondary`: which secondary rays a frame traces (main.wgsl `trace_path`).
+pub mod secondary {
+    /// Exact shadow rays towards every light (core `RenderOptions::shadows`).
+    pub const SHADOW_RAYS: u32 = 1;
+    /// Each pixel follows its path of rays (shadow rays, or reflection and refraction at
+    /// transparent groups) in `Path`, one ray after another.
+    pub const PATHS: u32 = 2;
+}
+
+/// `PathRay.kind`: what a ray of a pixel's path is for. A cleared path starts with the pixel's
+/// camera ray (kind 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum PathRayKind {
+    /// The pixel's camera ray.
+    Camera = 0,
+    /// A reflected or refracted ray at a transparent group.
+    Bounce = 1,
+    /// A shadow ray from a hit towards a light.
+    Shadow = 2,
+}
+
+/// Rays a path keeps pending (main.wgsl `Path.stack`): a transparent hit pushes at most two
+/// and the next one taken is one of them, so the stack holds at most one per bounce level,
+/// plus one.
+pub const PATH_STACK: u32 = MAX_BOUNCES + 1;
+
 /// A WGSL `const` of type `f32`.
 fn f32_const(out: &mut String, name: &str, value: f64) {
     let _ = writeln!(out, "const {name}: f32 = {value:?};");
@@ -137,6 +165,13 @@ pub fn wgsl_constants() -> String {
         u32_const(&mut out, name, bound as u32);
     }
     u32_const(&mut out, "MAX_GROUPS", MAX_GROUPS as u32);
+    u32_const(&mut out, "SECONDARY_SHADOW_RAYS", secondary::SHADOW_RAYS);
+    u32_const(&mut out, "SECONDARY_PATHS", secondary::PATHS);
+    u32_const(&mut out, "RAY_CAMERA", PathRayKind::Camera as u32);
+    u32_const(&mut out, "RAY_BOUNCE", PathRayKind::Bounce as u32);
+    u32_const(&mut out, "RAY_SHADOW", PathRayKind::Shadow as u32);
+    u32_const(&mut out, "MAX_BOUNCES", MAX_BOUNCES);
+    u32_const(&mut out, "PATH_STACK", PATH_STACK);
     // Field shading (2014 notes §12.4), the CPU's constants (core frame.rs).
     u32_const(&mut out, "SOFT_SHADOW_STEPS", shading::SOFT_SHADOW_STEPS);
     f32_const(&mut out, "SOFTNESS", shading::SOFTNESS);

@@ -34,6 +34,8 @@ pub struct ViewportFrame {
     pub size: (u32, u32),
     /// Shaded, or the step counts of a comparison.
     pub view: View,
+    /// Exact shadow rays in the shaded view.
+    pub shadows: bool,
 }
 
 impl ViewportFrame {
@@ -44,6 +46,7 @@ impl ViewportFrame {
             && self.settings == other.settings
             && self.size == other.size
             && self.view == other.view
+            && self.shadows == other.shadows
     }
 }
 
@@ -222,7 +225,7 @@ impl ViewportPainter {
             &frame.camera,
             &frame.settings,
             frame.size,
-            frame.view,
+            (frame.view, frame.shadows),
         )?;
         let (colour, steps) = self
             .renderer

@@ -674,7 +674,7 @@ fn gpu_viewport_harness(mut editor: Editor, ppp: f32) -> Harness<'static, Editor
         &editor.orbit().camera(),
         &compiled.settings,
         (8, 8),
-        skeletrace_core::frame::View::Shaded(ui.shading),
+        (skeletrace_core::frame::View::Shaded(ui.shading), false),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let mut setup = egui_kittest::wgpu::default_wgpu_setup();
@@ -766,7 +766,10 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
             &h.state().orbit().camera(),
             &compiled.settings,
             size,
-            skeletrace_core::frame::View::Shaded(h.state().ui_state().shading),
+            (
+                skeletrace_core::frame::View::Shaded(h.state().ui_state().shading),
+                false,
+            ),
         )
         .unwrap_or_else(|e| panic!("{e}"))
         .remove(0);
@@ -904,9 +907,12 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
             &h.state().orbit().camera(),
             &compiled.settings,
             size,
-            skeletrace_core::frame::View::Steps {
-                steps_max: compiled.settings.max_steps,
-            },
+            (
+                skeletrace_core::frame::View::Steps {
+                    steps_max: compiled.settings.max_steps,
+                },
+                false,
+            ),
         )
         .unwrap_or_else(|e| panic!("{e}"));
     let histograms: Vec<_> = frames.iter().map(|f| f.step_histogram()).collect();

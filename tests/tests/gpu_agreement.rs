@@ -239,7 +239,10 @@ fn check_methods_agreement(
                 camera,
                 &settings,
                 (SIZE as u32, SIZE as u32),
-                View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                (
+                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                    false,
+                ),
             )
             .unwrap_or_else(|e| panic!("{label}: {e}"));
         check_pass_times(gpu, label, gpu_methods.len());
@@ -274,7 +277,10 @@ fn check_methods_agreement(
                         camera,
                         &settings,
                         (SIZE as u32, SIZE as u32),
-                        View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                        (
+                            View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                            false,
+                        ),
                     )
                     .unwrap_or_else(|e| panic!("{label}: {e}"))
                     .remove(0)
@@ -640,7 +646,7 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
             &scene.camera,
             &settings,
             (SIZE as u32, SIZE as u32),
-            View::Shaded(shading),
+            (View::Shaded(shading), false),
         )
         .unwrap_or_else(|e| panic!("{e}"))
         .remove(0);
@@ -706,7 +712,10 @@ fn resumed_marches_give_the_same_frames() {
                 &scene.camera,
                 &settings,
                 (SIZE as u32, SIZE as u32),
-                View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                (
+                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                    false,
+                ),
             )
             .unwrap_or_else(|e| panic!("{asset}: {e}"))
         };
@@ -766,7 +775,10 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
                 &camera,
                 &settings,
                 (SIZE as u32, SIZE as u32),
-                View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                (
+                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                    false,
+                ),
             )
             .unwrap_or_else(|e| panic!("{e}"));
         (
@@ -874,4 +886,141 @@ fn gpu_statistics_agree_with_the_cpus() {
         }
     }
     assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// Secondary rays (main.wgsl `trace_path`; cpu/renderer.rs): exact shadow rays towards every
+/// light, and reflection and refraction through transparent groups (forward-inclusion 2023
+/// §7.2), as the CPU renderer traces them. On `blobs` with shadow rays (two lights), on `blobs`
+/// with two of its groups made transparent, and on random scenes of every primitive kind with
+/// transparent groups, a point and a directional light: the hit masks and the camera rays'
+/// depths as in the other agreement tests, the step counts (summed over the reflected and
+/// refracted rays, as on the CPU) and the colours of the hit pixels. Each case must show the
+/// secondary rays: shadowed or see-through pixels that a plain render colours otherwise.
+#[test]
+fn secondary_rays_match_the_cpu_renderer() {
+    let Some(mut gpu) = gpu_or_skip("secondary_rays_match_the_cpu_renderer") else {
+        return;
+    };
+    let glass = |g: &mut skeletrace_core::model::scene::Group, opacity: f64, ior: f64| {
+        g.material.opacity = opacity;
+        g.material.ior = ior;
+    };
+    let mut cases = Vec::new();
+    cases.push(("blobs-shadows", load("blobs"), true));
+    let mut glassy = load("blobs");
+    glass(&mut glassy.groups[0], 0.35, 1.5);
+    glass(&mut glassy.groups[2], 0.6, 1.33);
+    cases.push(("blobs-transparent", glassy, true));
+    for seed in [71, 72] {
+        let mut rng = SplitMix64::new(seed);
+        let mut groups = common::random_groups(&mut rng, 3);
+        for (i, g) in groups.iter_mut().enumerate() {
+            g.material.color = [
+                rng.range(0.2, 0.9),
+                rng.range(0.2, 0.9),
+                rng.range(0.2, 0.9),
+            ];
+            if i != 1 {
+                glass(g, rng.range(0.2, 0.8), rng.range(1.1, 1.8));
+            }
+        }
+        let mut scene = common::scene(groups, None);
+        scene.lights = vec![
+            skeletrace_core::model::scene::Light::Point {
+                position: [2.0, 3.0, 4.0],
+                color: [1.0, 0.9, 0.8],
+                intensity: 1.0,
+            },
+            skeletrace_core::model::scene::Light::Directional {
+                direction: [-0.5, 0.7, 0.3],
+                color: [0.6, 0.7, 1.0],
+                intensity: 0.5,
+            },
+        ];
+        cases.push((
+            if seed == 71 { "random-71" } else { "random-72" },
+            scene,
+            true,
+        ));
+    }
+    let mut failures = Vec::new();
+    for (label, scene, shadows) in &cases {
+        let compiled = compile(scene);
+        let settings = compiled.settings;
+        gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+        for method in [GpuMethod::QuadraticTaylor, GpuMethod::Sphere] {
+            let tracer = method.id().method().prepare(&compiled.program, settings);
+            let cpu_frame = Renderer::new(&compiled, tracer.as_ref(), settings).render(
+                &scene.camera,
+                RenderOptions {
+                    width: SIZE,
+                    height: SIZE,
+                    shadows: *shadows,
+                    shading: Default::default(),
+                },
+            );
+            let mut opaque = scene.clone();
+            for g in &mut opaque.groups {
+                g.material.opacity = 1.0;
+            }
+            let opaque = compile(&opaque);
+            let opaque_tracer = method.id().method().prepare(&opaque.program, settings);
+            let plain = Renderer::new(&opaque, opaque_tracer.as_ref(), settings).render(
+                &scene.camera,
+                RenderOptions {
+                    width: SIZE,
+                    height: SIZE,
+                    shadows: false,
+                    shading: Default::default(),
+                },
+            );
+            let gpu_frame = gpu
+                .render(
+                    &[method],
+                    &scene.camera,
+                    &settings,
+                    (SIZE as u32, SIZE as u32),
+                    (View::Shaded(Default::default()), *shadows),
+                )
+                .unwrap_or_else(|e| panic!("{label}: {e}"))
+                .remove(0);
+            let agreement = compare(&cpu_frame, &gpu_frame, settings.max_steps);
+            let both: Vec<usize> = (0..SIZE * SIZE)
+                .filter(|&i| cpu_frame.is_hit(i) && gpu_frame.is_hit(i))
+                .collect();
+            let largest = |a: [f32; 3], b: [f32; 3]| {
+                (0..3)
+                    .map(|c| (a[c].min(1.0) - b[c].min(1.0)).abs())
+                    .fold(0.0, f32::max)
+            };
+            let close = both
+                .iter()
+                .filter(|&&i| largest(cpu_frame.colour[i], gpu_frame.colour[i]) <= 0.02)
+                .count();
+            let changed = both
+                .iter()
+                .filter(|&&i| largest(cpu_frame.colour[i], plain.colour[i]) > 0.02)
+                .count();
+            eprintln!(
+                "{label} {}: hit mask {:.4}, steps equal {:.4} agreeing {:.4}, depth {:.2e}, \
+                 colours {close}/{} within 0.02, {changed} changed by the secondary rays",
+                method.name(),
+                agreement.hit_mask,
+                agreement.equal_steps,
+                agreement.agreeing_steps,
+                agreement.worst_depth,
+                both.len()
+            );
+            if both.len() < SIZE * SIZE / 20 || changed * 20 < both.len() {
+                failures.push(format!(
+                    "{label}: {} hit pixels, {changed} changed: the case shows too little",
+                    both.len()
+                ));
+            }
+            if agreement.hit_mask < 1.0 || close * 100 < both.len() * 99 {
+                failures.push(format!("{label} {}: GPU and CPU differ", method.name()));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
 }

@@ -146,8 +146,8 @@ impl Editor {
     }
 
     /// The GPU viewport's frame of `methods` in `view` at `size`, when it takes this frame: a
-    /// GPU viewport exists, the backend choice is not the CPU, no shadow rays are asked for in
-    /// the shaded view, the GPU runs every method on the scene and its last frame did not fail.
+    /// GPU viewport exists, the backend choice is not the CPU, the GPU runs every method on the
+    /// scene and its last frame did not fail.
     pub(super) fn gpu_viewport_frame(
         &mut self,
         methods: &[MethodId],
@@ -156,10 +156,7 @@ impl Editor {
     ) -> Option<ViewportFrame> {
         let state = self.gpu_viewport.as_ref()?;
         let shaded = matches!(view, View::Shaded(_));
-        if self.ui_state.backend == BackendChoice::Cpu
-            || (shaded && self.ui_state.shadows)
-            || methods.is_empty()
-        {
+        if self.ui_state.backend == BackendChoice::Cpu || methods.is_empty() {
             return None;
         }
         let failure = state
@@ -191,6 +188,7 @@ impl Editor {
             settings,
             size: (size.0.max(1), size.1.max(1)),
             view,
+            shadows: shaded && self.ui_state.shadows,
         })
     }
 

@@ -301,7 +301,7 @@ impl Editor {
             ui.selectable_value(&mut self.ui_state.backend, Backend::Cpu, "CPU");
         });
         ui.horizontal_wrapped(|ui| {
-            ui.checkbox(&mut self.ui_state.shadows, "shadow rays (CPU)");
+            ui.checkbox(&mut self.ui_state.shadows, "shadow rays");
             ui.checkbox(&mut self.ui_state.shading.soft_shadows, "soft shadows");
             ui.checkbox(
                 &mut self.ui_state.shading.ambient_occlusion,
