@@ -18,6 +18,8 @@ const INTERVAL: &str = include_str!("../shaders/interval.wgsl");
 const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
 const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
 const SCALIS: &str = include_str!("../shaders/scalis.wgsl");
+const NORMALISED: &str = include_str!("../shaders/normalised.wgsl");
+const SPHERE_NORMALIZED: &str = include_str!("../shaders/sphere_normalized.wgsl");
 const FIELD_INVERSION: &str = include_str!("../shaders/field_inversion.wgsl");
 const HEAT: &str = include_str!("../shaders/heat.wgsl");
 const MAIN: &str = include_str!("../shaders/main.wgsl");
@@ -51,6 +53,8 @@ pub enum GpuMethod {
     Sphere,
     /// `sphere-enhanced`.
     SphereEnhanced,
+    /// `sphere-normalized` (SCALIS skeletons with one kernel).
+    SphereNormalized,
     /// `segment` (point blobs, segments, planes).
     Segment,
     /// `linear-taylor` (point blobs, segments, planes).
@@ -73,9 +77,10 @@ pub enum GpuMethod {
 
 impl GpuMethod {
     /// Every GPU method.
-    pub const ALL: [Self; 11] = [
+    pub const ALL: [Self; 12] = [
         Self::Sphere,
         Self::SphereEnhanced,
+        Self::SphereNormalized,
         Self::Segment,
         Self::LinearTaylor,
         Self::QuadraticTaylor,
@@ -93,6 +98,7 @@ impl GpuMethod {
         match self {
             Self::Sphere => MethodId::Sphere,
             Self::SphereEnhanced => MethodId::SphereEnhanced,
+            Self::SphereNormalized => MethodId::SphereNormalized,
             Self::Segment => MethodId::Segment,
             Self::LinearTaylor => MethodId::LinearTaylor,
             Self::QuadraticTaylor => MethodId::QuadraticTaylor,
@@ -132,6 +138,7 @@ impl GpuMethod {
                 "the unrefined hit of Bruckner's listing"
             }
             (Self::SphereEnhanced, Protocol::Paper2014) => "ω = 1.2",
+            (Self::SphereNormalized, Protocol::Paper2021) => "the thinnest radius once per ray",
             _ => return Ok(()),
         };
         Err(format!(
@@ -167,14 +174,17 @@ impl GpuMethod {
             {
                 Err("field-inversion needs Gaussian point blobs".to_owned())
             }
-            Self::ScalisQuadratic
+            Self::ScalisQuadratic | Self::SphereNormalized
                 if !program
                     .primitives()
                     .iter()
                     .all(|p| matches!(p, Primitive::Scalis(_)))
                     || program.common_kernel().is_none() =>
             {
-                Err("scalis-quadratic needs SCALIS skeletons with one kernel".to_owned())
+                Err(format!(
+                    "{} needs SCALIS skeletons with one kernel",
+                    self.name()
+                ))
             }
             _ => Ok(()),
         }
@@ -194,6 +204,9 @@ impl GpuMethod {
         let family = match self {
             Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
             Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
+            Self::SphereNormalized => {
+                format!("{MARCH}\n{NORMALISED}\n{SPHERE_NORMALIZED}\n{PARTS}")
+            }
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
@@ -215,7 +228,7 @@ impl GpuMethod {
                     bound as u32, blend.bounds
                 )
             }
-            Self::ScalisQuadratic => SCALIS.to_owned(),
+            Self::ScalisQuadratic => format!("{NORMALISED}\n{SCALIS}"),
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
         format!(
@@ -355,6 +368,7 @@ mod tests {
             (GpuMethod::ScalisQuadratic, Protocol::Paper2021),
             (GpuMethod::FieldInversion, Protocol::Paper2023),
             (GpuMethod::SphereEnhanced, Protocol::Paper2014),
+            (GpuMethod::SphereNormalized, Protocol::Paper2021),
         ] {
             let why = method.follows(protocol).err().unwrap_or_default();
             assert!(why.contains("runs on the CPU only"), "{why}");
@@ -385,6 +399,8 @@ mod tests {
             ("primitive_jets.wgsl", PRIMITIVE_JETS),
             ("inclusion.wgsl", INCLUSION),
             ("scalis.wgsl", SCALIS),
+            ("normalised.wgsl", NORMALISED),
+            ("sphere_normalized.wgsl", SPHERE_NORMALIZED),
             ("field_inversion.wgsl", FIELD_INVERSION),
             ("main.wgsl", MAIN),
             ("binning.wgsl", BINNING),

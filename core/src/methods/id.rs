@@ -146,6 +146,7 @@ impl MethodId {
             self,
             Self::Sphere
                 | Self::SphereEnhanced
+                | Self::SphereNormalized
                 | Self::Segment
                 | Self::LinearTaylor
                 | Self::QuadraticTaylor
