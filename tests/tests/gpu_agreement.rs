@@ -609,6 +609,14 @@ fn editing_one_primitive_re_uploads_only_that_primitive() {
     );
 }
 
+/// The largest difference of two linear colours' channels. The GPU stores 8-bit sRGB, so both
+/// are compared clamped to [0, 1].
+fn colour_difference(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (0..3)
+        .map(|c| (a[c].min(1.0) - b[c].min(1.0)).abs())
+        .fold(0.0, f32::max)
+}
+
 /// Soft shadows and ambient occlusion from the field (2014 notes §12.4) shade the same on both
 /// backends, on a scene whose groups are moved by a transform and repeated (the operators are
 /// baked into the primitives, so the GPU sees them too).
@@ -667,15 +675,9 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
         "too few hit pixels: {}",
         both.len()
     );
-    // The GPU stores 8-bit sRGB, so both colours are compared clamped to [0, 1].
-    let largest = |a: [f32; 3], b: [f32; 3]| {
-        (0..3)
-            .map(|c| (a[c].min(1.0) - b[c].min(1.0)).abs())
-            .fold(0.0, f32::max)
-    };
     let close = both
         .iter()
-        .filter(|&&i| largest(shaded.colour[i], gpu_frame.colour[i]) <= 0.02)
+        .filter(|&&i| colour_difference(shaded.colour[i], gpu_frame.colour[i]) <= 0.02)
         .count();
     let darkened = both
         .iter()
@@ -999,18 +1001,13 @@ fn secondary_rays_match_the_cpu_renderer() {
             let both: Vec<usize> = (0..SIZE * SIZE)
                 .filter(|&i| cpu_frame.is_hit(i) && gpu_frame.is_hit(i))
                 .collect();
-            let largest = |a: [f32; 3], b: [f32; 3]| {
-                (0..3)
-                    .map(|c| (a[c].min(1.0) - b[c].min(1.0)).abs())
-                    .fold(0.0, f32::max)
-            };
             let close = both
                 .iter()
-                .filter(|&&i| largest(cpu_frame.colour[i], gpu_frame.colour[i]) <= 0.02)
+                .filter(|&&i| colour_difference(cpu_frame.colour[i], gpu_frame.colour[i]) <= 0.02)
                 .count();
             let changed = both
                 .iter()
-                .filter(|&&i| largest(cpu_frame.colour[i], plain.colour[i]) > 0.02)
+                .filter(|&&i| colour_difference(cpu_frame.colour[i], plain.colour[i]) > 0.02)
                 .count();
             eprintln!(
                 "{label} {}: hit mask {:.4}, steps equal {:.4} agreeing {:.4}, depth {:.2e}, \
