@@ -714,6 +714,58 @@ fn settle_gpu_viewport(h: &mut Harness<'static, Editor>) -> image::RgbaImage {
     panic!("the GPU viewport never settled")
 }
 
+/// Every third pixel each way of the GPU viewport: the colour of the same view read back from a
+/// renderer of its own (the window's shaded method and shading, with or without shadow rays)
+/// and the window's colour there.
+fn viewport_samples(
+    h: &Harness<'static, Editor>,
+    image: &image::RgbaImage,
+    ppp: f32,
+    shadows: bool,
+) -> Vec<([u8; 3], [u8; 3])> {
+    let rect = h
+        .state()
+        .viewport_rect()
+        .unwrap_or_else(|| panic!("the viewport is drawn"));
+    let size = ((rect.width() * ppp) as u32, (rect.height() * ppp) as u32);
+    let compiled = h.state().document().compiled();
+    let ui = h.state().ui_state();
+    let method = skeletrace_render::GpuMethod::from_id(ui.shaded_method)
+        .unwrap_or_else(|| panic!("the shaded method runs on the GPU"));
+    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    reference
+        .set_scene(&compiled)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let frame = reference
+        .render(
+            &[method],
+            &h.state().orbit().camera(),
+            &compiled.settings,
+            size,
+            (skeletrace_core::frame::View::Shaded(ui.shading), shadows),
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+        .remove(0);
+    let (x0, y0) = (
+        (rect.left() * ppp).round() as u32,
+        (rect.top() * ppp).round() as u32,
+    );
+    let mut samples = Vec::new();
+    for y in (0..size.1).step_by(3) {
+        for x in (0..size.0).step_by(3) {
+            let want = frame.colour[(y * size.0 + x) as usize].map(skeletrace_core::frame::srgb8);
+            let got = image.get_pixel(x0 + x, y0 + y).0;
+            samples.push((want, [got[0], got[1], got[2]]));
+        }
+    }
+    samples
+}
+
+/// Two sRGB colours within 3 of 255 in every channel.
+fn same_colour(a: [u8; 3], b: [u8; 3]) -> bool {
+    (0..3).all(|k| a[k].abs_diff(b[k]) <= 3)
+}
+
 /// Issue 19: the shaded viewport traced on the window's own device through an `egui_wgpu` paint
 /// callback (taken on lavapipe here as `SKELETRACE_GPU_VIEWPORT=1` would): the window shows the
 /// same picture as the GPU renderer's read-back frame of that view, hovering traces nothing
@@ -750,42 +802,11 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
     );
 
     // The same view read back from a renderer of its own: the window shows its colours.
-    let rect = h
-        .state()
-        .viewport_rect()
-        .unwrap_or_else(|| panic!("the viewport is drawn"));
-    let size = ((rect.width() * PPP) as u32, (rect.height() * PPP) as u32);
-    let compiled = h.state().document().compiled();
-    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
-    reference
-        .set_scene(&compiled)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let frame = reference
-        .render(
-            &[skeletrace_render::GpuMethod::QuadraticTaylor],
-            &h.state().orbit().camera(),
-            &compiled.settings,
-            size,
-            (
-                skeletrace_core::frame::View::Shaded(h.state().ui_state().shading),
-                false,
-            ),
-        )
-        .unwrap_or_else(|e| panic!("{e}"))
-        .remove(0);
-    let (x0, y0) = (
-        (rect.left() * PPP).round() as u32,
-        (rect.top() * PPP).round() as u32,
+    let samples = viewport_samples(&h, &image, PPP, false);
+    let (same, total) = (
+        samples.iter().filter(|(w, g)| same_colour(*w, *g)).count(),
+        samples.len(),
     );
-    let (mut same, mut total) = (0, 0);
-    for y in (0..size.1).step_by(3) {
-        for x in (0..size.0).step_by(3) {
-            let want = frame.colour[(y * size.0 + x) as usize].map(skeletrace_core::frame::srgb8);
-            let got = image.get_pixel(x0 + x, y0 + y).0;
-            total += 1;
-            same += usize::from((0..3).all(|k| want[k].abs_diff(got[k]) <= 3));
-        }
-    }
     // The blobs' handles (the overlay) cover about a fifth of this small viewport; the rest is
     // the traced frame.
     assert!(
@@ -794,6 +815,10 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
     );
 
     // Hovering redraws the window, not the frame.
+    let rect = h
+        .state()
+        .viewport_rect()
+        .unwrap_or_else(|| panic!("the viewport is drawn"));
     h.hover_at(rect.center());
     h.step();
     settle_gpu_viewport(&mut h);
@@ -838,6 +863,76 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
         uploaded_edit - uploaded_orbit,
         one,
         "an edit of one blob uploads one primitive"
+    );
+}
+
+/// Issue 22: with "shadow rays" on, the GPU viewport traces a shadow ray from each hit to each
+/// light: the window shows the read-back frame of that view, which differs from the frame
+/// without them. (Reflection and refraction through transparent groups are held to the CPU by
+/// `gpu_agreement.rs`; the viewport, which never waits, records the dispatches of a full tree of
+/// rays for them, minutes per frame on lavapipe.)
+#[test]
+fn the_gpu_viewport_traces_shadow_rays() {
+    if skeletrace_tests::skip_without_gpu("the_gpu_viewport_traces_shadow_rays") {
+        return;
+    }
+    const PPP: f32 = 0.3;
+    let ui_state = UiState {
+        backend: BackendChoice::Auto,
+        shaded_method: skeletrace_core::MethodId::QuadraticTaylor,
+        shadows: true,
+        ..UiState::default()
+    };
+    // The blobs' lights and camera; a large blob, and a small one between it and the key
+    // light, far enough out that the camera sees its shadow. Two handles, off the shadow.
+    let mut scene = Document::open(&asset("blobs"))
+        .unwrap_or_else(|e| panic!("{e}"))
+        .scene()
+        .clone();
+    scene.groups.truncate(2);
+    scene.blend = None;
+    scene.groups[0].blobs = vec![skeletrace_core::model::scene::Blob {
+        center: [0.0; 3],
+        radius: 1.0,
+    }];
+    let towards_light = glam::DVec3::new(0.5, 0.8, 0.6).normalize() * 2.3;
+    scene.groups[1].blobs = vec![skeletrace_core::model::scene::Blob {
+        center: towards_light.to_array(),
+        radius: 0.4,
+    }];
+    let doc = Document::new(scene, None);
+    let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
+    let image = settle_gpu_viewport(&mut h);
+    let with = viewport_samples(&h, &image, PPP, true);
+    let without = viewport_samples(&h, &image, PPP, false);
+    // The pixels the shadow rays darken: the window shows each nearer its shadowed colour.
+    let distance = |a: [u8; 3], b: [u8; 3]| (0..3).map(|k| a[k].abs_diff(b[k]) as u32).sum::<u32>();
+    let shadowed: Vec<usize> = (0..with.len())
+        .filter(|&i| !same_colour(with[i].0, without[i].0))
+        .collect();
+    let shown = shadowed
+        .iter()
+        .filter(|&&i| distance(with[i].0, with[i].1) < distance(without[i].0, with[i].1))
+        .count();
+    eprintln!(
+        "{} sampled pixels in shadow, {shown} of them shown nearer their shadowed colour",
+        shadowed.len()
+    );
+    assert!(
+        shadowed.len() >= 10,
+        "only {} sampled pixels are in shadow",
+        shadowed.len()
+    );
+    assert!(
+        shown * 10 >= shadowed.len() * 9,
+        "the window shows {shown} of the {} shadowed pixels nearer their shadowed colour",
+        shadowed.len()
+    );
+    let all = with.iter().filter(|(w, g)| same_colour(*w, *g)).count();
+    assert!(
+        all as f64 > 0.7 * with.len() as f64,
+        "{all} of {} viewport pixels match the read-back frame with shadow rays",
+        with.len()
     );
 }
 

@@ -71,7 +71,7 @@ pub struct UiState {
     pub view: ViewMode,
     /// Where frames are traced.
     pub backend: BackendChoice,
-    /// Shadow rays in the shaded view (CPU tracer).
+    /// Exact shadow rays in the shaded view (CPU and GPU).
     pub shadows: bool,
     /// Field soft shadows and ambient occlusion in the shaded view.
     #[serde(default)]
