@@ -249,8 +249,13 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
                 own = point_linear(ray, i, t, h);
             }
         } else {
-            // No bottom-up rule: the primitive's own Taylor inclusion (primitive_taylor).
-            let vg = primitive_value_gradient(i, ray.origin + t * ray.dir);
+            // No bottom-up rule: the primitive's own Taylor inclusion (primitive_taylor); an
+            // HRBF term is evaluated at t by the ray's interval in its box, not a point test.
+            let p = ray.origin + t * ray.dir;
+            var vg = primitive_value_gradient(i, p);
+            if primitives[i].kind == KIND_HRBF {
+                vg = select(vec4<f32>(0.0), hrbf_inside(primitives[i], p), item.span.x <= t);
+            }
             let jet = item_jet(ray, item, t, t + h);
             if quadratic {
                 own = quadratic_taylor(vg.x, dot(vg.yzw, ray.dir), jet, h);

@@ -308,6 +308,12 @@ fn hrbf(prim: Primitive, p: vec3<f32>) -> vec4<f32> {
     if any(q < bx.lo) || any(q > bx.hi) {
         return vec4<f32>(0.0);
     }
+    return hrbf_inside(prim, p);
+}
+
+// An HRBF term's formula inside its box, wherever p is (hrbf.rs value_gradient_inside): for a
+// point the caller knows to be inside by the ray's interval in the box.
+fn hrbf_inside(prim: Primitive, p: vec3<f32>) -> vec4<f32> {
     let alpha = prim.a.w;
     let beta = prim.b.xyz;
     let v = p - prim.a.xyz;

@@ -156,16 +156,7 @@ impl GpuMethod {
             .primitives()
             .iter()
             .all(|p| matches!(p, Primitive::Point(_)));
-        let has_hrbf = program
-            .primitives()
-            .iter()
-            .any(|p| matches!(p, Primitive::Hrbf(_)));
         match self {
-            Self::BottomUpLinear | Self::BottomUpQuadratic if has_hrbf => Err(format!(
-                "{} runs on the CPU for scenes with HRBF sets: on the GPU its step counts agree \
-                 with the CPU's on only 77–86 % of the hrbf asset's pixels (docs/gpu.md)",
-                self.name()
-            )),
             Self::FieldInversion
                 if !only_points
                     || (0..program.group_count()).any(|g| {

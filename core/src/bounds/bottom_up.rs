@@ -24,6 +24,8 @@
 //! mixing them still gets a valid bound. Group sums add (eq. 16) and the blend tree composes
 //! them with [`crate::bounds::inclusion::blend`] (appendix C for max).
 
+use glam::DVec3;
+
 use crate::bounds::inclusion::{self, ForwardInclusion, Offset};
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
@@ -123,10 +125,18 @@ fn primitive_taylor(
     primitive: &Primitive,
     k: &KernelProfile,
     ray: &Ray,
-    span: Interval,
+    (span, inside): (Interval, Interval),
     degree: Degree,
 ) -> ForwardInclusion {
-    let (v, g) = primitive.value_gradient(ray.at(span.lo), k);
+    // An HRBF term is evaluated at t by the ray's interval in its box (`inside`): where a part
+    // starts on the box's face, a point test would put t inside or outside by rounding.
+    let (v, g) = match primitive {
+        Primitive::Hrbf(term) if inside.lo <= span.lo => {
+            term.value_gradient_inside(ray.at(span.lo))
+        }
+        Primitive::Hrbf(_) => (0.0, DVec3::ZERO),
+        _ => primitive.value_gradient(ray.at(span.lo), k),
+    };
     let jet = primitive.ray_jet(ray, span, k);
     match degree {
         Degree::Linear => ForwardInclusion::linear(v, &jet, span.width()),
@@ -149,11 +159,11 @@ pub fn field_inclusion(
     let span = Interval::new(t, t + h);
     let (program, ray) = (field.program(), field.ray());
     let mut groups = vec![ForwardInclusion::zero(h); program.group_count()];
-    field.for_each_primitive(span, |g, primitive, k, _| {
+    field.for_each_primitive(span, |g, primitive, k, inside| {
         let own = match (primitive, degree) {
             (Primitive::Point(b), Degree::Linear) => point_linear(b, k, ray, t, h),
             (Primitive::Point(b), Degree::Quadratic) => point_quadratic(b, k, ray, t, h),
-            (other, _) => primitive_taylor(other, k, ray, span, degree),
+            (other, _) => primitive_taylor(other, k, ray, (span, inside), degree),
         };
         groups[g] = groups[g] + own;
     });

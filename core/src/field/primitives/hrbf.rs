@@ -71,6 +71,14 @@ impl HrbfTerm {
         if !self.contains(p) {
             return (0.0, DVec3::ZERO);
         }
+        self.value_gradient_inside(p)
+    }
+
+    /// Value and gradient at `p` of the formula that holds inside the box, wherever `p` is: a
+    /// point the caller knows to be inside (by the ray's interval in the box, which a point
+    /// test on the box's face would settle by rounding).
+    #[must_use]
+    pub fn value_gradient_inside(&self, p: DVec3) -> (f64, DVec3) {
         let v = p - self.center;
         let r = v.length();
         let bv = self.beta.dot(v);
