@@ -31,6 +31,17 @@ pub struct SupportSpan {
     pub primitive: u32,
 }
 
+/// A key whose unsigned order is [`f64::total_cmp`]'s order of `x` (its sign bit flipped for
+/// positive numbers, every bit for negative ones), for sorting without a comparison closure.
+fn total_order_key(x: f64) -> u64 {
+    let bits = x.to_bits();
+    if bits >> 63 == 0 {
+        bits | (1 << 63)
+    } else {
+        !bits
+    }
+}
+
 /// How segment tracing bounds one primitive's `|f′|` on a ray interval.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PrimitiveSlope {
@@ -431,11 +442,16 @@ impl FieldProgram {
         ray: &Ray,
         span: Interval,
     ) -> Vec<Interval> {
+        // Sorted by entry alone: supports entering together merge into one part in any order,
+        // so the parts are those of the supports sorted as `ray_supports_in` sorts them.
+        let mut spans: Vec<Interval> = Vec::new();
+        lookup.on_ray(span, |_, span| spans.push(span));
+        spans.sort_unstable_by_key(|s| total_order_key(s.lo));
         let mut out: Vec<Interval> = Vec::new();
-        for s in self.ray_supports_in(lookup, span) {
+        for s in spans {
             match out.last_mut() {
-                Some(last) if s.span.lo <= last.hi => last.hi = last.hi.max(s.span.hi),
-                _ => out.push(s.span),
+                Some(last) if s.lo <= last.hi => last.hi = last.hi.max(s.hi),
+                _ => out.push(s),
             }
         }
         for b in &self.cut_boxes {
@@ -544,11 +560,8 @@ impl FieldProgram {
         lookup.on_ray(span, |primitive, span| {
             out.push(SupportSpan { span, primitive });
         });
-        out.sort_unstable_by(|a, b| {
-            a.span
-                .lo
-                .total_cmp(&b.span.lo)
-                .then(a.primitive.cmp(&b.primitive))
+        out.sort_unstable_by_key(|s| {
+            (u128::from(total_order_key(s.span.lo)) << 32) | u128::from(s.primitive)
         });
         out
     }
@@ -852,5 +865,47 @@ fn shape_primitive(shape: &Shape, norm: f64) -> ShapePrimitive {
         frame,
         radius,
         norm,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::total_order_key;
+    use crate::model::rng::SplitMix64;
+
+    /// Sorting by the key orders numbers as `f64::total_cmp` does: negative and positive, both
+    /// zeros, subnormals and infinities, random magnitudes.
+    #[test]
+    fn the_sort_key_orders_as_total_cmp() {
+        let mut rng = SplitMix64::new(7);
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            5e-324,
+            -5e-324,
+            f64::MAX,
+            f64::MIN,
+        ];
+        for _ in 0..2000 {
+            let magnitude = 10f64.powf(rng.range(-300.0, 300.0));
+            values.push(if rng.unit() < 0.5 {
+                -magnitude
+            } else {
+                magnitude
+            });
+        }
+        for a in &values {
+            for b in values.iter().step_by(7) {
+                assert_eq!(
+                    total_order_key(*a).cmp(&total_order_key(*b)),
+                    a.total_cmp(b),
+                    "{a} vs {b}"
+                );
+            }
+        }
     }
 }
