@@ -116,7 +116,7 @@ fn operator(tree: &BlendTree) -> Result<Operator<'_>, u32> {
     })
 }
 
-/// `init`, then `fold(acc, operand)` over the operands: the chain of nested calls.
+/// `init`, then `step(acc, operand)` over the operands: the chain of nested calls.
 fn fold(
     operands: &[BlendTree],
     body: &mut Body,
@@ -125,6 +125,16 @@ fn fold(
     step: impl Fn(&str, &str) -> String,
 ) -> Option<String> {
     let names: Vec<String> = operands.iter().map(|c| node(c, body)).collect();
+    fold_names(names, body, init, step)
+}
+
+/// [`fold`] over operands already written, by their names.
+fn fold_names(
+    names: Vec<String>,
+    body: &mut Body,
+    init: Option<&str>,
+    step: impl Fn(&str, &str) -> String,
+) -> Option<String> {
     let mut names = names.into_iter();
     let mut acc = match init {
         Some(i) => i.to_owned(),
@@ -136,99 +146,111 @@ fn fold(
     Some(acc)
 }
 
+/// How the value and the jet programs write a node: the two have one shape, each operator a
+/// helper of its own, and their own two-pass Ricci rule.
+struct Vocabulary {
+    /// The node function itself, for the operands.
+    node: Node,
+    /// The array of group slots.
+    slots: &'static str,
+    /// An operator without operands.
+    zero: &'static str,
+    add: fn(&str, &str) -> String,
+    max: fn(&str, &str) -> String,
+    min: fn(&str, &str) -> String,
+    difference: fn(&str, &str) -> String,
+    smooth_max: fn(&str, &str, &str) -> String,
+    smooth_min: fn(&str, &str, &str) -> String,
+    /// The Ricci blend of the operands' names with exponent `p`.
+    ricci: fn(&[String], &str, &mut Body) -> String,
+}
+
+const VALUES: Vocabulary = Vocabulary {
+    node: value_node,
+    slots: "values",
+    zero: "vec4<f32>(0.0)",
+    add: |a, b| format!("{a} + {b}"),
+    max: |a, b| format!("value_max({a}, {b})"),
+    min: |a, b| format!("value_min({a}, {b})"),
+    difference: |a, b| format!("value_difference({a}, {b})"),
+    smooth_max: |a, b, w| format!("smooth_max({a}, {b}, {w})"),
+    smooth_min: |a, b, w| format!("-smooth_max(-{a}, -{b}, {w})"),
+    ricci: |names, p, body| {
+        // Σ max(fᵢ, 0)^p, its root R, then Σ (fᵢ/R)^(p−1) ∇fᵢ.
+        let mut sum = "0.0".to_owned();
+        for n in names {
+            sum = body.bind(&format!("{sum} + ricci_power({n}, {p})"));
+        }
+        let root = body.bind(&format!("ricci_root({sum}, {p})"));
+        let mut gradient = "vec3<f32>(0.0)".to_owned();
+        for n in names {
+            gradient = body.bind(&format!("{gradient} + ricci_slope({n}, {root}, {p})"));
+        }
+        body.bind(&format!("vec4<f32>({root}, {gradient})"))
+    },
+};
+
+const JETS: Vocabulary = Vocabulary {
+    node: jet_node,
+    slots: "groups",
+    zero: "jet_constant(0.0)",
+    add: |a, b| format!("jet_add({a}, {b})"),
+    max: |a, b| format!("jet_max({a}, {b})"),
+    min: |a, b| format!("jet_min({a}, {b})"),
+    difference: |a, b| format!("jet_difference({a}, {b})"),
+    smooth_max: |a, b, w| format!("jet_smooth_max({a}, {b}, {w})"),
+    smooth_min: |a, b, w| format!("jet_neg(jet_smooth_max(jet_neg({a}), jet_neg({b}), {w}))"),
+    ricci: |names, p, body| {
+        // Two passes (blend.rs ricci_jet): the operands' value ends, then their weights.
+        let mut ends = "ricci_ends_start()".to_owned();
+        for n in names {
+            ends = body.bind(&format!("ricci_ends_add({ends}, {n}, {p})"));
+        }
+        let mut weights = body.bind(&format!("ricci_weights_start({ends}, {p})"));
+        for n in names {
+            weights = body.bind(&format!("ricci_weights_add({weights}, {n}, {p})"));
+        }
+        body.bind(&format!("ricci_jet_finish({ends}, {weights}, {p})"))
+    },
+};
+
 fn value_node(tree: &BlendTree, body: &mut Body) -> String {
-    let zero = "vec4<f32>(0.0)";
-    let op = match operator(tree) {
-        Err(g) => return body.bind(&format!("values[{g}]")),
-        Ok(op) => op,
-    };
-    match op {
-        Operator::Sum(v) => fold(v, body, value_node, Some(zero), |a, b| format!("{a} + {b}")),
-        Operator::Max(v) => fold(v, body, value_node, None, |a, b| {
-            format!("value_max({a}, {b})")
-        }),
-        Operator::Min(v) => fold(v, body, value_node, None, |a, b| {
-            format!("value_min({a}, {b})")
-        }),
-        Operator::Difference(a, b) => {
-            let (a, b) = (value_node(a, body), value_node(b, body));
-            Some(body.bind(&format!("value_difference({a}, {b})")))
-        }
-        Operator::Ricci(p, v) => {
-            // Σ max(fᵢ, 0)^p, its root R, then Σ (fᵢ/R)^(p−1) ∇fᵢ.
-            let p = float(p);
-            let names: Vec<String> = v.iter().map(|c| value_node(c, body)).collect();
-            let mut sum = "0.0".to_owned();
-            for n in &names {
-                sum = body.bind(&format!("{sum} + ricci_power({n}, {p})"));
-            }
-            let root = body.bind(&format!("ricci_root({sum}, {p})"));
-            let mut gradient = "vec3<f32>(0.0)".to_owned();
-            for n in &names {
-                gradient = body.bind(&format!("{gradient} + ricci_slope({n}, {root}, {p})"));
-            }
-            Some(body.bind(&format!("vec4<f32>({root}, {gradient})")))
-        }
-        Operator::SmoothUnion(w, v) => {
-            let w = float(w);
-            fold(v, body, value_node, None, |a, b| {
-                format!("smooth_max({a}, {b}, {w})")
-            })
-        }
-        Operator::SmoothIntersection(w, v) => {
-            let w = float(w);
-            fold(v, body, value_node, None, |a, b| {
-                format!("-smooth_max(-{a}, -{b}, {w})")
-            })
-        }
-    }
-    .unwrap_or_else(|| body.bind(zero))
+    smooth_node(tree, body, &VALUES)
 }
 
 fn jet_node(tree: &BlendTree, body: &mut Body) -> String {
-    let zero = "jet_constant(0.0)";
+    smooth_node(tree, body, &JETS)
+}
+
+/// A node of the value or the jet program, in `words`.
+fn smooth_node(tree: &BlendTree, body: &mut Body, words: &Vocabulary) -> String {
     let op = match operator(tree) {
-        Err(g) => return body.bind(&format!("groups[{g}]")),
+        Err(g) => return body.bind(&format!("{}[{g}]", words.slots)),
         Ok(op) => op,
     };
+    let node = words.node;
     match op {
-        Operator::Sum(v) => fold(v, body, jet_node, Some(zero), |a, b| {
-            format!("jet_add({a}, {b})")
-        }),
-        Operator::Max(v) => fold(v, body, jet_node, None, |a, b| format!("jet_max({a}, {b})")),
-        Operator::Min(v) => fold(v, body, jet_node, None, |a, b| format!("jet_min({a}, {b})")),
+        Operator::Sum(v) => fold(v, body, node, Some(words.zero), words.add),
+        Operator::Max(v) => fold(v, body, node, None, words.max),
+        Operator::Min(v) => fold(v, body, node, None, words.min),
         Operator::Difference(a, b) => {
-            let (a, b) = (jet_node(a, body), jet_node(b, body));
-            Some(body.bind(&format!("jet_difference({a}, {b})")))
+            let (a, b) = (node(a, body), node(b, body));
+            Some(body.bind(&(words.difference)(&a, &b)))
         }
         Operator::Ricci(p, v) => {
-            // Two passes (blend.rs ricci_jet): the operands' value ends, then their weights.
-            let p = float(p);
-            let names: Vec<String> = v.iter().map(|c| jet_node(c, body)).collect();
-            let mut ends = "ricci_ends_start()".to_owned();
-            for n in &names {
-                ends = body.bind(&format!("ricci_ends_add({ends}, {n}, {p})"));
-            }
-            let mut weights = body.bind(&format!("ricci_weights_start({ends}, {p})"));
-            for n in &names {
-                weights = body.bind(&format!("ricci_weights_add({weights}, {n}, {p})"));
-            }
-            Some(body.bind(&format!("ricci_jet_finish({ends}, {weights}, {p})")))
+            let names: Vec<String> = v.iter().map(|c| node(c, body)).collect();
+            Some((words.ricci)(&names, &float(p), body))
         }
         Operator::SmoothUnion(w, v) => {
             let w = float(w);
-            fold(v, body, jet_node, None, |a, b| {
-                format!("jet_smooth_max({a}, {b}, {w})")
-            })
+            fold(v, body, node, None, |a, b| (words.smooth_max)(a, b, &w))
         }
         Operator::SmoothIntersection(w, v) => {
             let w = float(w);
-            fold(v, body, jet_node, None, |a, b| {
-                format!("jet_neg(jet_smooth_max(jet_neg({a}), jet_neg({b}), {w}))")
-            })
+            fold(v, body, node, None, |a, b| (words.smooth_min)(a, b, &w))
         }
     }
-    .unwrap_or_else(|| body.bind(zero))
+    .unwrap_or_else(|| body.bind(words.zero))
 }
 
 fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
@@ -236,10 +258,11 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
         Err(g) => return body.bind(&format!("groups[{g}]")),
         Ok(op) => op,
     };
-    let largest = |v: &[BlendTree], body: &mut Body| {
-        fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
-            format!("max({a}, {b})")
-        })
+    let largest = |names: Vec<String>, body: &mut Body| {
+        fold_names(names, body, Some("0.0"), |a, b| format!("max({a}, {b})"))
+    };
+    let operands = |v: &[BlendTree], body: &mut Body| -> Vec<String> {
+        v.iter().map(|c| lipschitz_node(c, body)).collect()
     };
     match op {
         Operator::Sum(v) => fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
@@ -253,11 +276,17 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
             });
             sum.map(|s| body.bind(&format!("pow_end({s}, 1.0 / {p})")))
         }
-        Operator::Difference(a, b) => largest(&[a.clone(), b.clone()], body),
+        Operator::Difference(a, b) => {
+            let names = vec![lipschitz_node(a, body), lipschitz_node(b, body)];
+            largest(names, body)
+        }
         Operator::Max(v)
         | Operator::Min(v)
         | Operator::SmoothUnion(_, v)
-        | Operator::SmoothIntersection(_, v) => largest(v, body),
+        | Operator::SmoothIntersection(_, v) => {
+            let names = operands(v, body);
+            largest(names, body)
+        }
     }
     .unwrap_or_else(|| body.bind("0.0"))
 }

@@ -223,9 +223,9 @@ fn occluder_radius(
     }
 }
 
-/// The dimensions of a solid as `GpuPrimitive.b` of the shapes other than the plane: a box's half
-/// extents (and a rounded box's rounding in `w`), a torus's major and minor radii, a cylinder's
-/// radius and half height (a plane's normal and offset, which its `a` holds).
+/// The dimensions of a solid: a plane's normal and offset (its `GpuPrimitive.a`); as
+/// `GpuPrimitive.b` of the other shapes, a box's half extents (and a rounded box's rounding in
+/// `w`), a torus's major and minor radii, a cylinder's radius and half height.
 fn solid_dimensions(solid: Solid) -> [f32; 4] {
     match solid {
         Solid::Box { half_extents } => f4(half_extents, 0.0),
@@ -334,8 +334,8 @@ impl PackedScene {
                     [0.0; 4],
                 ),
                 Primitive::Shape(s) => match s.solid {
-                    Solid::Plane { normal, offset } => (
-                        f4(normal, offset),
+                    Solid::Plane { .. } => (
+                        solid_dimensions(s.solid),
                         [s.radius as f32, 0.0, 0.0, 0.0],
                         [s.norm as f32, 0.0, 0.0, 0.0],
                         [0.0; 4],
