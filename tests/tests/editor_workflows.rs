@@ -714,13 +714,14 @@ fn settle_gpu_viewport(h: &mut Harness<'static, Editor>) -> image::RgbaImage {
     panic!("the GPU viewport never settled")
 }
 
-/// Every third pixel each way of the GPU viewport: the colour of the same view read back from a
-/// renderer of its own (the window's shaded method and shading, with or without shadow rays)
-/// and the window's colour there.
+/// Every third pixel each way of the GPU viewport: the colour of the same view read back from
+/// `reference`, a renderer of the test's own (the window's shaded method and shading, with or
+/// without shadow rays), and the window's colour there.
 fn viewport_samples(
     h: &Harness<'static, Editor>,
     image: &image::RgbaImage,
     ppp: f32,
+    reference: &mut skeletrace_render::GpuRenderer,
     shadows: bool,
 ) -> Vec<([u8; 3], [u8; 3])> {
     let rect = h
@@ -732,7 +733,6 @@ fn viewport_samples(
     let ui = h.state().ui_state();
     let method = skeletrace_render::GpuMethod::from_id(ui.shaded_method)
         .unwrap_or_else(|| panic!("the shaded method runs on the GPU"));
-    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
     reference
         .set_scene(&compiled)
         .unwrap_or_else(|e| panic!("{e}"));
@@ -802,7 +802,8 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
     );
 
     // The same view read back from a renderer of its own: the window shows its colours.
-    let samples = viewport_samples(&h, &image, PPP, false);
+    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    let samples = viewport_samples(&h, &image, PPP, &mut reference, false);
     let (same, total) = (
         samples.iter().filter(|(w, g)| same_colour(*w, *g)).count(),
         samples.len(),
@@ -903,8 +904,9 @@ fn the_gpu_viewport_traces_shadow_rays() {
     let doc = Document::new(scene, None);
     let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
     let image = settle_gpu_viewport(&mut h);
-    let with = viewport_samples(&h, &image, PPP, true);
-    let without = viewport_samples(&h, &image, PPP, false);
+    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    let with = viewport_samples(&h, &image, PPP, &mut reference, true);
+    let without = viewport_samples(&h, &image, PPP, &mut reference, false);
     // The pixels the shadow rays darken: the window shows each nearer its shadowed colour.
     let distance = |a: [u8; 3], b: [u8; 3]| (0..3).map(|k| a[k].abs_diff(b[k]) as u32).sum::<u32>();
     let shadowed: Vec<usize> = (0..with.len())
@@ -988,7 +990,6 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
 
     // The same frames read back from a renderer of its own.
     let compiled = h.state().document().compiled();
-    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
     reference
         .set_scene(&compiled)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -962,6 +962,12 @@ fn secondary_rays_match_the_cpu_renderer() {
         let compiled = compile(scene);
         let settings = compiled.settings;
         gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+        // The same view with opaque groups and no shadow rays: no secondary ray at all.
+        let mut opaque = scene.clone();
+        for g in &mut opaque.groups {
+            g.material.opacity = 1.0;
+        }
+        let opaque = compile(&opaque);
         for method in [GpuMethod::QuadraticTaylor, GpuMethod::Sphere] {
             let cpu_render = |compiled: &skeletrace_core::Compiled, shadows: bool| {
                 let tracer = method.id().method().prepare(&compiled.program, settings);
@@ -976,12 +982,7 @@ fn secondary_rays_match_the_cpu_renderer() {
                 )
             };
             let cpu_frame = cpu_render(&compiled, *shadows);
-            // The same view with opaque groups and no shadow rays: no secondary ray at all.
-            let mut opaque = scene.clone();
-            for g in &mut opaque.groups {
-                g.material.opacity = 1.0;
-            }
-            let plain = cpu_render(&compile(&opaque), false);
+            let plain = cpu_render(&opaque, false);
             let gpu_frame = gpu
                 .render(
                     &[method],
