@@ -990,6 +990,7 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
 
     // The same frames read back from a renderer of its own.
     let compiled = h.state().document().compiled();
+    let mut reference = skeletrace_render::GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
     reference
         .set_scene(&compiled)
         .unwrap_or_else(|e| panic!("{e}"));
