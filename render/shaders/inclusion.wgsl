@@ -252,9 +252,11 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
             // No bottom-up rule: the primitive's own Taylor inclusion (primitive_taylor); an
             // HRBF term is evaluated at t by the ray's interval in its box, not a point test.
             let p = ray.origin + t * ray.dir;
-            var vg = primitive_value_gradient(i, p);
+            var vg: vec4<f32>;
             if primitives[i].kind == KIND_HRBF {
                 vg = select(vec4<f32>(0.0), hrbf_inside(primitives[i], p), item.span.x <= t);
+            } else {
+                vg = primitive_value_gradient(i, p);
             }
             let jet = item_jet(ray, item, t, t + h);
             if quadratic {
