@@ -215,15 +215,15 @@ const JETS: Vocabulary = Vocabulary {
 };
 
 fn value_node(tree: &BlendTree, body: &mut Body) -> String {
-    smooth_node(tree, body, &VALUES)
+    node_in(tree, body, &VALUES)
 }
 
 fn jet_node(tree: &BlendTree, body: &mut Body) -> String {
-    smooth_node(tree, body, &JETS)
+    node_in(tree, body, &JETS)
 }
 
 /// A node of the value or the jet program, in `words`.
-fn smooth_node(tree: &BlendTree, body: &mut Body, words: &Vocabulary) -> String {
+fn node_in(tree: &BlendTree, body: &mut Body, words: &Vocabulary) -> String {
     let op = match operator(tree) {
         Err(g) => return body.bind(&format!("{}[{g}]", words.slots)),
         Ok(op) => op,
@@ -258,12 +258,7 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
         Err(g) => return body.bind(&format!("groups[{g}]")),
         Ok(op) => op,
     };
-    let largest = |names: Vec<String>, body: &mut Body| {
-        fold_names(names, body, Some("0.0"), |a, b| format!("max({a}, {b})"))
-    };
-    let operands = |v: &[BlendTree], body: &mut Body| -> Vec<String> {
-        v.iter().map(|c| lipschitz_node(c, body)).collect()
-    };
+    let max = |a: &str, b: &str| format!("max({a}, {b})");
     match op {
         Operator::Sum(v) => fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
             format!("{a} + {b}")
@@ -278,15 +273,12 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
         }
         Operator::Difference(a, b) => {
             let names = vec![lipschitz_node(a, body), lipschitz_node(b, body)];
-            largest(names, body)
+            fold_names(names, body, Some("0.0"), max)
         }
         Operator::Max(v)
         | Operator::Min(v)
         | Operator::SmoothUnion(_, v)
-        | Operator::SmoothIntersection(_, v) => {
-            let names = operands(v, body);
-            largest(names, body)
-        }
+        | Operator::SmoothIntersection(_, v) => fold(v, body, lipschitz_node, Some("0.0"), max),
     }
     .unwrap_or_else(|| body.bind("0.0"))
 }
