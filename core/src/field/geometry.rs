@@ -239,56 +239,147 @@ impl SphereCone {
     }
 }
 
-/// Closest distance squared between segments `[p0, p1]` and `[q0, q1]` (Ericson, Real-Time
-/// Collision Detection §5.1.9).
-#[must_use]
-#[inline]
-pub fn segment_segment_distance_sq(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
-    let d1 = p1 - p0;
-    let d2 = q1 - q0;
-    let r = p0 - q0;
-    let a = d1.length_squared();
-    let e = d2.length_squared();
-    let f = d2.dot(r);
-    let (s, t);
-    if a <= f64::EPSILON && e <= f64::EPSILON {
-        return r.length_squared();
-    }
-    if a <= f64::EPSILON {
-        s = 0.0;
-        t = (f / e).clamp(0.0, 1.0);
-    } else {
-        let c = d1.dot(r);
-        if e <= f64::EPSILON {
-            t = 0.0;
-            s = (-c / a).clamp(0.0, 1.0);
+/// Distances from a chord `[a, b]` to pieces `[s₀, s₁]` of a line `start + s·axis` (`|axis| = 1`),
+/// for the per-piece bounds of a SCALIS segment along a ray: the products that do not depend on
+/// the piece are formed once, and each piece costs two clamps and one distance.
+///
+/// `g(s) = dist(start + s·axis, [a, b])²` is convex (a jointly convex function minimised over the
+/// chord's parameter), so its minimum over `[s₀, s₁]` is at the clamp of its minimiser over the
+/// whole line, `s*`, the projection onto the line of the chord point closest to it.
+#[derive(Clone, Copy, Debug)]
+pub struct ChordToAxis {
+    chord_start: DVec3,
+    chord: DVec3,
+    /// `1/|b − a|²`, 0 for a point chord.
+    inv_chord_sq: f64,
+    /// `(start − a)·(b − a)` and `axis·(b − a)`: the projection of `start + s·axis` onto the chord
+    /// is at `(start_along + s·axis_along)·inv_chord_sq`.
+    start_along: f64,
+    axis_along: f64,
+    line_start: DVec3,
+    axis: DVec3,
+    /// The line's parameter closest to the chord.
+    closest: f64,
+}
+
+impl ChordToAxis {
+    /// The chord `[a, b]` and the line `start + s·axis`.
+    #[must_use]
+    pub fn new(a: DVec3, b: DVec3, start: DVec3, axis: DVec3) -> Self {
+        let chord = b - a;
+        let chord_sq = chord.length_squared();
+        let from_start = a - start;
+        let axis_along = axis.dot(chord);
+        // Chord point a + t·chord; its projection on the line is at from_start·axis + t·axis_along,
+        // and its squared distance to the line is a quadratic in t with leading coefficient
+        // chord_sq − axis_along² ≥ 0 (Cauchy–Schwarz). Parallel or point chords: any t.
+        let across = chord_sq - axis_along * axis_along;
+        let t = if across > 0.0 {
+            ((axis_along * from_start.dot(axis) - from_start.dot(chord)) / across).clamp(0.0, 1.0)
         } else {
-            let b = d1.dot(d2);
-            let denom = a * e - b * b;
-            let s0 = if denom > 0.0 {
-                ((b * f - c * e) / denom).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let t0 = (b * s0 + f) / e;
-            if t0 < 0.0 {
-                t = 0.0;
-                s = (-c / a).clamp(0.0, 1.0);
-            } else if t0 > 1.0 {
-                t = 1.0;
-                s = ((b - c) / a).clamp(0.0, 1.0);
-            } else {
-                t = t0;
-                s = s0;
-            }
+            0.0
+        };
+        Self {
+            chord_start: a,
+            chord,
+            inv_chord_sq: if chord_sq > 0.0 { 1.0 / chord_sq } else { 0.0 },
+            start_along: -from_start.dot(chord),
+            axis_along,
+            line_start: start,
+            axis,
+            closest: from_start.dot(axis) + t * axis_along,
         }
     }
-    ((p0 + s * d1) - (q0 + t * d2)).length_squared()
+
+    /// Smallest squared distance between the chord and the line's piece `[s0, s1]` (`s0 ≤ s1`).
+    #[must_use]
+    #[inline]
+    pub fn distance_sq_to_piece(&self, s0: f64, s1: f64) -> f64 {
+        let s = self.closest.clamp(s0, s1);
+        let t = ((self.start_along + s * self.axis_along) * self.inv_chord_sq).clamp(0.0, 1.0);
+        ((self.line_start + s * self.axis) - (self.chord_start + t * self.chord)).length_squared()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The oracle: closest distance squared between segments (Ericson, Real-Time Collision
+    /// Detection §5.1.9).
+    fn segment_segment_distance_sq(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
+        let d1 = p1 - p0;
+        let d2 = q1 - q0;
+        let r = p0 - q0;
+        let a = d1.length_squared();
+        let e = d2.length_squared();
+        let f = d2.dot(r);
+        let (s, t);
+        if a <= f64::EPSILON && e <= f64::EPSILON {
+            return r.length_squared();
+        }
+        if a <= f64::EPSILON {
+            s = 0.0;
+            t = (f / e).clamp(0.0, 1.0);
+        } else {
+            let c = d1.dot(r);
+            if e <= f64::EPSILON {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else {
+                let b = d1.dot(d2);
+                let denom = a * e - b * b;
+                let s0 = if denom > 0.0 {
+                    ((b * f - c * e) / denom).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let t0 = (b * s0 + f) / e;
+                if t0 < 0.0 {
+                    t = 0.0;
+                    s = (-c / a).clamp(0.0, 1.0);
+                } else if t0 > 1.0 {
+                    t = 1.0;
+                    s = ((b - c) / a).clamp(0.0, 1.0);
+                } else {
+                    t = t0;
+                    s = s0;
+                }
+            }
+        }
+        ((p0 + s * d1) - (q0 + t * d2)).length_squared()
+    }
+
+    #[test]
+    fn chord_to_axis_distances_match_the_segment_segment_distance() {
+        let mut state = 0x5eed_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for case in 0..20_000 {
+            let mut point = || DVec3::new(next(), next(), next()) * 3.0;
+            let (a, start) = (point(), point());
+            // Every tenth chord is a point, every tenth else parallel to the axis.
+            let axis = point().normalize();
+            let b = match case % 10 {
+                0 => a,
+                1 => a + axis * 1.7,
+                _ => point(),
+            };
+            let chord = ChordToAxis::new(a, b, start, axis);
+            let (s0, s1) = (next() * 2.0, next() * 2.0);
+            let (s0, s1) = (s0.min(s1), s0.max(s1));
+            let expected = segment_segment_distance_sq(a, b, start + s0 * axis, start + s1 * axis);
+            let got = chord.distance_sq_to_piece(s0, s1);
+            assert!(
+                (got - expected).abs() <= 1e-12 * (1.0 + expected),
+                "case {case}: {got} vs {expected}"
+            );
+        }
+    }
 
     #[test]
     fn sphere_cone_interval_matches_sampled_membership() {

@@ -326,10 +326,10 @@ impl KernelProfile {
     pub fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool) {
         let lo = xs.lo.max(0.0);
         let hi = xs.hi.max(lo);
-        let (k_lo, k1_lo, k2_lo) = self.value_d2(lo);
         if lo >= self.support_sq {
             return (Interval::ZERO, Interval::ZERO, Interval::ZERO, false);
         }
+        let (k_lo, k1_lo, k2_lo) = self.value_d2(lo);
         if hi >= self.support_sq {
             // The range reaches the boundary: K and K″ reach 0, K′ reaches its value at the
             // boundary from inside (0 for m ≥ 2) and 0 outside.

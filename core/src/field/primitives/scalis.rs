@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::geometry::{Aabb, Ray, SphereCone, segment_segment_distance_sq};
+use crate::field::geometry::{Aabb, ChordToAxis, Ray, SphereCone};
 use crate::field::kernel::KernelProfile;
 use crate::field::quadrature::GaussLegendre;
 
@@ -162,39 +162,35 @@ impl ScalisSegment {
         let ds = c.length / pieces as f64;
         let w_origin = u.dot(ray.origin - c.start);
         let uv = u.dot(c.axis);
-        let (chord, chord_sq) = (ray_b - ray_a, (ray_b - ray_a).length_squared());
-        let inv_chord_sq = if chord_sq > 0.0 { 1.0 / chord_sq } else { 0.0 };
-        let reach = k.support_radius() * (1.0 + 1e-9);
+        let chord = ChordToAxis::new(ray_a, ray_b, c.start, c.axis);
         let mut jet = Jet::ZERO;
         for piece in 0..pieces {
             let (sa, sb) = (piece as f64 * ds, (piece + 1) as f64 * ds);
             let tau_b = c.radius + c.slope * sb;
-            // A piece whose midpoint lies farther from the ray's chord than half its length
-            // plus its support radius (with a margin far above rounding) has `x.lo` beyond the
-            // support: skipped as below, without the segment–segment distance. Compared
-            // squared, with the chord's reciprocal length: no square root or division per
-            // piece (issue 18), and the skip decides nothing the `x.lo` test would not.
-            let mid = c.start + (0.5 * (sa + sb)) * c.axis;
-            let along = ((mid - ray_a).dot(chord) * inv_chord_sq).clamp(0.0, 1.0);
-            let far = reach * tau_b + 0.5 * ds;
-            if (mid - (ray_a + along * chord)).length_squared() > far * far {
+            let x_lo = chord.distance_sq_to_piece(sa, sb) / (tau_b * tau_b);
+            if x_lo >= k.support_sq() {
                 continue;
             }
             let (qa, qb) = (c.start + sa * c.axis, c.start + sb * c.axis);
             let tau_a = c.radius + c.slope * sa;
-            let d_min = segment_segment_distance_sq(ray_a, ray_b, qa, qb);
             let d_max = [(ray_a, qa), (ray_a, qb), (ray_b, qa), (ray_b, qb)]
                 .iter()
                 .map(|(p, q)| (*p - *q).length_squared())
                 .fold(0.0, f64::max);
-            let x = Interval::new(d_min / (tau_b * tau_b), d_max / (tau_a * tau_a));
-            if x.lo >= k.support_sq() {
-                continue;
-            }
+            let x = Interval::new(x_lo, d_max / (tau_a * tau_a));
+            // `w` is increasing in `t` and monotone in `s` with the sign of `−uv`: its range is
+            // at two corners, the same values the hull of all four rounds to.
             let w = |t: f64, s: f64| w_origin + t - s * uv;
-            let w = Interval::new(w(span.lo, sa), w(span.lo, sb))
-                .hull(Interval::new(w(span.hi, sa), w(span.hi, sb)));
-            let inv_tau = Interval::new(1.0 / tau_b, 1.0 / tau_a);
+            let (s_low, s_high) = if uv >= 0.0 { (sb, sa) } else { (sa, sb) };
+            let w = Interval {
+                lo: w(span.lo, s_low),
+                hi: w(span.hi, s_high),
+            };
+            // The radius grows along the cone (`slope ≥ 0`): `τ_a ≤ τ_b`.
+            let inv_tau = Interval {
+                lo: 1.0 / tau_b,
+                hi: 1.0 / tau_a,
+            };
             let inv_tau2 = inv_tau.square();
             let inv_tau3 = inv_tau2.times_positive(inv_tau);
             let (kv, k1, k2, kink) = k.ranges(x);
