@@ -1,7 +1,10 @@
 // The SCALIS tracer (scalis 2021 §5–7; core: methods/scalis_quadratic.rs, normalised.rs):
 // breakpoints at support boundaries and homothetic-distance minima, Hermite data of the
 // normalised field F = g∘f − 1, the two-piece Bézier oracle of eq. 20 (rational weight 3 until
-// a sign change), Algorithm 1 with one backtracking step, 32 iterations per piece. Opaque only.
+// a sign change), Algorithm 1 with one backtracking step, 32 iterations per piece. At a support
+// limit the data are known without an evaluation (F = σ² − 1, flat), and the oracle gives a
+// flat end the slope of the quadratic through both values and the other end's slope, as the
+// CPU's default protocol does. Opaque only.
 
 struct Hermite {
     t: f32,
@@ -18,6 +21,11 @@ fn hermite(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> Hermite {
     let g = normalisation(fd.x);
     let v = g.x - 1.0;
     return Hermite(t, v, g.y * fd.y, v >= kernels[0].support_sq - 1.0);
+}
+
+// At a support limit, where the field is 0 by construction: no evaluation, no slope.
+fn at_support_limit(t: f32) -> Hermite {
+    return Hermite(t, kernels[0].support_sq - 1.0, 0.0, true);
 }
 
 fn flip(h: Hermite, sign: f32) -> Hermite {
@@ -78,8 +86,17 @@ fn bezier_root(p: vec3<f32>, x: vec3<f32>, w: f32) -> f32 {
 fn oracle(b: Hermite, e: Hermite, w: f32) -> f32 {
     let l = e.t - b.t;
     let secant = (e.v - b.v) / l;
-    let bd = select(b.d, secant, b.flat);
-    let ed = select(e.d, secant, e.flat);
+    // A flat end's slope: the Hermite–Birkhoff quadratic's (the secant when both are flat).
+    var bd = b.d;
+    var ed = e.d;
+    if b.flat && e.flat {
+        bd = secant;
+        ed = secant;
+    } else if b.flat {
+        bd = 2.0 * secant - e.d;
+    } else if e.flat {
+        ed = 2.0 * secant - b.d;
+    }
     let mid = 0.5 * (b.v + e.v) + 0.125 * l * (bd - ed);
     let tm = b.t + 0.5 * l;
     let first = bezier_root(vec3<f32>(b.v, b.v + 0.25 * l * bd, mid), vec3<f32>(b.t, b.t + 0.25 * l, tm), w);
@@ -184,12 +201,25 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             kept -= 1u;
         }
         points[kept] = part.y;
-        var b = hermite(sp, ray, points[0]);
+        // Support limits: a part's start past where the search began, its end short of the
+        // window's horizon and of the ray's end (next_part cuts parts there too).
+        var b: Hermite;
+        if part.x > start_at {
+            b = at_support_limit(part.x);
+        } else {
+            b = hermite(sp, ray, points[0]);
+        }
+        let end_is_limit = part.y < (*sp).horizon && part.y < (*sp).far;
         for (var j = 1u; j <= kept; j++) {
             if scalis_steps >= globals.max_steps {
                 break;
             }
-            let e = hermite(sp, ray, points[j]);
+            var e: Hermite;
+            if j == kept && end_is_limit {
+                e = at_support_limit(part.y);
+            } else {
+                e = hermite(sp, ray, points[j]);
+            }
             let sign = select(-1.0, 1.0, b.v >= 0.0);
             let r = find_root(sp, ray, flip(b, sign), flip(e, sign), sign);
             if r.t > -INF {

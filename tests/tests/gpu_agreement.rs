@@ -7,10 +7,10 @@
 //! The thresholds (hit masks equal on ≥ 99.9 % of pixels, depth within 10⁻³ of the
 //! support diagonal, steps equal on ≥ 99 %) are asserted for every method, with three measured
 //! allowances, below. Some step counts are sensitive to perturbations at f32 precision:
-//! - bottom-up-quadratic and scalis-quadratic even in f64: on the CPU alone, moving the camera
-//!   by 2.4·10⁻⁷ of its distance (two f32 ulps) changes the step count of 1–3 % of the pixels
-//!   (a ray passing a blob's closest point just inside or just outside the interval gets a
-//!   validity interval of almost nothing or of all of it, and one more or one fewer step);
+//! - bottom-up-quadratic even in f64: on the CPU alone, moving the camera by 2.4·10⁻⁷ of its
+//!   distance (two f32 ulps) changes the step count of 1–2 % of the pixels (a validity
+//!   interval ending at the support's exit computed another way rounds a few ulps short of the
+//!   part's end or not, and the march takes one more step over that sliver or not);
 //! - sphere tracing and its over-relaxed variant in f32: hundreds of steps, each rounding the
 //!   ray parameter to an f32 ulp, decide whether the last step falls below ε; the GPU's own
 //!   step counts change under the same camera move on 1–4 % of the pixels.

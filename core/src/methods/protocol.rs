@@ -85,11 +85,12 @@ impl Protocol {
         matches!(self, Self::Paper2021)
     }
 
-    /// Whether the SCALIS tracer enters each support part with the paper's sphere-tracing step,
-    /// with no evaluation at the support limits where the field is known to be 0 (scalis 2021
-    /// §7), rather than evaluating there.
+    /// Whether the SCALIS tracer enters each support part with the paper's sphere-tracing step
+    /// off the support limit (scalis 2021 §7, algorithm 2), and takes the secant for the slope
+    /// at the part's end, rather than starting at the limit and taking the slope of the
+    /// quadratic through both values and the other end's slope (`scalis_quadratic.rs`).
     #[must_use]
-    pub const fn scalis_support_limits_are_free(self) -> bool {
+    pub const fn scalis_sphere_step_entry(self) -> bool {
         matches!(self, Self::Paper2021)
     }
 
