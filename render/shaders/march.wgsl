@@ -29,6 +29,17 @@ fn symmetric(start: f32, lambda: f32, length: f32) -> Inclusion {
     return Inclusion(start, vec2<f32>(-lambda, 0.0), vec2<f32>(lambda, 0.0), length);
 }
 
+// Relative distance below which a step's end is the part's end: 8 f32 ulps.
+const SNAP_TO_END: f32 = 9.5e-7;
+
+// t + s, or exactly `end` where that lands within rounding of it: a bound whose validity ends
+// where the part ends, computed another way, may land a few ulps short, and the march would
+// take one more step over that sliver or not by rounding (core: marching.rs `advance`).
+fn march_advance(t: f32, s: f32, end: f32) -> f32 {
+    let next = t + s;
+    return select(next, end, end - next <= SNAP_TO_END * abs(end));
+}
+
 // State carried between dispatches (parts.wgsl): carry0 the next interval h, carry1 the
 // previous sample's t; flags 1: there is a previous sample, 2: it was inside.
 fn march_start(part: vec2<f32>) -> MarchState {
@@ -84,10 +95,10 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             (*trace).entering = !inside;
             return;
         } else if s >= 0.0 {
-            t += s;
+            t = march_advance(t, s, part.y);
             h = globals.growth * s;
         } else {
-            t += limit;
+            t = march_advance(t, limit, part.y);
             h = globals.growth * limit;
         }
     }

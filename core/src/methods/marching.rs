@@ -110,14 +110,31 @@ pub(crate) fn march(
                 previous = None;
             }
             Some(s) => {
-                t += s;
+                t = advance(t, s, part.hi);
                 h = settings.growth * s;
             }
             None => {
-                t += limit;
+                t = advance(t, limit, part.hi);
                 h = settings.growth * limit;
             }
         }
+    }
+}
+
+/// Relative distance below which a step's end is the part's end (64 ulps).
+const SNAP_TO_END: f64 = 64.0 * f64::EPSILON;
+
+/// `t + s`, or exactly `end` where that lands within rounding of it. A bound whose validity
+/// ends where the part ends, computed another way (bottom-up-quadratic's interval for a ray
+/// entering a blob's support ends at the point symmetric to the entry, the support's exit),
+/// may land a few ulps short, and the march then took one more step over that sliver or not
+/// by rounding: 1 % of the `blobs` pixels changed their counts under camera moves of 10⁻⁹.
+fn advance(t: f64, s: f64, end: f64) -> f64 {
+    let next = t + s;
+    if end - next <= SNAP_TO_END * end.abs() {
+        end
+    } else {
+        next
     }
 }
 
