@@ -352,13 +352,8 @@ mod tests {
 
     #[test]
     fn chord_to_axis_distances_match_the_segment_segment_distance() {
-        let mut state = 0x5eed_u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = crate::model::rng::SplitMix64::new(0x5eed);
+        let mut next = || rng.range(-1.0, 1.0);
         for case in 0..20_000 {
             let mut point = || DVec3::new(next(), next(), next()) * 3.0;
             let (a, start) = (point(), point());
