@@ -19,35 +19,32 @@ use std::fmt::Write as _;
 
 use skeletrace_core::field::blend::BlendTree;
 
-/// The WGSL of one blend tree: `values` defines `blend_groups` (every shader), `bounds` defines
-/// `blend_jets`, `blend_lipschitz` and `compose_groups` (the inclusion family, whose files define
-/// `Jet` and `Inclusion`).
+/// The WGSL of one blend tree: `values` defines `blend_groups` (every shader), `jets_and_lipschitz`
+/// defines `blend_jets` and `blend_lipschitz` (after interval.wgsl, which defines `Jet`), and
+/// `composition` defines `compose_groups` (after inclusion.wgsl, which defines `Inclusion`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct BlendWgsl {
     /// `fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32>`.
     pub values: String,
-    /// `blend_jets`, `blend_lipschitz` and `compose_groups`.
-    pub bounds: String,
+    /// `blend_jets` and `blend_lipschitz`.
+    pub jets_and_lipschitz: String,
+    /// `compose_groups`.
+    pub composition: String,
 }
 
 impl BlendWgsl {
     /// The functions for `tree`.
     #[must_use]
     pub fn new(tree: &BlendTree) -> Self {
-        let mut bounds = function(
+        let mut jets_and_lipschitz = function(
             "blend_jets(groups: array<Jet, MAX_GROUPS>) -> Jet",
             tree,
             jet_node,
         );
-        bounds.push_str(&function(
+        jets_and_lipschitz.push_str(&function(
             "blend_lipschitz(groups: array<f32, MAX_GROUPS>) -> f32",
             tree,
             lipschitz_node,
-        ));
-        bounds.push_str(&function(
-            "compose_groups(groups: array<Inclusion, MAX_GROUPS>) -> Composed",
-            tree,
-            compose_node,
         ));
         Self {
             values: function(
@@ -55,8 +52,19 @@ impl BlendWgsl {
                 tree,
                 value_node,
             ),
-            bounds,
+            jets_and_lipschitz,
+            composition: function(
+                "compose_groups(groups: array<Inclusion, MAX_GROUPS>) -> Composed",
+                tree,
+                compose_node,
+            ),
         }
+    }
+
+    /// Every bound function of the inclusion family: jets, Lipschitz bound, composition.
+    #[must_use]
+    pub fn bounds(&self) -> String {
+        format!("{}{}", self.jets_and_lipschitz, self.composition)
     }
 }
 
@@ -408,23 +416,23 @@ mod tests {
             wgsl.values
         );
         assert!(
-            wgsl.bounds.contains("Composed(groups[0], false)"),
+            wgsl.composition.contains("Composed(groups[0], false)"),
             "{}",
-            wgsl.bounds
+            wgsl.composition
         );
         let smooth = BlendWgsl::new(&BlendTree::SmoothUnion {
             width: 0.3,
             of: vec![BlendTree::Group(0), BlendTree::Group(1)],
         });
         assert!(
-            smooth.bounds.contains("Composed(groups[0], false)"),
+            smooth.composition.contains("Composed(groups[0], false)"),
             "{}",
-            smooth.bounds
+            smooth.composition
         );
         let sum = BlendWgsl::new(&BlendTree::Sum(vec![
             BlendTree::Group(0),
             BlendTree::Group(1),
         ]));
-        assert!(!sum.bounds.contains("false"), "{}", sum.bounds);
+        assert!(!sum.composition.contains("false"), "{}", sum.composition);
     }
 }

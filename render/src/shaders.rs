@@ -4,7 +4,7 @@
 use skeletrace_core::FieldProgram;
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::Primitive;
-use skeletrace_core::methods::{MethodId, Protocol};
+use skeletrace_core::methods::{AcceleratedSphereTracing, MethodId, Protocol, SegmentOriginal};
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::shared::{MarchBound, wgsl_constants};
@@ -14,6 +14,8 @@ const MARCH: &str = include_str!("../shaders/march.wgsl");
 const PARTS: &str = include_str!("../shaders/parts.wgsl");
 const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
 const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
+const SPHERE_ACCELERATED: &str = include_str!("../shaders/sphere_accelerated.wgsl");
+const SEGMENT_ORIGINAL: &str = include_str!("../shaders/segment_original.wgsl");
 const INTERVAL: &str = include_str!("../shaders/interval.wgsl");
 const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
 const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
@@ -26,6 +28,10 @@ const MAIN: &str = include_str!("../shaders/main.wgsl");
 const BLIT: &str = include_str!("../shaders/viewport_blit.wgsl");
 const STEP_STATISTICS: &str = include_str!("../shaders/step_statistics.wgsl");
 const BINNING: &str = include_str!("../shaders/binning.wgsl");
+
+/// The size of a ray's window of supports (prelude.wgsl `RAY_SUPPORTS`; a unit test holds the
+/// two equal): a ray that crosses more supports marches parts cut at the window's horizon.
+pub const RAY_SUPPORTS: usize = 64;
 
 /// The tile-binning passes: the shared constants and binning.wgsl.
 #[must_use]
@@ -53,8 +59,12 @@ pub enum GpuMethod {
     Sphere,
     /// `sphere-enhanced`.
     SphereEnhanced,
+    /// `sphere-accelerated`.
+    SphereAccelerated,
     /// `sphere-normalized` (SCALIS skeletons with one kernel).
     SphereNormalized,
+    /// `segment-original` (scenes of at most [`RAY_SUPPORTS`] primitives).
+    SegmentOriginal,
     /// `segment` (point blobs, segments, planes).
     Segment,
     /// `linear-taylor` (point blobs, segments, planes).
@@ -77,10 +87,12 @@ pub enum GpuMethod {
 
 impl GpuMethod {
     /// Every GPU method.
-    pub const ALL: [Self; 12] = [
+    pub const ALL: [Self; 14] = [
         Self::Sphere,
         Self::SphereEnhanced,
+        Self::SphereAccelerated,
         Self::SphereNormalized,
+        Self::SegmentOriginal,
         Self::Segment,
         Self::LinearTaylor,
         Self::QuadraticTaylor,
@@ -98,7 +110,9 @@ impl GpuMethod {
         match self {
             Self::Sphere => MethodId::Sphere,
             Self::SphereEnhanced => MethodId::SphereEnhanced,
+            Self::SphereAccelerated => MethodId::SphereAccelerated,
             Self::SphereNormalized => MethodId::SphereNormalized,
+            Self::SegmentOriginal => MethodId::SegmentOriginal,
             Self::Segment => MethodId::Segment,
             Self::LinearTaylor => MethodId::LinearTaylor,
             Self::QuadraticTaylor => MethodId::QuadraticTaylor,
@@ -165,6 +179,17 @@ impl GpuMethod {
             {
                 Err("field-inversion needs Gaussian point blobs".to_owned())
             }
+            // Galin et al.'s first segment is the whole part of the ray inside the supports, and
+            // its bound sums every primitive over it; a window of RAY_SUPPORTS supports cuts
+            // a part at its horizon where more overlap, and the march then differs from the
+            // CPU's (molecule, 3 000 blobs: 84 % equal step counts). With at most that many
+            // primitives no window is ever cut.
+            Self::SegmentOriginal if program.primitives().len() > RAY_SUPPORTS => Err(format!(
+                "segment-original runs on the GPU for scenes of at most {RAY_SUPPORTS} primitives \
+                 (its first segment is a whole support part, which a ray's window of \
+                 {RAY_SUPPORTS} supports cannot see beyond); this scene has {}",
+                program.primitives().len()
+            )),
             Self::ScalisQuadratic | Self::SphereNormalized
                 if !program
                     .primitives()
@@ -195,9 +220,18 @@ impl GpuMethod {
         let family = match self {
             Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
             Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
+            Self::SphereAccelerated => format!(
+                "const ACCELERATION_BETA: f32 = {:?};\n{SPHERE_ACCELERATED}\n{PARTS}",
+                AcceleratedSphereTracing::BETA as f32
+            ),
             Self::SphereNormalized => {
                 format!("{MARCH}\n{NORMALISED}\n{SPHERE_NORMALIZED}\n{PARTS}")
             }
+            Self::SegmentOriginal => format!(
+                "const SEGMENT_GROWTH: f32 = {:?};\n{INTERVAL}\n{PRIMITIVE_JETS}\n{}\n{SEGMENT_ORIGINAL}\n{PARTS}",
+                SegmentOriginal::GROWTH as f32,
+                blend.jets_and_lipschitz
+            ),
             Self::Segment
             | Self::LinearTaylor
             | Self::QuadraticTaylor
@@ -216,7 +250,8 @@ impl GpuMethod {
                 };
                 format!(
                     "const METHOD: u32 = {}u;\n{MARCH}\n{INTERVAL}\n{PRIMITIVE_JETS}\n{INCLUSION}\n{}\n{PARTS}",
-                    bound as u32, blend.bounds
+                    bound as u32,
+                    blend.bounds()
                 )
             }
             Self::ScalisQuadratic => format!("{NORMALISED}\n{SCALIS}"),
@@ -371,6 +406,16 @@ mod tests {
         );
     }
 
+    /// The Rust twin of the prelude's window size is the prelude's.
+    #[test]
+    fn the_window_size_is_the_preludes() {
+        let line = format!("const RAY_SUPPORTS: u32 = {RAY_SUPPORTS}u;");
+        assert!(
+            PRELUDE.lines().any(|l| l == line),
+            "prelude.wgsl lacks {line}"
+        );
+    }
+
     /// Every shared constant is emitted once, and none is typed again in a WGSL file.
     #[test]
     fn shared_constants_are_defined_only_in_rust() {
@@ -386,6 +431,8 @@ mod tests {
             ("parts.wgsl", PARTS),
             ("sphere.wgsl", SPHERE),
             ("sphere_enhanced.wgsl", SPHERE_ENHANCED),
+            ("sphere_accelerated.wgsl", SPHERE_ACCELERATED),
+            ("segment_original.wgsl", SEGMENT_ORIGINAL),
             ("interval.wgsl", INTERVAL),
             ("primitive_jets.wgsl", PRIMITIVE_JETS),
             ("inclusion.wgsl", INCLUSION),

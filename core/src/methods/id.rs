@@ -146,7 +146,9 @@ impl MethodId {
             self,
             Self::Sphere
                 | Self::SphereEnhanced
+                | Self::SphereAccelerated
                 | Self::SphereNormalized
+                | Self::SegmentOriginal
                 | Self::Segment
                 | Self::LinearTaylor
                 | Self::QuadraticTaylor

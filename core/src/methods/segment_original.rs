@@ -19,11 +19,14 @@ use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
-/// Next segment length over last step (Galin et al. 2020, §5).
-const GROWTH: f64 = 1.5;
-
 /// `segment-original`.
 pub struct SegmentOriginal;
+
+impl SegmentOriginal {
+    /// Next segment length over last step (Galin et al. 2020, §5; the GPU's
+    /// segment_original.wgsl takes it from here).
+    pub const GROWTH: f64 = 1.5;
+}
 
 struct Prepared<'a> {
     program: &'a FieldProgram,
@@ -78,7 +81,7 @@ impl Prepared<'_> {
                 .min(candidate.width())
                 .max(min_step);
             t += step;
-            segment = GROWTH * step;
+            segment = SegmentOriginal::GROWTH * step;
         }
     }
 }
