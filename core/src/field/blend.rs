@@ -79,58 +79,154 @@ impl BlendTree {
     }
 }
 
+/// What the blend operators combine at a point: a group's value alone (`f64`, for the
+/// questions that need no gradient) or its value with its gradient (`(f64, DVec3)`). No
+/// operator's value reads a gradient, so both give the same values bit for bit.
+pub trait BlendOperand: Copy {
+    /// The empty sum.
+    const ZERO: Self;
+    /// The value.
+    fn value(self) -> f64;
+    /// `self + o`.
+    #[must_use]
+    fn plus(self, o: Self) -> Self;
+    /// `−self`.
+    #[must_use]
+    fn negated(self) -> Self;
+    /// `2c − self`, the complement about the isovalue `c`.
+    #[must_use]
+    fn complement(self, isovalue: f64) -> Self;
+    /// `max(self, 0)`, with a zero gradient where the value is not positive.
+    #[must_use]
+    fn positive_part(self) -> Self;
+    /// `(Σ partsᵢ^p)^(1/p)` of non-negative parts; 0 where the sum is not positive.
+    fn ricci(parts: &[Self], p: f64) -> Self;
+    /// The polynomial smooth maximum of width `width` ([`smooth_max`]).
+    #[must_use]
+    fn smooth_max(self, o: Self, width: f64) -> Self;
+}
+
+/// The weight `h = clamp(½ + (a − b)/2w, 0, 1)` of the smooth maximum of `a` and `b`, and its
+/// value `b + h(a − b) + w·h(1 − h)`.
+fn smooth_max_value(a: f64, b: f64, width: f64) -> (f64, f64) {
+    let h = (0.5 + (a - b) / (2.0 * width)).clamp(0.0, 1.0);
+    (h, b + h * (a - b) + width * h * (1.0 - h))
+}
+
+impl BlendOperand for f64 {
+    const ZERO: Self = 0.0;
+    fn value(self) -> f64 {
+        self
+    }
+    fn plus(self, o: Self) -> Self {
+        self + o
+    }
+    fn negated(self) -> Self {
+        -self
+    }
+    fn complement(self, isovalue: f64) -> Self {
+        2.0 * isovalue - self
+    }
+    fn positive_part(self) -> Self {
+        self.max(0.0)
+    }
+    fn ricci(parts: &[Self], p: f64) -> Self {
+        let s: f64 = parts.iter().map(|f| f.powf(p)).sum();
+        if s <= 0.0 { 0.0 } else { s.powf(1.0 / p) }
+    }
+    fn smooth_max(self, o: Self, width: f64) -> Self {
+        smooth_max_value(self, o, width).1
+    }
+}
+
+impl BlendOperand for (f64, DVec3) {
+    const ZERO: Self = (0.0, DVec3::ZERO);
+    fn value(self) -> f64 {
+        self.0
+    }
+    fn plus(self, o: Self) -> Self {
+        (self.0 + o.0, self.1 + o.1)
+    }
+    fn negated(self) -> Self {
+        (-self.0, -self.1)
+    }
+    fn complement(self, isovalue: f64) -> Self {
+        (2.0 * isovalue - self.0, -self.1)
+    }
+    fn positive_part(self) -> Self {
+        (
+            self.0.max(0.0),
+            if self.0 > 0.0 { self.1 } else { DVec3::ZERO },
+        )
+    }
+    fn ricci(parts: &[Self], p: f64) -> Self {
+        let s: f64 = parts.iter().map(|(f, _)| f.powf(p)).sum();
+        if s <= 0.0 {
+            return Self::ZERO;
+        }
+        let value = s.powf(1.0 / p);
+        let grad = parts.iter().fold(DVec3::ZERO, |acc, (f, g)| {
+            acc + (f / value).powf(p - 1.0) * *g
+        });
+        (value, grad)
+    }
+    fn smooth_max(self, o: Self, width: f64) -> Self {
+        smooth_max(self, o, width)
+    }
+}
+
 /// Value and gradient of `b` from the groups' values and gradients.
 #[must_use]
 pub fn value_gradient(b: &BlendTree, groups: &[(f64, DVec3)], isovalue: f64) -> (f64, DVec3) {
+    evaluate(b, groups, isovalue)
+}
+
+/// `b` at a point from the groups' operands there: values, or values with gradients.
+#[must_use]
+pub fn evaluate<T: BlendOperand>(b: &BlendTree, groups: &[T], isovalue: f64) -> T {
     match b {
         BlendTree::Group(i) => groups[*i as usize],
-        BlendTree::Sum(v) => v.iter().fold((0.0, DVec3::ZERO), |acc, c| {
-            let (f, g) = value_gradient(c, groups, isovalue);
-            (acc.0 + f, acc.1 + g)
-        }),
+        BlendTree::Sum(v) => v
+            .iter()
+            .fold(T::ZERO, |acc, c| acc.plus(operand(c, groups, isovalue))),
         BlendTree::Max(v) => select(v, groups, isovalue, |a, b| a > b),
         BlendTree::Min(v) => select(v, groups, isovalue, |a, b| a < b),
         BlendTree::Difference(a, b) => {
-            let (fa, ga) = value_gradient(a, groups, isovalue);
-            let (fb, gb) = value_gradient(b, groups, isovalue);
-            let complement = 2.0 * isovalue - fb;
-            if fa <= complement {
-                (fa, ga)
+            let a = operand(a, groups, isovalue);
+            let complement = operand(b, groups, isovalue).complement(isovalue);
+            if a.value() <= complement.value() {
+                a
             } else {
-                (complement, -gb)
+                complement
             }
         }
         BlendTree::Ricci { p, of } => {
-            let parts: Vec<(f64, DVec3)> = of
+            let parts: Vec<T> = of
                 .iter()
-                .map(|c| {
-                    let (f, g) = value_gradient(c, groups, isovalue);
-                    (f.max(0.0), if f > 0.0 { g } else { DVec3::ZERO })
-                })
+                .map(|c| operand(c, groups, isovalue).positive_part())
                 .collect();
-            let s: f64 = parts.iter().map(|(f, _)| f.powf(*p)).sum();
-            if s <= 0.0 {
-                return (0.0, DVec3::ZERO);
-            }
-            let value = s.powf(1.0 / p);
-            let grad = parts.iter().fold(DVec3::ZERO, |acc, (f, g)| {
-                acc + (f / value).powf(p - 1.0) * *g
-            });
-            (value, grad)
+            T::ricci(&parts, *p)
         }
         BlendTree::SmoothUnion { width, of } => of
             .iter()
-            .map(|c| value_gradient(c, groups, isovalue))
-            .reduce(|a, b| smooth_max(a, b, *width))
-            .unwrap_or((0.0, DVec3::ZERO)),
+            .map(|c| operand(c, groups, isovalue))
+            .reduce(|a, b| a.smooth_max(b, *width))
+            .unwrap_or(T::ZERO),
         BlendTree::SmoothIntersection { width, of } => of
             .iter()
-            .map(|c| {
-                let (f, g) = value_gradient(c, groups, isovalue);
-                (-f, -g)
-            })
-            .reduce(|a, b| smooth_max(a, b, *width))
-            .map_or((0.0, DVec3::ZERO), |(f, g)| (-f, -g)),
+            .map(|c| operand(c, groups, isovalue).negated())
+            .reduce(|a, b| a.smooth_max(b, *width))
+            .map_or(T::ZERO, T::negated),
+    }
+}
+
+/// An operand of an operator: a group's entry read directly (most trees are one operator over
+/// groups), any other subtree evaluated.
+#[inline]
+fn operand<T: BlendOperand>(b: &BlendTree, groups: &[T], isovalue: f64) -> T {
+    match b {
+        BlendTree::Group(i) => groups[*i as usize],
+        _ => evaluate(b, groups, isovalue),
     }
 }
 
@@ -139,11 +235,8 @@ pub fn value_gradient(b: &BlendTree, groups: &[(f64, DVec3)], isovalue: f64) -> 
 /// is the convex combination `h∇a + (1 − h)∇b`.
 #[must_use]
 pub fn smooth_max(a: (f64, DVec3), b: (f64, DVec3), width: f64) -> (f64, DVec3) {
-    let h = (0.5 + (a.0 - b.0) / (2.0 * width)).clamp(0.0, 1.0);
-    (
-        b.0 + h * (a.0 - b.0) + width * h * (1.0 - h),
-        h * a.1 + (1.0 - h) * b.1,
-    )
+    let (h, value) = smooth_max_value(a.0, b.0, width);
+    (value, h * a.1 + (1.0 - h) * b.1)
 }
 
 /// Jet of [`smooth_max`] over an interval. Where the operands' ranges stay `width` apart it is
@@ -173,20 +266,20 @@ pub fn smooth_max_jet(a: Jet, b: Jet, width: f64) -> Jet {
     }
 }
 
-fn select(
+fn select<T: BlendOperand>(
     v: &[BlendTree],
-    groups: &[(f64, DVec3)],
+    groups: &[T],
     isovalue: f64,
     better: impl Fn(f64, f64) -> bool,
-) -> (f64, DVec3) {
-    let mut best: Option<(f64, DVec3)> = None;
+) -> T {
+    let mut best: Option<T> = None;
     for c in v {
-        let r = value_gradient(c, groups, isovalue);
-        if best.is_none_or(|b| better(r.0, b.0)) {
+        let r = operand(c, groups, isovalue);
+        if best.is_none_or(|b| better(r.value(), b.value())) {
             best = Some(r);
         }
     }
-    best.unwrap_or((0.0, DVec3::ZERO))
+    best.unwrap_or(T::ZERO)
 }
 
 /// Jet of `b` over a ray interval from the groups' jets.

@@ -9,7 +9,7 @@
 use glam::{DMat3, DVec3, EulerRot};
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::blend::{self, BlendTree};
+use crate::field::blend::{self, BlendOperand, BlendTree};
 use crate::field::bvh::Bvh;
 use crate::field::geometry::{Aabb, Ray, Similarity, SphereCone};
 use crate::field::hrbf_solve;
@@ -237,33 +237,29 @@ impl FieldProgram {
     /// The value of [`FieldProgram::value_gradient_in`], bit for bit, without the gradients
     /// (the blends' values never depend on their operands' gradients).
     pub(crate) fn value_in(&self, lookup: &impl PointLookup, p: DVec3) -> f64 {
-        self.blended_at(lookup, p, |primitive, k| {
-            (primitive.value(p, k), DVec3::ZERO)
-        })
-        .0
+        self.blended_at(lookup, p, |primitive, k| primitive.value(p, k))
     }
 
-    /// The blend of the groups' sums of `primitive_at` over the primitives `lookup` finds at
-    /// `p` (negative group sums clamped to 0).
-    fn blended_at(
+    /// The blend of the groups' sums of `primitive_at` (values, or values with gradients) over
+    /// the primitives `lookup` finds at `p` (negative group sums clamped to 0).
+    fn blended_at<T: BlendOperand>(
         &self,
         lookup: &impl PointLookup,
         p: DVec3,
-        primitive_at: impl Fn(&Primitive, &KernelProfile) -> (f64, DVec3),
-    ) -> (f64, DVec3) {
-        self.with_group_slots((0.0, DVec3::ZERO), |slots| {
+        primitive_at: impl Fn(&Primitive, &KernelProfile) -> T,
+    ) -> T {
+        self.with_group_slots(T::ZERO, |slots| {
             lookup.near(p, |i| {
-                let (v, g) = primitive_at(&self.primitives[i as usize], self.kernel_of(i));
+                let operand = primitive_at(&self.primitives[i as usize], self.kernel_of(i));
                 let slot = &mut slots[self.groups_of[i as usize] as usize];
-                slot.0 += v;
-                slot.1 += g;
+                *slot = slot.plus(operand);
             });
             self.clamp_group_slots(slots, |slot| {
-                if slot.0 < 0.0 {
-                    *slot = (0.0, DVec3::ZERO);
+                if slot.value() < 0.0 {
+                    *slot = T::ZERO;
                 }
             });
-            blend::value_gradient(&self.blend, slots, self.isovalue)
+            blend::evaluate(&self.blend, slots, self.isovalue)
         })
     }
 

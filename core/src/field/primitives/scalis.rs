@@ -21,6 +21,16 @@ const ARC_LENGTH_THRESHOLD: f64 = 0.05;
 /// Pieces per segment in the derivative bounds, at most.
 const MAX_BOUND_PIECES: usize = 24;
 
+/// The end of a piece in [`ScalisSegment::ray_jet`]: the radius there, its inverse, and the
+/// squared distances from the skeleton point to the two ends of the ray's chord.
+#[derive(Clone, Copy)]
+struct PieceEnd {
+    tau: f64,
+    inv_tau: f64,
+    to_a: f64,
+    to_b: f64,
+}
+
 /// A SCALIS segment primitive (also used for end-point correctors, with constant radius).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScalisSegment {
@@ -163,6 +173,21 @@ impl ScalisSegment {
         let w_origin = u.dot(ray.origin - c.start);
         let uv = u.dot(c.axis);
         let chord = ChordToAxis::new(ray_a, ray_b, c.start, c.axis);
+        // What one boundary between pieces gives both pieces meeting there: computed once and
+        // carried to the next piece, by the same expressions as when each piece computed its
+        // own (the bound is unchanged bit for bit).
+        let boundary = |i: usize| {
+            let s = i as f64 * ds;
+            let tau = c.radius + c.slope * s;
+            let q = c.start + s * c.axis;
+            PieceEnd {
+                tau,
+                inv_tau: 1.0 / tau,
+                to_a: (ray_a - q).length_squared(),
+                to_b: (ray_b - q).length_squared(),
+            }
+        };
+        let mut carried: Option<(usize, PieceEnd)> = None;
         let mut jet = Jet::ZERO;
         for piece in 0..pieces {
             let (sa, sb) = (piece as f64 * ds, (piece + 1) as f64 * ds);
@@ -171,11 +196,17 @@ impl ScalisSegment {
             if x_lo >= k.support_sq() {
                 continue;
             }
-            let (qa, qb) = (c.start + sa * c.axis, c.start + sb * c.axis);
-            let tau_a = c.radius + c.slope * sa;
-            let d_max = [(ray_a, qa), (ray_a, qb), (ray_b, qa), (ray_b, qb)]
-                .iter()
-                .map(|(p, q)| (*p - *q).length_squared())
+            let start = match carried {
+                Some((at, end)) if at == piece => end,
+                _ => boundary(piece),
+            };
+            let end = boundary(piece + 1);
+            carried = Some((piece + 1, end));
+            let tau_a = start.tau;
+            // The largest squared distance between the chord and the piece is at one of the four
+            // pairs of their end points (a convex function on a product of segments).
+            let d_max = [start.to_a, end.to_a, start.to_b, end.to_b]
+                .into_iter()
                 .fold(0.0, f64::max);
             let x = Interval::new(x_lo, d_max / (tau_a * tau_a));
             // `w` is increasing in `t` and monotone in `s` with the sign of `−uv`: its range is
@@ -188,8 +219,8 @@ impl ScalisSegment {
             };
             // The radius grows along the cone (`slope ≥ 0`): `τ_a ≤ τ_b`.
             let inv_tau = Interval {
-                lo: 1.0 / tau_b,
-                hi: 1.0 / tau_a,
+                lo: end.inv_tau,
+                hi: start.inv_tau,
             };
             let inv_tau2 = inv_tau.square();
             let inv_tau3 = inv_tau2.times_positive(inv_tau);
