@@ -167,6 +167,74 @@ fn powi(mut x: f64, n: i32) -> f64 {
     }
 }
 
+/// Unclipped `K, K′, K″` of the compact kernel `(1 − a·x)^m` at `x`; inlined with a constant
+/// `m`, the power unrolls.
+#[inline(always)]
+fn compact_raw(m: i32, a: f64, x: f64) -> (f64, f64, f64) {
+    let base = (1.0 - x * a).max(0.0);
+    let mf = f64::from(m);
+    let p2 = if m >= 2 { powi(base, m - 2) } else { 0.0 };
+    let p1 = if m >= 2 { p2 * base } else { 1.0 };
+    (p1 * base, -mf * a * p1, mf * (mf - 1.0) * a * a * p2)
+}
+
+/// A kernel evaluated many times in one loop (a SCALIS segment's quadrature nodes):
+/// [`KernelProfile::with_family`] hands the loop one whose family — and, for the compact
+/// kernels of degree 4 and 6, whose power — is fixed at compile time, so that the loop does not
+/// match the family at every node (issue 18). Its values are [`KernelProfile::value`]'s and
+/// [`KernelProfile::value_d1`]'s bit for bit.
+pub trait FixedKernel {
+    /// `K(x)`.
+    fn value(&self, x: f64) -> f64;
+    /// `(K(x), K′(x))`.
+    fn value_d1(&self, x: f64) -> (f64, f64);
+}
+
+/// A loop over kernel evaluations, run by [`KernelProfile::with_family`].
+pub trait KernelLoop {
+    /// What the loop computes.
+    type Output;
+    /// Runs the loop with `kernel`.
+    fn run<K: FixedKernel>(self, kernel: &K) -> Self::Output;
+}
+
+/// The compact kernel `(1 − a·x)^M`, its constants held by value: in a loop they stay in
+/// registers, and the clip's steps (`(K − 0)·1`) are left out, being identities.
+#[derive(Clone, Copy)]
+struct CompactKernel<const M: i32> {
+    a: f64,
+    support_sq: f64,
+}
+
+impl<const M: i32> FixedKernel for CompactKernel<M> {
+    #[inline(always)]
+    fn value(&self, x: f64) -> f64 {
+        if x >= self.support_sq {
+            return 0.0;
+        }
+        compact_raw(M, self.a, x.max(0.0)).0.max(0.0)
+    }
+    #[inline(always)]
+    fn value_d1(&self, x: f64) -> (f64, f64) {
+        if x >= self.support_sq {
+            return (0.0, 0.0);
+        }
+        let (k, k1, _) = compact_raw(M, self.a, x.max(0.0));
+        (k.max(0.0), k1)
+    }
+}
+
+impl FixedKernel for KernelProfile {
+    #[inline]
+    fn value(&self, x: f64) -> f64 {
+        Self::value(self, x)
+    }
+    #[inline]
+    fn value_d1(&self, x: f64) -> (f64, f64) {
+        Self::value_d1(self, x)
+    }
+}
+
 /// Runtime form of a kernel as a function of the squared normalised distance `x`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KernelProfile {
@@ -253,13 +321,7 @@ impl KernelProfile {
     fn raw(&self, x: f64) -> (f64, f64, f64) {
         let a = self.inv_sigma2;
         match self.family {
-            Family::Compact { m } => {
-                let base = (1.0 - x * a).max(0.0);
-                let mf = f64::from(m);
-                let p2 = if m >= 2 { powi(base, m - 2) } else { 0.0 };
-                let p1 = if m >= 2 { p2 * base } else { 1.0 };
-                (p1 * base, -mf * a * p1, mf * (mf - 1.0) * a * a * p2)
-            }
+            Family::Compact { m } => compact_raw(m, a, x),
             Family::Cauchy { n } => {
                 let base = 1.0 + x * a;
                 let k = base.powf(-n);
@@ -297,6 +359,16 @@ impl KernelProfile {
             ((k - self.clip) * self.clip_scale).max(0.0),
             k1 * self.clip_scale,
         )
+    }
+
+    /// Runs `kernel_loop` with this kernel's family fixed ([`FixedKernel`]).
+    pub fn with_family<L: KernelLoop>(&self, kernel_loop: L) -> L::Output {
+        let (a, support_sq) = (self.inv_sigma2, self.support_sq);
+        match self.family {
+            Family::Compact { m: 2 } => kernel_loop.run(&CompactKernel::<2> { a, support_sq }),
+            Family::Compact { m: 3 } => kernel_loop.run(&CompactKernel::<3> { a, support_sq }),
+            _ => kernel_loop.run(self),
+        }
     }
 
     /// `(K, K′, K″)` at `x`, zero outside the support.
@@ -528,6 +600,67 @@ impl KernelProfile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Records what [`KernelProfile::with_family`] hands its loop on sampled arguments.
+    struct Sample(Vec<f64>);
+
+    impl KernelLoop for Sample {
+        type Output = Vec<(f64, f64, f64)>;
+        fn run<K: FixedKernel>(self, kernel: &K) -> Self::Output {
+            self.0
+                .iter()
+                .map(|x| {
+                    let (v, d1) = kernel.value_d1(*x);
+                    (kernel.value(*x), v, d1)
+                })
+                .collect()
+        }
+    }
+
+    /// The kernel a loop gets with its family fixed is the profile's own, equal number for
+    /// equal number, on every family and degree, inside, at and beyond the support.
+    #[test]
+    fn kernels_with_their_family_fixed_are_the_profiles() {
+        let mut rng = crate::model::rng::SplitMix64::new(41);
+        let kernels = [
+            Kernel::CompactPolynomial {
+                degree: 2,
+                scale: 2.0,
+            },
+            Kernel::CompactPolynomial {
+                degree: 4,
+                scale: 1.5,
+            },
+            Kernel::CompactPolynomial {
+                degree: 6,
+                scale: 2.0,
+            },
+            Kernel::CompactPolynomial {
+                degree: 8,
+                scale: 3.0,
+            },
+            Kernel::Cauchy {
+                degree: 4,
+                scale: 1.0,
+            },
+            Kernel::Gaussian { scale: 1.0 },
+        ];
+        for kernel in kernels {
+            let profile = KernelProfile::new(kernel);
+            let s2 = profile.support_sq();
+            let mut xs: Vec<f64> = (0..2000).map(|_| rng.range(-0.1, 1.2) * s2).collect();
+            xs.extend([0.0, -0.0, s2, s2 * (1.0 - 1e-16), f64::INFINITY]);
+            let fixed = profile.with_family(Sample(xs.clone()));
+            for (x, (v, v1, d1)) in xs.iter().zip(fixed) {
+                let (w1, e1) = profile.value_d1(*x);
+                assert!(
+                    v == profile.value(*x) && v1 == w1 && d1 == e1,
+                    "{kernel:?} at {x}: {v} {v1} {d1} vs {} {w1} {e1}",
+                    profile.value(*x)
+                );
+            }
+        }
+    }
 
     /// The written-out power is `f64::powi` bit for bit (so the kernels, and every march, are
     /// unchanged by it), on bases across the support and exponents of every kernel degree.

@@ -13,7 +13,7 @@ use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::geometry::{Aabb, ChordToAxis, Ray, SphereCone};
-use crate::field::kernel::KernelProfile;
+use crate::field::kernel::{FixedKernel, KernelLoop, KernelProfile};
 use crate::field::quadrature::GaussLegendre;
 
 /// Below this radius change over the integrated part (`δ·ℓ`), integrate in arc length.
@@ -126,22 +126,21 @@ impl ScalisSegment {
     /// Value at `p`.
     #[must_use]
     pub fn value(&self, p: DVec3, k: &KernelProfile) -> f64 {
-        let mut sum = 0.0;
-        self.integrate(p, k, |x, _, _, measure| sum += k.value(x) * measure);
-        self.norm * sum
+        k.with_family(ValueAt {
+            segment: self,
+            p,
+            profile: k,
+        })
     }
 
     /// Value and gradient at `p`: `∇f = N∫ K′(x)·2(p − q)/τ² · ds/τ`.
     #[must_use]
     pub fn value_gradient(&self, p: DVec3, k: &KernelProfile) -> (f64, DVec3) {
-        let mut sum = 0.0;
-        let mut grad = DVec3::ZERO;
-        self.integrate(p, k, |x, offset, tau, measure| {
-            let (v, d1) = k.value_d1(x);
-            sum += v * measure;
-            grad += (2.0 * d1 * measure / (tau * tau)) * offset;
-        });
-        (self.norm * sum, self.norm * grad)
+        k.with_family(ValueGradientAt {
+            segment: self,
+            p,
+            profile: k,
+        })
     }
 
     /// The support sphere-cone.
@@ -242,5 +241,46 @@ impl ScalisSegment {
                 .scale(ds);
         }
         jet.scale(self.norm)
+    }
+}
+
+/// [`ScalisSegment::value`]'s quadrature, run with the kernel's family fixed.
+struct ValueAt<'a> {
+    segment: &'a ScalisSegment,
+    p: DVec3,
+    profile: &'a KernelProfile,
+}
+
+impl KernelLoop for ValueAt<'_> {
+    type Output = f64;
+    fn run<K: FixedKernel>(self, kernel: &K) -> f64 {
+        let mut sum = 0.0;
+        self.segment
+            .integrate(self.p, self.profile, |x, _, _, measure| {
+                sum += kernel.value(x) * measure;
+            });
+        self.segment.norm * sum
+    }
+}
+
+/// [`ScalisSegment::value_gradient`]'s quadrature, run with the kernel's family fixed.
+struct ValueGradientAt<'a> {
+    segment: &'a ScalisSegment,
+    p: DVec3,
+    profile: &'a KernelProfile,
+}
+
+impl KernelLoop for ValueGradientAt<'_> {
+    type Output = (f64, DVec3);
+    fn run<K: FixedKernel>(self, kernel: &K) -> (f64, DVec3) {
+        let mut sum = 0.0;
+        let mut grad = DVec3::ZERO;
+        self.segment
+            .integrate(self.p, self.profile, |x, offset, tau, measure| {
+                let (v, d1) = kernel.value_d1(x);
+                sum += v * measure;
+                grad += (2.0 * d1 * measure / (tau * tau)) * offset;
+            });
+        (self.segment.norm * sum, self.segment.norm * grad)
     }
 }
