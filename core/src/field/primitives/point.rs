@@ -60,13 +60,18 @@ impl PointBlob {
         // Normalised offset from the closest point: x = τ² + ĥ².
         let (a, b) = ((span.lo - t_closest) / rho, (span.hi - t_closest) / rho);
         let x_of = |tau: f64| (tau * tau + h2).min(k.support_sq());
+        // `f′` and `f″` at `τ` from the kernel's `K′` and `K″` there.
+        let d1_of = |tau: f64, k1: f64| self.norm * k1 * 2.0 * tau / rho;
+        let d2_of = |tau: f64, k1: f64, k2: f64| {
+            self.norm * (k2 * 4.0 * tau * tau + 2.0 * k1) / (rho * rho)
+        };
         let d1_at = |tau: f64| {
             let (_, k1, _) = k.value_d2_inside(x_of(tau));
-            self.norm * k1 * 2.0 * tau / rho
+            d1_of(tau, k1)
         };
         let d2_at = |tau: f64| {
             let (_, k1, k2) = k.value_d2_inside(x_of(tau));
-            self.norm * (k2 * 4.0 * tau * tau + 2.0 * k1) / (rho * rho)
+            d2_of(tau, k1, k2)
         };
         let nearest = 0.0_f64.clamp(a, b);
         let farthest = if a.abs() > b.abs() { a } else { b };
@@ -75,8 +80,11 @@ impl PointBlob {
             self.norm * k.value(x_of(nearest)),
         );
         let (c1, c2) = k.point_critical_tau2(h2);
-        let mut d1 = Interval::new(d1_at(a), d1_at(b));
-        let mut d2 = Interval::new(d2_at(a), d2_at(b));
+        // The kernel once per end point, for both derivatives.
+        let ((_, k1_a, k2_a), (_, k1_b, k2_b)) =
+            (k.value_d2_inside(x_of(a)), k.value_d2_inside(x_of(b)));
+        let mut d1 = Interval::new(d1_of(a, k1_a), d1_of(b, k1_b));
+        let mut d2 = Interval::new(d2_of(a, k1_a, k2_a), d2_of(b, k1_b, k2_b));
         for tau in [c1.sqrt(), -c1.sqrt()] {
             if (a..=b).contains(&tau) {
                 d1 = d1.include(d1_at(tau));
