@@ -18,10 +18,27 @@ fn load(name: &str) -> Scene {
     Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn output(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("skeletrace-mesh-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    dir.join(name)
+/// A test's own directory for the files it writes, removed when the test ends.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(test: &str) -> Self {
+        let dir =
+            std::env::temp_dir().join(format!("skeletrace-mesh-{}-{test}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        Self(dir)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        // Best effort: a file left behind in the temporary directory is no failure.
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// One mesh of the file as read back.
@@ -166,10 +183,11 @@ fn check(scene: &Scene, back: &ReadBack, closed: bool) {
 
 #[test]
 fn exported_blobs_are_closed_on_the_surface_and_coloured_per_group() {
+    let scratch = Scratch::new("closed");
     let scene = load("blobs");
     let mesh = export::extract(&scene, 48, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(mesh.off_surface, 0);
-    let path = output("blobs.glb");
+    let path = scratch.path("blobs.glb");
     export::write_gltf(&scene, &mesh, &path).unwrap_or_else(|e| panic!("{e}"));
     let back = read_back(&path);
     let triangles: usize = back.meshes.iter().map(|m| m.triangles.len()).sum();
@@ -182,11 +200,12 @@ fn exported_blobs_are_closed_on_the_surface_and_coloured_per_group() {
 
 #[test]
 fn a_gltf_with_its_bin_reads_back_and_a_transparent_group_keeps_transmission_and_ior() {
+    let scratch = Scratch::new("glass");
     let mut scene = load("blobs");
     scene.groups[0].material.opacity = 0.4;
     scene.groups[0].material.ior = 1.33;
     let mesh = export::extract(&scene, 32, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
-    let path = output("glass.gltf");
+    let path = scratch.path("glass.gltf");
     export::write_gltf(&scene, &mesh, &path).unwrap_or_else(|e| panic!("{e}"));
     assert!(path.with_extension("bin").exists());
     let (document, _, _) = gltf::import(&path).unwrap_or_else(|e| panic!("{e}"));
@@ -206,9 +225,10 @@ fn a_gltf_with_its_bin_reads_back_and_a_transparent_group_keeps_transmission_and
 
 #[test]
 fn a_wrong_extension_is_refused_with_the_path() {
+    let scratch = Scratch::new("extension");
     let scene = load("blobs");
     let mesh = export::extract(&scene, 16, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
-    let path = output("mesh.obj");
+    let path = scratch.path("mesh.obj");
     let error = export::write_gltf(&scene, &mesh, &path)
         .err()
         .unwrap_or_default();
@@ -312,6 +332,7 @@ fn check_gltf_rules(path: &Path) -> usize {
 /// where the analytic gradient vanishes once got a zero normal), and every asset.
 #[test]
 fn exports_of_generated_scenes_and_assets_follow_the_gltf_rules() {
+    let scratch = Scratch::new("rules");
     let mut rng = SplitMix64::new(2026);
     let mut meshes = 0;
     let mut files = 0;
@@ -332,7 +353,7 @@ fn exports_of_generated_scenes_and_assets_follow_the_gltf_rules() {
             let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
             let mesh = export::extract(&scene, 24, &|_| {})
                 .unwrap_or_else(|e| panic!("{name} {options:?}: {e}"));
-            let path = output(&format!(
+            let path = scratch.path(&format!(
                 "{name}-{k}.{}",
                 if k % 2 == 0 { "glb" } else { "gltf" }
             ));
@@ -352,7 +373,7 @@ fn exports_of_generated_scenes_and_assets_follow_the_gltf_rules() {
     ] {
         let scene = load(asset);
         let mesh = export::extract(&scene, 32, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
-        let path = output(&format!("asset-{asset}.glb"));
+        let path = scratch.path(&format!("asset-{asset}.glb"));
         export::write_gltf(&scene, &mesh, &path).unwrap_or_else(|e| panic!("{e}"));
         meshes += check_gltf_rules(&path);
         files += 1;
