@@ -4,7 +4,9 @@
 use skeletrace_core::FieldProgram;
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::Primitive;
-use skeletrace_core::methods::{AcceleratedSphereTracing, MethodId, Protocol, SegmentOriginal};
+use skeletrace_core::methods::{
+    AcceleratedSphereTracing, Method, MethodId, Protocol, SegmentOriginal, Sherstyuk,
+};
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::shared::{MarchBound, wgsl_constants};
@@ -16,6 +18,7 @@ const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
 const SPHERE_ENHANCED: &str = include_str!("../shaders/sphere_enhanced.wgsl");
 const SPHERE_ACCELERATED: &str = include_str!("../shaders/sphere_accelerated.wgsl");
 const SEGMENT_ORIGINAL: &str = include_str!("../shaders/segment_original.wgsl");
+const SHERSTYUK: &str = include_str!("../shaders/sherstyuk.wgsl");
 const INTERVAL: &str = include_str!("../shaders/interval.wgsl");
 const PRIMITIVE_JETS: &str = include_str!("../shaders/primitive_jets.wgsl");
 const INCLUSION: &str = include_str!("../shaders/inclusion.wgsl");
@@ -81,13 +84,15 @@ pub enum GpuMethod {
     QuadraticMixed,
     /// `scalis-quadratic` (SCALIS skeletons).
     ScalisQuadratic,
+    /// `sherstyuk` (summed groups, scenes of at most [`RAY_SUPPORTS`] primitives).
+    Sherstyuk,
     /// `field-inversion` (Gaussian blobs).
     FieldInversion,
 }
 
 impl GpuMethod {
     /// Every GPU method.
-    pub const ALL: [Self; 14] = [
+    pub const ALL: [Self; 15] = [
         Self::Sphere,
         Self::SphereEnhanced,
         Self::SphereAccelerated,
@@ -101,6 +106,7 @@ impl GpuMethod {
         Self::LinearMixed,
         Self::QuadraticMixed,
         Self::ScalisQuadratic,
+        Self::Sherstyuk,
         Self::FieldInversion,
     ];
 
@@ -121,6 +127,7 @@ impl GpuMethod {
             Self::LinearMixed => MethodId::LinearMixed,
             Self::QuadraticMixed => MethodId::QuadraticMixed,
             Self::ScalisQuadratic => MethodId::ScalisQuadratic,
+            Self::Sherstyuk => MethodId::Sherstyuk,
             Self::FieldInversion => MethodId::FieldInversion,
         }
     }
@@ -190,6 +197,22 @@ impl GpuMethod {
                  {RAY_SUPPORTS} supports cannot see beyond); this scene has {}",
                 program.primitives().len()
             )),
+            // Each primitive's Hermite pieces span its whole support interval; the march walks
+            // their nodes from the ray's window, which holds every support when the scene has
+            // at most RAY_SUPPORTS primitives.
+            // (Summed groups, no HRBF set: the CPU method's own requirements.)
+            Self::Sherstyuk => {
+                Sherstyuk.supports(program)?;
+                if program.primitives().len() > RAY_SUPPORTS {
+                    return Err(format!(
+                        "sherstyuk runs on the GPU for scenes of at most {RAY_SUPPORTS} \
+                         primitives (its pieces span whole support intervals, which a ray's \
+                         window of {RAY_SUPPORTS} supports cannot see beyond); this scene has {}",
+                        program.primitives().len()
+                    ));
+                }
+                Ok(())
+            }
             Self::ScalisQuadratic | Self::SphereNormalized
                 if !program
                     .primitives()
@@ -254,6 +277,10 @@ impl GpuMethod {
                     blend.bounds()
                 )
             }
+            Self::Sherstyuk => format!(
+                "const SHERSTYUK_PIECES: u32 = {}u;\n{SHERSTYUK}\n{PARTS}",
+                Sherstyuk::SUBDIVISIONS
+            ),
             Self::ScalisQuadratic => format!("{NORMALISED}\n{SCALIS}"),
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
@@ -433,6 +460,7 @@ mod tests {
             ("sphere_enhanced.wgsl", SPHERE_ENHANCED),
             ("sphere_accelerated.wgsl", SPHERE_ACCELERATED),
             ("segment_original.wgsl", SEGMENT_ORIGINAL),
+            ("sherstyuk.wgsl", SHERSTYUK),
             ("interval.wgsl", INTERVAL),
             ("primitive_jets.wgsl", PRIMITIVE_JETS),
             ("inclusion.wgsl", INCLUSION),

@@ -6,7 +6,7 @@
 //! Mesa's lavapipe in CI — and fails, never skips, when there is none.
 //!
 //! The thresholds (hit masks equal on ≥ 99.9 % of pixels, depth within 10⁻³ of the
-//! support diagonal, steps equal on ≥ 99 %) are asserted for every method, with three measured
+//! support diagonal, steps equal on ≥ 99 %) are asserted for every method, with four measured
 //! allowances, below. Some step counts are sensitive to perturbations at f32 precision:
 //! - bottom-up-quadratic even in f64: on the CPU alone, moving the camera by 2.4·10⁻⁷ of its
 //!   distance (two f32 ulps) changes the step count of 1–2 % of the pixels (a validity
@@ -39,8 +39,15 @@
 //! march ends just before or just after the budget depends on its last bits (on the creature,
 //! sphere-enhanced on the CPU runs out on 29 pixels where the GPU's march ends at 1 948–2 015
 //! steps): such pixels are left out of the hit mask and the agreeing steps (and counted, and a
-//! GPU that runs out of steps on 1 % more of the pixels than the CPU fails). Hit masks and
-//! depths are otherwise held as they are.
+//! GPU that runs out of steps on 1 % more of the pixels than the CPU fails). Hit masks are
+//! otherwise held as they are.
+//!
+//! Depths are held to 10⁻³ of the diagonal, or where a frame misses that, to that plus the
+//! largest change of the CPU's own depths under the camera move above (which by itself shifts
+//! depths by about 10⁻⁶). Only sherstyuk has needed it: its crossing is a root of a cubic
+//! interpolant, not of the field, and where the cubic barely reaches the isovalue the root moves
+//! with the square root of a perturbation (random scene 42: the CPU's own depth moves by 1.4e-2
+//! under the move, as much as the GPU's differs from it).
 
 use std::path::Path;
 
@@ -273,12 +280,16 @@ fn check_methods_agreement(
             let cpu_frame = cpu_render(camera);
             most_hits = most_hits.max((0..SIZE * SIZE).filter(|&i| cpu_frame.is_hit(i)).count());
             let a = compare(&cpu_frame, gpu_frame, settings.max_steps);
-            // Below 99 %: the allowance the marches' own sensitivity earns (module docs).
+            // Below 99 %, or depths beyond 10⁻³ of the diagonal: the allowance the marches' own
+            // sensitivity earns (module docs).
             let mut steps_needed = 0.99;
+            let mut depth_allowed = 1e-3 * diagonal;
             let mut cpu_own = 1.0;
-            if a.agreeing_steps < steps_needed {
-                cpu_own = self_agreement("CPU", &cpu_frame, &cpu_render, camera);
+            if a.agreeing_steps < steps_needed || a.worst_depth > depth_allowed {
+                let (own_steps, own_depth) = self_agreement("CPU", &cpu_frame, &cpu_render, camera);
+                cpu_own = own_steps;
                 steps_needed = (cpu_own - PERTURBATION_MARGIN).min(steps_needed);
+                depth_allowed += own_depth;
             }
             if a.agreeing_steps < steps_needed {
                 let gpu_render = |camera: &Camera| {
@@ -295,12 +306,12 @@ fn check_methods_agreement(
                     .unwrap_or_else(|e| panic!("{label}: {e}"))
                     .remove(0)
                 };
-                let own = self_agreement("GPU", gpu_frame, gpu_render, camera);
+                let (own, _) = self_agreement("GPU", gpu_frame, gpu_render, camera);
                 // Each march changes on its own sensitive pixels; the two sets add.
                 steps_needed = (cpu_own + own - 1.0 - PERTURBATION_MARGIN).min(steps_needed);
             }
             eprintln!(
-                "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {}; out of steps: CPU {}, GPU {})  depth {:.1e}  equal steps {:.4}, agreeing {:.4} (held to {steps_needed:.4})  differences {:?}",
+                "{label:<18} {:<20} hit mask {:.4} (CPU only {}, GPU only {}; out of steps: CPU {}, GPU {})  depth {:.1e} (held to {:.1e})  equal steps {:.4}, agreeing {:.4} (held to {steps_needed:.4})  differences {:?}",
                 method.name(),
                 a.hit_mask,
                 a.one_sided.0,
@@ -308,6 +319,7 @@ fn check_methods_agreement(
                 a.exhausted.0,
                 a.exhausted.1,
                 a.worst_depth / diagonal,
+                depth_allowed / diagonal,
                 a.equal_steps,
                 a.agreeing_steps,
                 a.histogram
@@ -315,7 +327,7 @@ fn check_methods_agreement(
             // A shader whose rays stall must not hide them from the hit mask.
             let meets = a.hit_mask >= 0.999
                 && a.exhausted.1 <= a.exhausted.0 + SIZE * SIZE / 100
-                && a.worst_depth <= 1e-3 * diagonal
+                && a.worst_depth <= depth_allowed
                 && a.agreeing_steps >= steps_needed;
             if !meets {
                 failures.push(format!("{label} {}", method.name()));
@@ -325,25 +337,26 @@ fn check_methods_agreement(
     most_hits
 }
 
-/// The fraction of pixels of `frame` (rendered by `backend` through `camera`) whose step count
-/// is unchanged when the camera position moves by [`PERTURBATION`] of itself: how well a march
-/// agrees with itself at f32 precision.
+/// How `frame` (rendered by `backend` through `camera`) agrees with the frame of the camera
+/// moved by [`PERTURBATION`] of its position: the fraction of pixels whose step count is
+/// unchanged, and the largest change of a depth (the move itself shifts depths by about
+/// 10⁻⁶): how well a march agrees with itself at f32 precision.
 fn self_agreement(
     backend: &str,
     frame: &Frame,
     mut render: impl FnMut(&Camera) -> Frame,
     camera: &Camera,
-) -> f64 {
+) -> (f64, f64) {
     let moved = Camera {
         position: camera.position.map(|p| p * (1.0 + PERTURBATION)),
         ..*camera
     };
     let own = compare(frame, &render(&moved), u32::MAX);
     eprintln!(
-        "{:<39} {backend} against itself, camera moved by {PERTURBATION:.1e}: equal steps {:.4}, agreeing {:.4}  differences {:?}",
-        "", own.equal_steps, own.agreeing_steps, own.histogram
+        "{:<39} {backend} against itself, camera moved by {PERTURBATION:.1e}: equal steps {:.4}, agreeing {:.4}, largest depth change {:.1e} (scene units)  differences {:?}",
+        "", own.equal_steps, own.agreeing_steps, own.worst_depth, own.histogram
     );
-    own.agreeing_steps
+    (own.agreeing_steps, own.worst_depth)
 }
 
 #[test]
@@ -713,14 +726,15 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
 /// A marching method's rays are suspended when a dispatch's allowance of steps runs out and
 /// resumed by the next dispatch (parts.wgsl). Resuming must be exact: frames traced three steps
 /// per dispatch equal, bit for bit, those traced with the adapter's default allowance, on
-/// scenes whose sphere-traced rays run up to the step budget, far past the allowance.
+/// scenes whose sphere-traced rays run up to the step budget, far past the allowance, and on
+/// summed-blobs, the asset sherstyuk applies to.
 #[test]
 fn resumed_marches_give_the_same_frames() {
     let Some(mut gpu) = gpu_or_skip("resumed_marches_give_the_same_frames") else {
         return;
     };
     let default_allowance = gpu.steps_per_dispatch();
-    for asset in ["blobs", "tree"] {
+    for asset in ["blobs", "tree", "summed-blobs"] {
         let scene = load(asset);
         let compiled = compile(&scene);
         let program = &compiled.program;

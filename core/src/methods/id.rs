@@ -157,6 +157,7 @@ impl MethodId {
                 | Self::LinearMixed
                 | Self::QuadraticMixed
                 | Self::ScalisQuadratic
+                | Self::Sherstyuk
                 | Self::FieldInversion
         )
     }

@@ -19,11 +19,13 @@ use crate::field::ray_field::RayField;
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 
-/// Subintervals per primitive support interval.
-const SUBDIVISIONS: usize = 4;
-
 /// `sherstyuk`.
 pub struct Sherstyuk;
+
+impl Sherstyuk {
+    /// Subintervals per primitive support interval (the GPU's shader takes it from here).
+    pub const SUBDIVISIONS: usize = 4;
+}
 
 struct Prepared<'a> {
     program: &'a FieldProgram,
@@ -144,14 +146,15 @@ impl Prepared<'_> {
             if span.width() <= 0.0 {
                 return;
             }
-            let node = |i: usize| span.lo + span.width() * i as f64 / SUBDIVISIONS as f64;
+            let node =
+                |i: usize| span.lo + span.width() * i as f64 / Sherstyuk::SUBDIVISIONS as f64;
             let sample = |t: f64| {
                 let (v, g) = primitive.value_gradient(ray.at(t), k);
                 (v, g.dot(ray.direction))
             };
-            trace.evaluations += SUBDIVISIONS as u32 + 1;
+            trace.evaluations += Sherstyuk::SUBDIVISIONS as u32 + 1;
             let mut previous = (node(0), sample(node(0)));
-            for i in 1..=SUBDIVISIONS {
+            for i in 1..=Sherstyuk::SUBDIVISIONS {
                 let t = node(i);
                 let here = sample(t);
                 pieces.push(Piece {
