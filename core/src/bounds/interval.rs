@@ -487,9 +487,8 @@ mod tests {
         assert_eq!(z, Interval::ZERO);
     }
 
-    /// `times_positive` gives the end points of `*`, on intervals of every sign (zero and
-    /// infinite end points included) times positive ones: bit for bit, except the sign of a
-    /// zero where the products underflow (`==` holds; the march fingerprints are unchanged).
+    /// The product of two non-negative intervals, which takes two end products, is the hull of
+    /// all four, bit for bit, zero and infinite end points included.
     #[test]
     fn product_of_non_negative_intervals_is_the_four_products_hull() {
         let mut rng = crate::model::rng::SplitMix64::new(29);
@@ -519,6 +518,9 @@ mod tests {
         }
     }
 
+    /// `times_positive` gives the end points of `*`, on intervals of every sign (zero and
+    /// infinite end points included) times positive ones: bit for bit, except the sign of a
+    /// zero where the products underflow (`==` holds; the march fingerprints are unchanged).
     #[test]
     fn product_with_a_positive_interval_is_the_general_product() {
         let mut rng = crate::model::rng::SplitMix64::new(17);
