@@ -7,12 +7,16 @@
 
 mod common;
 
-use common::{KINDS, assert_no_failures, assets, every_operator, random_groups, scene};
+use common::{
+    KERNELS, KINDS, Kind, add_primitive, assert_no_failures, assets, every_operator, group,
+    random_groups, scene,
+};
 use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::compile;
 use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
 use skeletrace_core::cpu::stats::protocol_rays;
+use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::field::program::PrimitiveSlope;
 use skeletrace_core::field::ray_field::{RayField, TileCandidates};
 use skeletrace_core::frame::{FieldShading, PinholeCamera, far_distance};
@@ -302,4 +306,92 @@ fn candidates_answer_as_the_bvh_on_random_scenes() {
         })
         .collect();
     assert_no_failures(&failures, "differences");
+}
+
+/// A ray's field leaves out a primitive whose support its line misses by more than rounding
+/// (`Primitive::zero_on_line`), which is sound only if the primitive is exactly 0, with a zero
+/// gradient, at every point of the ray. Checked on lines tangent to point blobs' and SCALIS
+/// segments' supports (both convex), offset outward by 10⁻⁹ to 10⁻² of the local radius, for
+/// every kernel: sampled uniformly and ever closer around the point of tangency. The line is
+/// left out at 10⁻³ and beyond, and kept at 10⁻⁹ (within the margin) and where it is offset
+/// inward (through the support).
+#[test]
+fn primitives_left_out_of_a_ray_are_zero_on_it() {
+    let mut rng = SplitMix64::new(11);
+    let mut failures = Vec::new();
+    let mut left_out = 0;
+    for kernel in KERNELS {
+        for kind in [Kind::Point, Kind::ScalisSegment] {
+            for _ in 0..12 {
+                let mut g = group(kernel);
+                add_primitive(&mut g, kind, &mut rng);
+                let compiled = compile(&scene(vec![g], None));
+                let program = &compiled.program;
+                for (i, primitive) in program.primitives().iter().enumerate() {
+                    let k = program.kernel_of(i as u32);
+                    // A boundary point with its outward normal, and the local radius there.
+                    let (touch, normal, radius) = match primitive {
+                        Primitive::Point(blob) => {
+                            let n = DVec3::from(rng.direction());
+                            let r = blob.radius * k.support_radius();
+                            (blob.center + r * n, n, r)
+                        }
+                        Primitive::Scalis(segment) => {
+                            // On the larger end's cap, where the normal is radial.
+                            let cone = segment.support(k);
+                            let n = loop {
+                                let n = DVec3::from(rng.direction());
+                                if n.dot(cone.axis) > cone.slope {
+                                    break n;
+                                }
+                            };
+                            let r = cone.end_radius();
+                            (cone.end() + r * n, n, r)
+                        }
+                        _ => continue,
+                    };
+                    // A random direction in the tangent plane.
+                    let (u, v) = normal.any_orthonormal_pair();
+                    let angle = rng.range(0.0, std::f64::consts::TAU);
+                    let direction = u * angle.cos() + v * angle.sin();
+                    for relative in [-1e-2, -1e-6, 1e-9, 1e-7, 1e-5, 1e-3, 1e-2] {
+                        let offset = relative * radius;
+                        let reach = 4.0 * radius;
+                        let ray = Ray::new(touch + offset * normal - reach * direction, direction);
+                        let t_max = 2.0 * reach;
+                        let zero = primitive.zero_on_line(&ray, k, t_max);
+                        // Inside the support, or within the margin: kept.
+                        if relative <= 1e-9 && zero {
+                            failures.push(format!("{kernel:?} {i}: left out at {relative:e}"));
+                        }
+                        if relative >= 1e-3 && !zero {
+                            failures.push(format!("{kernel:?} {i}: kept at {relative:e}"));
+                        }
+                        if !zero {
+                            continue;
+                        }
+                        left_out += 1;
+                        for sample in 0..400 {
+                            let t = if sample < 100 {
+                                rng.range(0.0, t_max)
+                            } else {
+                                let closeness = 10f64.powi(-(sample % 12));
+                                reach + radius * closeness * rng.range(-1.0, 1.0)
+                            };
+                            let p = ray.at(t);
+                            let (v, gradient) = primitive.value_gradient(p, k);
+                            if v != 0.0 || gradient != DVec3::ZERO || primitive.value(p, k) != 0.0 {
+                                failures.push(format!(
+                                    "{kernel:?} {i} at {relative:e}: f({t}) = {v}, ∇f = {gradient}"
+                                ));
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(left_out > 100, "only {left_out} lines left out");
+    assert_no_failures(&failures, "left-out primitives not zero on their ray");
 }

@@ -139,6 +139,18 @@ pub fn quadratic_roots(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
     Some((r1.min(r2), r1.max(r2)))
 }
 
+/// The absolute part of the margin by which a ray's line must miss a support for the field to
+/// be exactly 0 at every point `ray.at(t)`, `|t| ≤ t_max`, near `center` (issue 18,
+/// `RayField`): 10⁴ times the rounding of `ray.at(t) − center` and of a distance to the line.
+#[must_use]
+pub fn rounding_margin(ray: &Ray, center: DVec3, t_max: f64) -> f64 {
+    let scale = ray.origin.abs().max_element()
+        + center.abs().max_element()
+        + (center - ray.origin).length()
+        + t_max.abs() * ray.direction.length();
+    1e-12 * scale
+}
+
 /// Interval where a ray is inside a ball.
 #[must_use]
 pub fn ball_interval(ray: &Ray, center: DVec3, radius: f64) -> Option<Interval> {
@@ -198,6 +210,18 @@ impl SphereCone {
             slope: self.slope * k,
             ..*self
         }
+    }
+
+    /// Whether the ray's line passes outside the sphere-cone by more than `margin` relative to
+    /// the local radius plus `absolute`: it misses the cone with its radii grown so.
+    #[must_use]
+    pub fn line_misses_by(&self, ray: &Ray, margin: f64, absolute: f64) -> bool {
+        let grown = Self {
+            radius: self.radius * (1.0 + margin) + absolute,
+            slope: self.slope * (1.0 + margin),
+            ..*self
+        };
+        grown.slope < 1.0 && grown.ray_interval(ray).is_none()
     }
 
     /// Exact parameter interval where the ray is inside the sphere-cone: the hull of the two

@@ -319,13 +319,12 @@ impl<'a> RayField<'a> {
         let mut candidates = Candidates::recycled();
         let support =
             |i: u32| program.primitives()[i as usize].support_interval(ray, program.kernel_of(i));
-        // A point blob whose support the line misses by more than rounding is zero at every
+        // A primitive whose support the line misses by more than rounding is zero at every
         // point question and meets no interval question: left out, no answer changes (its
         // terms would be `±0`).
         let t_max = reach.lo.abs().max(reach.hi.abs());
-        let zero_on_ray = |i: u32| match &program.primitives()[i as usize] {
-            Primitive::Point(blob) => blob.line_misses_support(ray, program.kernel_of(i), t_max),
-            _ => false,
+        let zero_on_ray = |i: u32| {
+            program.primitives()[i as usize].zero_on_line(ray, program.kernel_of(i), t_max)
         };
         let inv = ray.direction.recip();
         let near = NearRay::new(ray, reach, pad_of(program));

@@ -155,6 +155,18 @@ impl Primitive {
         }
     }
 
+    /// Whether the primitive is exactly 0 (with a zero gradient) at every point `ray.at(t)`,
+    /// `|t| ≤ t_max`, because the ray's line misses its support by more than rounding; `false`
+    /// where that is not established (issue 18: a ray's field leaves such primitives out).
+    #[must_use]
+    pub fn zero_on_line(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
+        match self {
+            Self::Point(x) => x.line_misses_support(ray, k, t_max),
+            Self::Scalis(x) => x.line_misses_support(ray, k, t_max),
+            Self::Distance(_) | Self::Shape(_) | Self::Hrbf(_) => false,
+        }
+    }
+
     /// Enclosures of `f`, `f′`, `f″` on `span`. The primitive is evaluated on the part of
     /// `span` inside its support and extended by zero outside; where the extension crosses the
     /// support boundary of a kinked kernel the upper `f″` bound becomes infinite.

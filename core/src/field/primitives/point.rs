@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::geometry::{Aabb, Ray, ball_interval};
+use crate::field::geometry::{Aabb, Ray, ball_interval, rounding_margin};
 use crate::field::kernel::KernelProfile;
 
 /// A point primitive with its normalisation.
@@ -51,21 +51,14 @@ impl PointBlob {
         ball_interval(ray, self.center, self.radius * k.support_radius())
     }
 
-    /// Whether the ray's line passes outside the support ball by a margin that the rounding of
-    /// a point `ray.at(t)` with `|t| ≤ t_max` and of its squared distance cannot close: the
-    /// value there is then exactly 0 (`±0`, which leaves any sum unchanged) and the gradient
-    /// a zero vector, so a ray's field may leave the blob out (issue 18, `RayField`).
+    /// Whether the ray's line passes outside the support ball by 10⁻⁶ of its radius plus
+    /// [`rounding_margin`]: the value at every point `ray.at(t)`, `|t| ≤ t_max`, is then exactly
+    /// 0 (`±0`, which leaves any sum unchanged) and the gradient a zero vector.
     #[must_use]
     pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
         let support = self.radius * k.support_radius();
+        let margin = 1e-6 * support + rounding_margin(ray, self.center, t_max);
         let to_center = self.center - ray.origin;
-        // Rounding of `ray.at(t) − c` and of the distance below is a few ulps of these
-        // magnitudes; the margin is 10⁴ times that, plus 10⁻⁶ of the support radius.
-        let scale = ray.origin.abs().max_element()
-            + self.center.abs().max_element()
-            + to_center.length()
-            + t_max.abs() * ray.direction.length();
-        let margin = 1e-6 * support + 1e-12 * scale;
         let across =
             to_center.cross(ray.direction).length_squared() / ray.direction.length_squared();
         across > (support + margin) * (support + margin)

@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::geometry::{Aabb, ChordToAxis, Ray, SphereCone};
+use crate::field::geometry::{Aabb, ChordToAxis, Ray, SphereCone, rounding_margin};
 use crate::field::kernel::{FixedKernel, KernelLoop, KernelProfile};
 use crate::field::quadrature::GaussLegendre;
 
@@ -159,6 +159,18 @@ impl ScalisSegment {
     #[must_use]
     pub fn support_interval(&self, ray: &Ray, k: &KernelProfile) -> Option<Interval> {
         self.support(k).ray_interval(ray)
+    }
+
+    /// Whether the ray's line passes outside the support by 10⁻⁶ of its local radius plus
+    /// [`rounding_margin`]: every quadrature node at every point `ray.at(t)`, `|t| ≤ t_max`,
+    /// is then outside the kernel's support, so the value is exactly 0 (`±0`, which leaves any
+    /// sum unchanged) and the gradient a zero vector.
+    #[must_use]
+    pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
+        let c = &self.cone;
+        let absolute =
+            rounding_margin(ray, c.start, t_max).max(rounding_margin(ray, c.end(), t_max));
+        self.support(k).line_misses_by(ray, 1e-6, absolute)
     }
 
     /// Enclosures of `f`, `f′`, `f″` over `span`.
