@@ -245,6 +245,31 @@ impl Beam {
     }
 }
 
+impl Beam {
+    /// Whether every ray of the beam passes outside the convex hull of `balls` by more than
+    /// `margin`: the hull lies beyond one side of the cone by that much (the rays' points at
+    /// `t ≥ 0` are inside the cone), and farther than `behind` from the origin (the points
+    /// before it are within `behind`).
+    #[must_use]
+    pub fn misses_hull(&self, balls: [(DVec3, f64); 2], margin: f64) -> bool {
+        let [(a, ra), (b, rb)] = balls;
+        let (a, b) = (a - self.origin, b - self.origin);
+        let along = b - a;
+        let closest = if along.length_squared() > 0.0 {
+            a + along * (-a.dot(along) / along.length_squared()).clamp(0.0, 1.0)
+        } else {
+            a
+        };
+        if closest.length() - ra.max(rb) <= self.behind + margin {
+            return false;
+        }
+        self.sides.iter().any(|n| {
+            let length = n.length();
+            n.dot(a) < -(ra + margin) * length && n.dot(b) < -(rb + margin) * length
+        })
+    }
+}
+
 fn surface_area(b: &Aabb) -> f64 {
     if b.is_empty() {
         return 0.0;

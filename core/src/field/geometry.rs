@@ -140,14 +140,15 @@ pub fn quadratic_roots(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
 }
 
 /// The absolute part of the margin by which a ray's line must miss a support for the field to
-/// be exactly 0 at every point `ray.at(t)`, `|t| ≤ t_max`, near `center` (issue 18,
-/// `RayField`): 10⁴ times the rounding of `ray.at(t) − center` and of a distance to the line.
+/// be exactly 0 at every point `origin + t·direction`, `|t·direction| ≤ reach`, near `center`
+/// (issue 18, `RayField`): 10⁴ times the rounding of such a point minus `center` and of a
+/// distance to the line.
 #[must_use]
-pub fn rounding_margin(ray: &Ray, center: DVec3, t_max: f64) -> f64 {
-    let scale = ray.origin.abs().max_element()
+pub fn rounding_margin(origin: DVec3, center: DVec3, reach: f64) -> f64 {
+    let scale = origin.abs().max_element()
         + center.abs().max_element()
-        + (center - ray.origin).length()
-        + t_max.abs() * ray.direction.length();
+        + (center - origin).length()
+        + reach.abs();
     1e-12 * scale
 }
 

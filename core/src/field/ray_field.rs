@@ -26,7 +26,7 @@ use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::bvh::{Beam, NearRay};
-use crate::field::geometry::{Aabb, Ray};
+use crate::field::geometry::{Aabb, Ray, rounding_margin};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
@@ -165,11 +165,31 @@ impl TileCandidates {
         let reach = reach_of(span);
         let behind = (-reach.lo).max(0.0);
         let beam = Beam::new(origin, corners, pad_of(program), behind);
+        // A primitive whose support every ray of the tile misses by more than rounding is zero
+        // on them all (see `RayField::gather`): left out here once for the tile's rays.
+        let reach_length = reach.lo.abs().max(reach.hi.abs());
+        let zero_on_tile = |i: u32| {
+            let Some(balls) = program.primitives()[i as usize].support_hull(program.kernel_of(i))
+            else {
+                return false;
+            };
+            let margin = 1e-6 * balls[0].1.max(balls[1].1)
+                + rounding_margin(origin, balls[0].0, reach_length).max(rounding_margin(
+                    origin,
+                    balls[1].0,
+                    reach_length,
+                ));
+            beam.misses_hull(balls, margin)
+        };
         let mut items = Vec::new();
         program
             .lookup_parts()
             .0
-            .for_each_in_beam(&beam, |i, bounds| items.push((i, *bounds)));
+            .for_each_in_beam(&beam, |i, bounds| {
+                if !zero_on_tile(i) {
+                    items.push((i, *bounds));
+                }
+            });
         Self { span, items }
     }
 

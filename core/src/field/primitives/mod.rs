@@ -155,6 +155,24 @@ impl Primitive {
         }
     }
 
+    /// Two balls whose convex hull holds the support, where the support is a ball (point
+    /// blobs: the ball twice) or a sphere-cone (SCALIS segments: its end balls; every ball
+    /// along it is a convex combination of them).
+    #[must_use]
+    pub fn support_hull(&self, k: &KernelProfile) -> Option<[(DVec3, f64); 2]> {
+        match self {
+            Self::Point(x) => {
+                let ball = (x.center, x.radius * k.support_radius());
+                Some([ball, ball])
+            }
+            Self::Scalis(x) => {
+                let cone = x.support(k);
+                Some([(cone.start, cone.radius), (cone.end(), cone.end_radius())])
+            }
+            Self::Distance(_) | Self::Shape(_) | Self::Hrbf(_) => None,
+        }
+    }
+
     /// Whether the primitive is exactly 0 (with a zero gradient) at every point `ray.at(t)`,
     /// `|t| ≤ t_max`, because the ray's line misses its support by more than rounding; `false`
     /// where that is not established (issue 18: a ray's field leaves such primitives out).

@@ -168,8 +168,12 @@ impl ScalisSegment {
     #[must_use]
     pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
         let c = &self.cone;
-        let absolute =
-            rounding_margin(ray, c.start, t_max).max(rounding_margin(ray, c.end(), t_max));
+        let reach = t_max * ray.direction.length();
+        let absolute = rounding_margin(ray.origin, c.start, reach).max(rounding_margin(
+            ray.origin,
+            c.end(),
+            reach,
+        ));
         self.support(k).line_misses_by(ray, 1e-6, absolute)
     }
 
