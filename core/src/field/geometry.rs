@@ -145,9 +145,10 @@ pub fn quadratic_roots(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
 /// distance to the line.
 #[must_use]
 pub fn rounding_margin(origin: DVec3, center: DVec3, reach: f64) -> f64 {
+    // The 1-norm bounds the length from above without a square root.
     let scale = origin.abs().max_element()
         + center.abs().max_element()
-        + (center - origin).length()
+        + (center - origin).abs().element_sum()
         + reach.abs();
     1e-12 * scale
 }

@@ -57,7 +57,7 @@ impl PointBlob {
     #[must_use]
     pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
         let support = self.radius * k.support_radius();
-        let reach = t_max * ray.direction.length();
+        let reach = t_max * ray.direction.abs().element_sum();
         let margin = 1e-6 * support + rounding_margin(ray.origin, self.center, reach);
         let to_center = self.center - ray.origin;
         let across =

@@ -168,7 +168,7 @@ impl ScalisSegment {
     #[must_use]
     pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
         let c = &self.cone;
-        let reach = t_max * ray.direction.length();
+        let reach = t_max * ray.direction.abs().element_sum();
         let absolute = rounding_margin(ray.origin, c.start, reach).max(rounding_margin(
             ray.origin,
             c.end(),
