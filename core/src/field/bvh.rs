@@ -243,9 +243,7 @@ impl Beam {
             farthest >= -1e-9 * n.length() * scale
         })
     }
-}
 
-impl Beam {
     /// Whether every ray of the beam passes outside the convex hull of `balls` by more than
     /// `margin`: the hull lies beyond one side of the cone by that much (the rays' points at
     /// `t ≥ 0` are inside the cone), and farther than `behind` from the origin (the points

@@ -17,8 +17,12 @@
 //! depth-first order (which every program query follows), a point query keeps exactly the items
 //! whose box contains the point, and an interval query exactly those whose box and support meet
 //! the interval (the slab test clipped to a span equals the line's slab interval intersected with
-//! it, `max`/`min` being exact). So the marches, their step counts and depths are unchanged;
-//! `tests/ray_field.rs` compares the two on every asset.
+//! it, `max`/`min` being exact). Left out are only the primitives whose support the ray's line
+//! misses by more than rounding (`Primitive::zero_on_line`; for a tile, by one side of its beam,
+//! `Beam::misses_hull`): at every point of the ray they are exactly 0 with a zero gradient, terms
+//! that leave any sum unchanged, and they meet no interval query. So the marches, their step
+//! counts and depths are unchanged; `tests/ray_field.rs` compares the two on every asset and
+//! checks the left-out primitives' zeros on lines tangent to their supports.
 
 use std::cell::{Cell, OnceCell};
 
