@@ -158,24 +158,25 @@ pub fn field_inclusion(
 ) -> ForwardInclusion {
     let span = Interval::new(t, t + h);
     let (program, ray) = (field.program(), field.ray());
-    let mut groups = vec![ForwardInclusion::zero(h); program.group_count()];
-    field.for_each_primitive(span, |g, primitive, k, inside| {
-        let own = match (primitive, degree) {
-            (Primitive::Point(b), Degree::Linear) => point_linear(b, k, ray, t, h),
-            (Primitive::Point(b), Degree::Quadratic) => point_quadratic(b, k, ray, t, h),
-            (other, _) => primitive_taylor(other, k, ray, (span, inside), degree),
-        };
-        groups[g] = groups[g] + own;
-    });
-    program.clamp_group_slots(&mut groups, |group| *group = group.positive_part());
-    let blended =
-        inclusion::blend(program.blend(), &groups, program.isovalue()).unwrap_or_else(|| {
-            let jet = field.jet(span);
-            match degree {
-                Degree::Linear => ForwardInclusion::linear(f, &jet, h),
-                Degree::Quadratic => ForwardInclusion::quadratic(f, d, &jet, h),
-            }
+    let composed = program.with_group_slots(ForwardInclusion::zero(h), |groups| {
+        field.for_each_primitive(span, |g, primitive, k, inside| {
+            let own = match (primitive, degree) {
+                (Primitive::Point(b), Degree::Linear) => point_linear(b, k, ray, t, h),
+                (Primitive::Point(b), Degree::Quadratic) => point_quadratic(b, k, ray, t, h),
+                (other, _) => primitive_taylor(other, k, ray, (span, inside), degree),
+            };
+            groups[g] = groups[g] + own;
         });
+        program.clamp_group_slots(groups, |group| *group = group.positive_part());
+        inclusion::blend(program.blend(), groups, program.isovalue())
+    });
+    let blended = composed.unwrap_or_else(|| {
+        let jet = field.jet(span);
+        match degree {
+            Degree::Linear => ForwardInclusion::linear(f, &jet, h),
+            Degree::Quadratic => ForwardInclusion::quadratic(f, d, &jet, h),
+        }
+    });
     match degree {
         Degree::Linear => blended.linearized(),
         Degree::Quadratic => blended,

@@ -228,17 +228,14 @@ pub fn blend(
             let first = it.next()??;
             it.try_fold(first, |acc, c| Some(acc + c?))
         }
-        BlendTree::Max(v) => {
-            let items: Option<Vec<_>> = v.iter().map(|c| blend(c, groups, isovalue)).collect();
-            ForwardInclusion::max(&items?)
-        }
-        BlendTree::Min(v) => {
-            let items: Option<Vec<_>> = v
-                .iter()
-                .map(|c| blend(c, groups, isovalue).map(ForwardInclusion::negate))
-                .collect();
-            ForwardInclusion::max(&items?).map(ForwardInclusion::negate)
-        }
+        BlendTree::Max(v) => with_operands(v.iter().map(|c| blend(c, groups, isovalue)), |items| {
+            ForwardInclusion::max(items)
+        }),
+        BlendTree::Min(v) => with_operands(
+            v.iter()
+                .map(|c| blend(c, groups, isovalue).map(ForwardInclusion::negate)),
+            |items| ForwardInclusion::max(items).map(ForwardInclusion::negate),
+        ),
         BlendTree::Difference(a, c) => {
             let a = blend(a, groups, isovalue)?.negate();
             let mut complement = blend(c, groups, isovalue)?;
@@ -249,18 +246,40 @@ pub fn blend(
         BlendTree::Ricci { of, .. } => {
             // Where at most one operand can be positive on the interval the blend is that
             // operand's positive part (see `blend::ricci_jet`); elsewhere there is no rule.
-            let items: Option<Vec<_>> = of.iter().map(|c| blend(c, groups, isovalue)).collect();
-            let items = items?;
-            let h = items.iter().map(|i| i.length).fold(f64::INFINITY, f64::min);
-            let mut positive = items.into_iter().filter(|i| i.upper_max() > 0.0);
-            match (positive.next(), positive.next()) {
-                (None, _) => Some(ForwardInclusion::zero(h)),
-                (Some(only), None) => Some(only.positive_part()),
-                (Some(_), Some(_)) => None,
-            }
+            with_operands(of.iter().map(|c| blend(c, groups, isovalue)), |items| {
+                let h = items.iter().map(|i| i.length).fold(f64::INFINITY, f64::min);
+                let mut positive = items.iter().filter(|i| i.upper_max() > 0.0);
+                match (positive.next(), positive.next()) {
+                    (None, _) => Some(ForwardInclusion::zero(h)),
+                    (Some(only), None) => Some(only.positive_part()),
+                    (Some(_), Some(_)) => None,
+                }
+            })
         }
         BlendTree::SmoothUnion { .. } | BlendTree::SmoothIntersection { .. } => None,
     }
+}
+
+/// Operands an operator gathers before combining them: on the stack for up to this many
+/// (a blend step asked at every march step allocates nothing), in a vector beyond.
+const INLINE_OPERANDS: usize = 8;
+
+/// `combine(operands)` where every operand has an inclusion; `None` as soon as one has none.
+fn with_operands(
+    operands: impl ExactSizeIterator<Item = Option<ForwardInclusion>>,
+    combine: impl FnOnce(&[ForwardInclusion]) -> Option<ForwardInclusion>,
+) -> Option<ForwardInclusion> {
+    if operands.len() > INLINE_OPERANDS {
+        let items: Option<Vec<_>> = operands.collect();
+        return combine(&items?);
+    }
+    let mut items = [ForwardInclusion::zero(0.0); INLINE_OPERANDS];
+    let mut n = 0;
+    for operand in operands {
+        items[n] = operand?;
+        n += 1;
+    }
+    combine(&items[..n])
 }
 
 #[cfg(test)]

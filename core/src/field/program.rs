@@ -201,7 +201,9 @@ impl FieldProgram {
         !self.unbounded.is_empty()
     }
 
-    fn with_group_slots<T: Copy, R>(&self, zero: T, f: impl FnOnce(&mut [T]) -> R) -> R {
+    /// Runs `f` on one slot per group, each `zero`: on the stack for up to [`INLINE_GROUPS`]
+    /// groups, so that a question asked at every step allocates nothing.
+    pub(crate) fn with_group_slots<T: Copy, R>(&self, zero: T, f: impl FnOnce(&mut [T]) -> R) -> R {
         let n = self.kernels.len();
         if n <= INLINE_GROUPS {
             let mut slots = [zero; INLINE_GROUPS];
@@ -288,8 +290,13 @@ impl FieldProgram {
     #[must_use]
     pub fn ray_group_jets(&self, ray: &Ray, span: Interval) -> Vec<Jet> {
         let mut slots = vec![Jet::ZERO; self.kernels.len()];
-        self.accumulate_group_jets(&BvhOnRay(self, ray), ray, span, &mut slots);
+        self.accumulate_ray_group_jets(ray, span, &mut slots);
         slots
+    }
+
+    /// [`FieldProgram::ray_group_jets`] added into `slots`, one per group.
+    pub(crate) fn accumulate_ray_group_jets(&self, ray: &Ray, span: Interval, slots: &mut [Jet]) {
+        self.accumulate_group_jets(&BvhOnRay(self, ray), ray, span, slots);
     }
 
     pub(crate) fn accumulate_group_jets(

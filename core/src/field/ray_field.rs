@@ -433,25 +433,39 @@ impl<'a> RayField<'a> {
     /// As [`FieldProgram::ray_group_jets`].
     #[must_use]
     pub fn group_jets(&self, span: Interval) -> Vec<Jet> {
-        if !self.covers(span) {
-            return self.program.ray_group_jets(&self.ray, span);
-        }
         let mut slots = vec![Jet::ZERO; self.program.group_count()];
-        self.program
-            .accumulate_group_jets(self, &self.ray, span, &mut slots);
+        self.add_group_jets(span, &mut slots);
         slots
+    }
+
+    /// [`RayField::group_jets`] added into `slots` (one per group, zero): no allocation.
+    pub(crate) fn add_group_jets(&self, span: Interval, slots: &mut [Jet]) {
+        if self.covers(span) {
+            self.program
+                .accumulate_group_jets(self, &self.ray, span, slots);
+        } else {
+            self.program
+                .accumulate_ray_group_jets(&self.ray, span, slots);
+        }
     }
 
     /// As [`FieldProgram::group_values_along_ray`].
     #[must_use]
     pub fn group_values(&self, t: f64) -> Vec<(f64, f64)> {
-        if !self.reach.contains(t) {
-            return self.program.group_values_along_ray(&self.ray, t);
-        }
         let mut slots = vec![(0.0, 0.0); self.program.group_count()];
-        self.program
-            .group_values_in(&AtParameter(self, t), &self.ray, t, &mut slots);
+        self.add_group_values(t, &mut slots);
         slots
+    }
+
+    /// [`RayField::group_values`] added into `slots` (one per group, zero): no allocation.
+    pub(crate) fn add_group_values(&self, t: f64, slots: &mut [(f64, f64)]) {
+        if self.reach.contains(t) {
+            self.program
+                .group_values_in(&AtParameter(self, t), &self.ray, t, slots);
+        } else {
+            self.program
+                .group_values_in(self.program, &self.ray, t, slots);
+        }
     }
 
     /// As [`FieldProgram::summed_lipschitz`].

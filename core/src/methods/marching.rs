@@ -232,13 +232,19 @@ pub(crate) fn mixed_inclusion(
     leaf: impl Fn(f64, f64, &Jet, f64) -> ForwardInclusion,
 ) -> ForwardInclusion {
     let span = Interval::new(t, t + h);
-    let groups: Vec<ForwardInclusion> = field
-        .group_values(t)
-        .iter()
-        .zip(&field.group_jets(span))
-        .map(|(&(g, dg), jet)| leaf(g, dg, jet, h))
-        .collect();
     let p = field.program();
-    inclusion::blend(p.blend(), &groups, p.isovalue())
-        .unwrap_or_else(|| leaf(f, d, &field.jet(span), h))
+    // Every group's value, slope and jet, then its inclusion, in slots on the stack.
+    let composed = p.with_group_slots((0.0, 0.0), |values| {
+        field.add_group_values(t, values);
+        p.with_group_slots(Jet::ZERO, |jets| {
+            field.add_group_jets(span, jets);
+            p.with_group_slots(ForwardInclusion::zero(h), |groups| {
+                for (group, (&(g, dg), jet)) in groups.iter_mut().zip(values.iter().zip(&*jets)) {
+                    *group = leaf(g, dg, jet, h);
+                }
+                inclusion::blend(p.blend(), groups, p.isovalue())
+            })
+        })
+    });
+    composed.unwrap_or_else(|| leaf(f, d, &field.jet(span), h))
 }
