@@ -191,27 +191,16 @@ impl GpuMethod {
             // a part at its horizon where more overlap, and the march then differs from the
             // CPU's (molecule, 3 000 blobs: 84 % equal step counts). With at most that many
             // primitives no window is ever cut.
-            Self::SegmentOriginal if program.primitives().len() > RAY_SUPPORTS => Err(format!(
-                "segment-original runs on the GPU for scenes of at most {RAY_SUPPORTS} primitives \
-                 (its first segment is a whole support part, which a ray's window of \
-                 {RAY_SUPPORTS} supports cannot see beyond); this scene has {}",
-                program.primitives().len()
-            )),
+            Self::SegmentOriginal => {
+                self.within_one_window(program, "its first segment is a whole support part")
+            }
             // Each primitive's Hermite pieces span its whole support interval; the march walks
             // their nodes from the ray's window, which holds every support when the scene has
             // at most RAY_SUPPORTS primitives.
             // (Summed groups, no HRBF set: the CPU method's own requirements.)
             Self::Sherstyuk => {
                 Sherstyuk.supports(program)?;
-                if program.primitives().len() > RAY_SUPPORTS {
-                    return Err(format!(
-                        "sherstyuk runs on the GPU for scenes of at most {RAY_SUPPORTS} \
-                         primitives (its pieces span whole support intervals, which a ray's \
-                         window of {RAY_SUPPORTS} supports cannot see beyond); this scene has {}",
-                        program.primitives().len()
-                    ));
-                }
-                Ok(())
+                self.within_one_window(program, "its pieces span whole support intervals")
             }
             Self::ScalisQuadratic | Self::SphereNormalized
                 if !program
@@ -227,6 +216,21 @@ impl GpuMethod {
             }
             _ => Ok(()),
         }
+    }
+
+    /// `Err` when `program` has more primitives than a ray's window of [`RAY_SUPPORTS`]
+    /// supports holds, for a method that must see every support of a part at once (`needs`
+    /// says why).
+    fn within_one_window(self, program: &FieldProgram, needs: &str) -> Result<(), String> {
+        let count = program.primitives().len();
+        if count <= RAY_SUPPORTS {
+            return Ok(());
+        }
+        Err(format!(
+            "{} runs on the GPU for scenes of at most {RAY_SUPPORTS} primitives ({needs}, which \
+             a ray's window of {RAY_SUPPORTS} supports cannot see beyond); this scene has {count}",
+            self.name()
+        ))
     }
 
     /// Whether the method marches through parts.wgsl, which suspends a ray after a dispatch's
