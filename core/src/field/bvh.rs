@@ -252,19 +252,20 @@ impl Beam {
     pub fn misses_hull(&self, balls: [(DVec3, f64); 2], margin: f64) -> bool {
         let [(a, ra), (b, rb)] = balls;
         let (a, b) = (a - self.origin, b - self.origin);
+        let beyond_a_side = self.sides.iter().any(|n| {
+            let length = n.length();
+            n.dot(a) < -(ra + margin) * length && n.dot(b) < -(rb + margin) * length
+        });
+        if !beyond_a_side {
+            return false;
+        }
         let along = b - a;
         let closest = if along.length_squared() > 0.0 {
             a + along * (-a.dot(along) / along.length_squared()).clamp(0.0, 1.0)
         } else {
             a
         };
-        if closest.length() - ra.max(rb) <= self.behind + margin {
-            return false;
-        }
-        self.sides.iter().any(|n| {
-            let length = n.length();
-            n.dot(a) < -(ra + margin) * length && n.dot(b) < -(rb + margin) * length
-        })
+        closest.length() - ra.max(rb) > self.behind + margin
     }
 }
 

@@ -139,6 +139,12 @@ pub fn quadratic_roots(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
     Some((r1.min(r2), r1.max(r2)))
 }
 
+/// The relative part of the margin by which a ray's line must miss a support for the field to
+/// be exactly 0 along it: a fraction of the support's (local) radius, far above the rounding of
+/// a squared distance over a squared radius, so that every kernel argument lands beyond its
+/// support. Added to [`rounding_margin`].
+pub const RELATIVE_SUPPORT_MARGIN: f64 = 1e-6;
+
 /// The absolute part of the margin by which a ray's line must miss a support for the field to
 /// be exactly 0 at every point `origin + t·direction`, `|t·direction| ≤ reach`, near `center`
 /// (issue 18, `RayField`): 10⁴ times the rounding of such a point minus `center` and of a

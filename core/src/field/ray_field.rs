@@ -30,7 +30,7 @@ use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::bvh::{Beam, NearRay};
-use crate::field::geometry::{Aabb, Ray, rounding_margin};
+use crate::field::geometry::{Aabb, RELATIVE_SUPPORT_MARGIN, Ray, rounding_margin};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
@@ -177,7 +177,7 @@ impl TileCandidates {
             else {
                 return false;
             };
-            let margin = 1e-6 * balls[0].1.max(balls[1].1)
+            let margin = RELATIVE_SUPPORT_MARGIN * balls[0].1.max(balls[1].1)
                 + rounding_margin(origin, balls[0].0, reach_length).max(rounding_margin(
                     origin,
                     balls[1].0,

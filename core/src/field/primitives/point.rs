@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::geometry::{Aabb, Ray, ball_interval, rounding_margin};
+use crate::field::geometry::{Aabb, RELATIVE_SUPPORT_MARGIN, Ray, ball_interval, rounding_margin};
 use crate::field::kernel::KernelProfile;
 
 /// A point primitive with its normalisation.
@@ -51,14 +51,15 @@ impl PointBlob {
         ball_interval(ray, self.center, self.radius * k.support_radius())
     }
 
-    /// Whether the ray's line passes outside the support ball by 10⁻⁶ of its radius plus
-    /// [`rounding_margin`]: the value at every point `ray.at(t)`, `|t| ≤ t_max`, is then exactly
+    /// Whether the ray's line passes outside the support ball by [`RELATIVE_SUPPORT_MARGIN`]
+    /// of its radius plus [`rounding_margin`]: the value at every point `ray.at(t)`, `|t| ≤ t_max`, is then exactly
     /// 0 (`±0`, which leaves any sum unchanged) and the gradient a zero vector.
     #[must_use]
     pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
         let support = self.radius * k.support_radius();
         let reach = t_max * ray.direction.abs().element_sum();
-        let margin = 1e-6 * support + rounding_margin(ray.origin, self.center, reach);
+        let margin =
+            RELATIVE_SUPPORT_MARGIN * support + rounding_margin(ray.origin, self.center, reach);
         let to_center = self.center - ray.origin;
         let across =
             to_center.cross(ray.direction).length_squared() / ray.direction.length_squared();

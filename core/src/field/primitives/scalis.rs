@@ -12,7 +12,9 @@
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::geometry::{Aabb, ChordToAxis, Ray, SphereCone, rounding_margin};
+use crate::field::geometry::{
+    Aabb, ChordToAxis, RELATIVE_SUPPORT_MARGIN, Ray, SphereCone, rounding_margin,
+};
 use crate::field::kernel::{FixedKernel, KernelLoop, KernelProfile};
 use crate::field::quadrature::GaussLegendre;
 
@@ -161,8 +163,8 @@ impl ScalisSegment {
         self.support(k).ray_interval(ray)
     }
 
-    /// Whether the ray's line passes outside the support by 10⁻⁶ of its local radius plus
-    /// [`rounding_margin`]: every quadrature node at every point `ray.at(t)`, `|t| ≤ t_max`,
+    /// Whether the ray's line passes outside the support by [`RELATIVE_SUPPORT_MARGIN`] of its
+    /// local radius plus [`rounding_margin`]: every quadrature node at every point `ray.at(t)`, `|t| ≤ t_max`,
     /// is then outside the kernel's support, so the value is exactly 0 (`±0`, which leaves any
     /// sum unchanged) and the gradient a zero vector.
     #[must_use]
@@ -174,7 +176,8 @@ impl ScalisSegment {
             c.end(),
             reach,
         ));
-        self.support(k).line_misses_by(ray, 1e-6, absolute)
+        self.support(k)
+            .line_misses_by(ray, RELATIVE_SUPPORT_MARGIN, absolute)
     }
 
     /// Enclosures of `f`, `f′`, `f″` over `span`.
