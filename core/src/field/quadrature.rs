@@ -50,20 +50,22 @@ impl GaussLegendre {
     /// The shared 12-point rule.
     #[must_use]
     pub fn scalis() -> &'static Self {
-        static RULE: OnceLock<GaussLegendre> = OnceLock::new();
-        RULE.get_or_init(|| Self::new(SCALIS_ORDER))
+        Self::with_nodes(SCALIS_ORDER)
     }
 
     /// The rule with the fewest nodes that integrates polynomials of `degree` exactly
     /// (`⌈(degree + 1)/2⌉` nodes; up to degree 23, the 12-point rule past it).
     #[must_use]
     pub fn exact_for_degree(degree: usize) -> &'static Self {
+        Self::with_nodes((degree + 1).div_ceil(2))
+    }
+
+    /// The shared `n`-point rule, for `n` from 1 to [`SCALIS_ORDER`] (clamped to that range).
+    #[must_use]
+    pub fn with_nodes(n: usize) -> &'static Self {
         const MOST: usize = SCALIS_ORDER;
         static RULES: [OnceLock<GaussLegendre>; MOST] = [const { OnceLock::new() }; MOST];
-        if degree + 1 > 2 * MOST {
-            return Self::scalis();
-        }
-        let n = (degree + 1).div_ceil(2);
+        let n = n.clamp(1, MOST);
         RULES[n - 1].get_or_init(|| Self::new(n))
     }
 
