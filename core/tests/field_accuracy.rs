@@ -131,6 +131,19 @@ fn reference_scalis(kernel: Kernel, v: &[Vertex; 2], p: DVec3) -> f64 {
         .sum::<f64>()
 }
 
+/// The program of one SCALIS segment without end correctors.
+fn one_segment(kernel: Kernel, seg: &[Vertex; 2]) -> FieldProgram {
+    let mut g = group(kernel);
+    g.skeletons.push(Skeleton {
+        name: String::new(),
+        field: SkeletonField::Scalis,
+        end_correctors: false,
+        vertices: seg.to_vec(),
+        edges: vec![[0, 1]],
+    });
+    FieldProgram::new(&scene(vec![g], None))
+}
+
 #[test]
 fn scalis_values_match_adaptive_quadrature_to_one_part_per_million() {
     let mut rng = SplitMix64::new(2024);
@@ -139,15 +152,7 @@ fn scalis_values_match_adaptive_quadrature_to_one_part_per_million() {
     for kernel in KERNELS {
         for _ in 0..150 {
             let seg = common::segment(&mut rng, kernel);
-            let mut g = group(kernel);
-            g.skeletons.push(Skeleton {
-                name: String::new(),
-                field: SkeletonField::Scalis,
-                end_correctors: false,
-                vertices: seg.to_vec(),
-                edges: vec![[0, 1]],
-            });
-            let program = FieldProgram::new(&scene(vec![g], None));
+            let program = one_segment(kernel, &seg);
             for _ in 0..10 {
                 let (a, b) = (
                     DVec3::from_array(seg[0].position),
@@ -198,15 +203,7 @@ fn compact_scalis_values_are_converged_to_one_part_in_a_trillion() {
                     // Nearly constant radii: the arc-length rules.
                     seg[1].radius = seg[0].radius * (1.0 + 10.0_f64.powf(rng.range(-5.0, -0.7)));
                 }
-                let mut g = group(kernel);
-                g.skeletons.push(Skeleton {
-                    name: String::new(),
-                    field: SkeletonField::Scalis,
-                    end_correctors: false,
-                    vertices: seg.to_vec(),
-                    edges: vec![[0, 1]],
-                });
-                let program = FieldProgram::new(&scene(vec![g], None));
+                let program = one_segment(kernel, &seg);
                 let (a, b) = (
                     DVec3::from_array(seg[0].position),
                     DVec3::from_array(seg[1].position),
