@@ -242,7 +242,7 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
         let i = item.id;
         let g = primitives[i].group;
         var own: Inclusion;
-        if primitives[i].kind == KIND_POINT {
+        if HAS_POINT && primitives[i].kind == KIND_POINT {
             if quadratic {
                 own = point_quadratic(ray, i, t, h);
             } else {
@@ -253,7 +253,7 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
             // HRBF term is evaluated at t by the ray's interval in its box, not a point test.
             let p = ray.origin + t * ray.dir;
             var vg: vec4<f32>;
-            if primitives[i].kind == KIND_HRBF {
+            if HAS_HRBF && primitives[i].kind == KIND_HRBF {
                 vg = select(vec4<f32>(0.0), hrbf_inside(primitives[i], p), item.span.x <= t);
             } else {
                 vg = primitive_value_gradient(i, p);

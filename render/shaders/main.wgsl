@@ -148,19 +148,6 @@ fn light_term(l: u32, p: vec3<f32>, normal: vec3<f32>, view: vec3<f32>, albedo: 
     return transmitted * (0.5 + 0.5 * occlusion) * light.colour.w * light.colour.xyz * (diffuse * albedo + specular);
 }
 
-// Blinn–Phong with the scene lights, without shadow rays (cpu/renderer.rs shade).
-fn shade(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> vec3<f32> {
-    let surface = surface_at(sp, ray, t);
-    let albedo = materials[surface.group].colour.xyz;
-    let p = ray.origin + t * ray.dir;
-    let occlusion = occlusion_at(p, surface.normal);
-    var colour = 0.12 * occlusion * albedo;
-    for (var l = 0u; l < globals.light_count; l++) {
-        colour += light_term(l, p, surface.normal, ray.dir, albedo, occlusion, 1.0);
-    }
-    return colour;
-}
-
 // Writes a pixel's steps, depth and the colour of the chosen view (`shaded`: linear, or the
 // background where nothing was hit).
 fn write_pixel(px: u32, py: u32, steps: u32, depth: f32, shaded: vec3<f32>) {
@@ -231,8 +218,7 @@ fn push_ray(path: ptr<function, Path>, ray: PathRay) {
 
 // The hit of `job` at `trace`: starts its shading and, at a transparent group below the last
 // bounce, stacks the reflected and refracted rays with their Fresnel weights.
-fn begin_hit(path: ptr<function, Path>, sp: ptr<function, RaySupports>, ray: Ray, job: PathRay, trace: Trace) {
-    let surface = surface_at(sp, ray, trace.t);
+fn begin_hit(path: ptr<function, Path>, surface: Surface, ray: Ray, job: PathRay, trace: Trace) {
     let material = materials[surface.group];
     let p = ray.origin + trace.t * ray.dir;
     let occlusion = occlusion_at(p, surface.normal);
@@ -274,18 +260,24 @@ fn begin_hit(path: ptr<function, Path>, sp: ptr<function, RaySupports>, ray: Ray
 
 // Goes on with the hit's lights from `path.light`: the next one facing the hit becomes the
 // shadow ray to trace (true), or, without shadow rays, each is lit directly; once every light
-// is done, the hit's shading joins the pixel's colour (false).
-fn next_light(path: ptr<function, Path>) -> bool {
+// is done, the hit's shading joins the pixel's colour (false). `shadow` ≥ 0 is what the shadow
+// ray towards light `path.light`, which has just ended, let through; negative when none has.
+fn next_light(path: ptr<function, Path>, shadow: f32) -> bool {
+    var transmitted = shadow;
     while (*path).light < globals.light_count {
         let l = (*path).light;
-        let towards = towards_light(l, (*path).point);
-        if dot((*path).normal, towards.xyz) > 0.0 && (globals.secondary & SECONDARY_SHADOW_RAYS) != 0u {
-            (*path).ray = PathRay(lifted_point((*path).point, (*path).normal), 0u, towards.xyz, RAY_SHADOW, vec3<f32>(0.0), towards.w);
-            return true;
+        if transmitted < 0.0 {
+            let towards = towards_light(l, (*path).point);
+            if dot((*path).normal, towards.xyz) > 0.0 && (globals.secondary & SECONDARY_SHADOW_RAYS) != 0u {
+                (*path).ray = PathRay(lifted_point((*path).point, (*path).normal), 0u, towards.xyz, RAY_SHADOW, vec3<f32>(0.0), towards.w);
+                return true;
+            }
+            transmitted = 1.0;
         }
         let albedo = materials[(*path).group].colour.xyz;
-        (*path).lit += light_term(l, (*path).point, (*path).normal, (*path).view, albedo, (*path).occlusion, 1.0);
+        (*path).lit += light_term(l, (*path).point, (*path).normal, (*path).view, albedo, (*path).occlusion, transmitted);
         (*path).light += 1u;
+        transmitted = -1.0;
     }
     (*path).colour += (*path).lit_weight * (*path).lit;
     (*path).lit_weight = vec3<f32>(0.0);
@@ -319,8 +311,19 @@ fn march_resumed(k: u32, sp: ptr<function, RaySupports>, ray: Ray, trace: ptr<fu
 // Advances pixel `pixel`'s path: marches its current ray from where the last dispatch left
 // it and, each time a ray ends, takes in what it saw and goes on with the next ray while the
 // dispatch's allowance lasts; writes the pixel once the path is done.
+//
+// Every pixel goes through here, with secondary rays or without: one copy of the march and
+// of the shading in the pipeline, which lavapipe compiles in a fraction of the time two
+// copies take. Without secondary rays (globals.secondary) the path is the camera ray alone,
+// and nothing of it outlives a dispatch but the march's own suspension: it starts cleared
+// (a camera ray, nothing summed) and is not kept, and its colour is the Blinn–Phong sum of
+// cpu/renderer.rs shade, each light's term added in turn to the hit's ambient term.
 fn trace_path(pixel: u32, px: u32, py: u32) {
-    var path = paths[pixel];
+    let kept = (globals.secondary & SECONDARY_PATHS) != 0u;
+    var path: Path;
+    if kept {
+        path = paths[pixel];
+    }
     var supports: RaySupports;
     let sp = &supports;
     loop {
@@ -340,22 +343,25 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
         }
         // The ray has ended: the next one starts afresh.
         suspensions[pixel] = Suspension(0.0, 0.0, 0.0, 0.0, 0.0, 0u, 0u);
+        // What the ray hit, whatever its kind: one copy of the evaluation in the pipeline.
+        var surface: Surface;
+        if trace.hit {
+            surface = surface_at(sp, ray, trace.t);
+        }
+        var shadow = -1.0;
         if job.kind == RAY_SHADOW {
             // Opaque groups stop the light, a transparent one lets 1 − opacity through.
-            var transmitted = 1.0;
+            shadow = 1.0;
             if trace.hit {
-                transmitted = 1.0 - materials[surface_at(sp, ray, trace.t).group].colour.w;
+                shadow = 1.0 - materials[surface.group].colour.w;
             }
-            let albedo = materials[path.group].colour.xyz;
-            path.lit += light_term(path.light, path.point, path.normal, path.view, albedo, path.occlusion, transmitted);
-            path.light += 1u;
         } else {
             path.steps += trace.steps;
             if job.kind == RAY_CAMERA {
                 path.depth = select(INF, trace.t, trace.hit);
             }
             if trace.hit {
-                begin_hit(&path, sp, ray, job, trace);
+                begin_hit(&path, surface, ray, job, trace);
             } else {
                 path.colour += job.weight * background(ray.dir);
                 path.light = globals.light_count;
@@ -363,7 +369,7 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
                 path.lit_weight = vec3<f32>(0.0);
             }
         }
-        if !next_light(&path) {
+        if !next_light(&path, shadow) {
             if path.stacked == 0u {
                 write_pixel(px, py, path.steps, path.depth, path.colour);
                 suspensions[pixel].flags = FINISHED;
@@ -376,8 +382,10 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
             break;
         }
     }
-    paths[pixel] = path;
-    atomicAdd(&unfinished_paths, 1u);
+    if kept {
+        paths[pixel] = path;
+        atomicAdd(&unfinished_paths, 1u);
+    }
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -390,23 +398,7 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     steps_left = globals.steps_per_dispatch;
-    if (globals.secondary & SECONDARY_PATHS) != 0u {
-        trace_path(pixel, id.x, id.y);
-        return;
-    }
-    let ray = pixel_ray(id.x, id.y);
-    var supports: RaySupports;
-    let sp = &supports;
-    gather_supports(sp, ray, id.x, id.y);
-    var trace: Trace;
-    if !march_resumed(pixel, sp, ray, &trace) {
-        return;
-    }
-    var colour = background(ray.dir);
-    if trace.hit {
-        colour = shade(sp, ray, trace.t);
-    }
-    write_pixel(id.x, id.y, trace.steps, select(INF, trace.t, trace.hit), colour);
+    trace_path(pixel, id.x, id.y);
 }
 
 // A ray of `stats --backend gpu` (gpu_stats.rs): traced over [0, far] among the primitives of

@@ -196,19 +196,23 @@ fn kernel_d2_inside(k: Kernel, x: f32) -> vec3<f32> {
 fn primitive_value_gradient(i: u32, p: vec3<f32>) -> vec4<f32> {
     let prim = primitives[i];
     let k = kernels[prim.group];
-    if prim.kind == KIND_POINT {
+    // The HAS_* constants (shared.rs KindSet) fold the absent kinds' code away.
+    if HAS_POINT && prim.kind == KIND_POINT {
         let inv_r2 = 1.0 / (prim.a.w * prim.a.w);
         let d = p - prim.a.xyz;
         let v = kernel_d1(k, dot(d, d) * inv_r2);
         return vec4<f32>(prim.c.x * v.x, (2.0 * prim.c.x * v.y * inv_r2) * d);
-    } else if prim.kind == KIND_DISTANCE_SEGMENT {
+    } else if HAS_DISTANCE_SEGMENT && prim.kind == KIND_DISTANCE_SEGMENT {
         return distance_segment(prim, k, p);
-    } else if prim.kind == KIND_SCALIS_SEGMENT {
+    } else if HAS_SCALIS_SEGMENT && prim.kind == KIND_SCALIS_SEGMENT {
         return scalis_segment(prim, k, p);
-    } else if prim.kind == KIND_HRBF {
+    } else if HAS_HRBF && prim.kind == KIND_HRBF {
         return hrbf(prim, p);
-    } else if prim.kind != KIND_PLANE {
+    } else if HAS_SHAPE && prim.kind != KIND_PLANE {
         return shape(prim, k, p);
+    }
+    if !HAS_PLANE {
+        return vec4<f32>(0.0);
     }
     // Plane: kernel of the squared distance to the plane, over ρ².
     let n = prim.a.xyz;
@@ -487,9 +491,9 @@ fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
     let prim = primitives[i];
     let k = kernels[prim.group];
     let reach = sqrt(k.support_sq);
-    if prim.kind == KIND_POINT {
+    if HAS_POINT && prim.kind == KIND_POINT {
         return ball_interval(ray, prim.a.xyz, prim.a.w * reach);
-    } else if prim.kind == KIND_PLANE {
+    } else if HAS_PLANE && prim.kind == KIND_PLANE {
         let n = prim.a.xyz;
         let s0 = dot(n, ray.origin) - prim.a.w;
         let su = dot(n, ray.dir);
@@ -500,12 +504,16 @@ fn support_interval(ray: Ray, i: u32) -> vec2<f32> {
         let t0 = (-r - s0) / su;
         let t1 = (r - s0) / su;
         return vec2<f32>(min(t0, t1), max(t0, t1));
-    } else if prim.kind == KIND_DISTANCE_SEGMENT || prim.kind == KIND_SCALIS_SEGMENT {
+    } else if (HAS_DISTANCE_SEGMENT || HAS_SCALIS_SEGMENT)
+        && (prim.kind == KIND_DISTANCE_SEGMENT || prim.kind == KIND_SCALIS_SEGMENT) {
         return cone_interval(ray, prim, reach);
-    } else if prim.kind == KIND_HRBF {
+    } else if HAS_HRBF && prim.kind == KIND_HRBF {
         // The set's box (hrbf.rs support_interval).
         let bx = hrbf_box(prim);
         return box_interval(ray.origin * bx.frame, ray.dir * bx.frame, bx.lo, bx.hi);
+    }
+    if !HAS_SHAPE {
+        return vec2<f32>(INF, -INF);
     }
     return shape_interval(ray, prim, prim.a.w * reach);
 }
@@ -762,7 +770,7 @@ fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f3
     }
     // The part is cut where the ray enters or leaves an HRBF set's box inside it: the field may
     // jump there (program.rs ray_support_unions_in, cut_boxes).
-    for (var j = 0u; j < (*sp).count; j++) {
+    for (var j = 0u; j < select(0u, (*sp).count, HAS_HRBF); j++) {
         if primitives[(*sp).ids[j]].kind != KIND_HRBF {
             continue;
         }

@@ -334,16 +334,19 @@ fn distance_segment_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
 
 fn primitive_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     let kind = primitives[i].kind;
-    if kind == KIND_POINT {
+    if HAS_POINT && kind == KIND_POINT {
         return point_jet(ray, i, lo, hi);
-    } else if kind == KIND_DISTANCE_SEGMENT {
+    } else if HAS_DISTANCE_SEGMENT && kind == KIND_DISTANCE_SEGMENT {
         return distance_segment_jet(ray, i, lo, hi);
-    } else if kind == KIND_SCALIS_SEGMENT {
+    } else if HAS_SCALIS_SEGMENT && kind == KIND_SCALIS_SEGMENT {
         return scalis_jet(ray, i, lo, hi);
-    } else if kind == KIND_PLANE {
+    } else if HAS_PLANE && kind == KIND_PLANE {
         return plane_jet(ray, i, lo, hi);
-    } else if kind == KIND_HRBF {
+    } else if HAS_HRBF && kind == KIND_HRBF {
         return hrbf_jet(ray, i, lo, hi);
+    }
+    if !HAS_SHAPE {
+        return jet_constant(0.0);
     }
     return shape_jet(ray, i, lo, hi);
 }

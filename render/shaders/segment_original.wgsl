@@ -56,7 +56,7 @@ fn published_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f3
             continue;
         }
         var slope: f32;
-        if primitives[item.id].kind == KIND_POINT {
+        if HAS_POINT && primitives[item.id].kind == KIND_POINT {
             slope = point_published_slope(ray, item, lo, hi);
         } else {
             let d1 = item_jet(ray, item, lo, hi).d1;

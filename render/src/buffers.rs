@@ -16,7 +16,7 @@ use skeletrace_core::model::scene::Light;
 
 use crate::blend_wgsl::BlendWgsl;
 pub use crate::shared::MAX_GROUPS;
-use crate::shared::{KernelFamily, LightKind, PrimitiveKind};
+use crate::shared::{KernelFamily, KindSet, LightKind, PrimitiveKind};
 
 /// Twin of `Primitive` in prelude.wgsl.
 #[repr(C)]
@@ -115,6 +115,8 @@ pub struct PackedScene {
     pub lights: Vec<GpuLight>,
     /// The blend tree as WGSL.
     pub blend: BlendWgsl,
+    /// The kinds of [`PackedScene::primitives`].
+    pub kinds: KindSet,
     /// The boxes of the HRBF sets, three `vec4`s each ([`GpuPrimitive::extra`]).
     pub boxes: Vec<[f32; 4]>,
 }
@@ -306,6 +308,7 @@ impl PackedScene {
         let occluding = occluding_groups(program.blend(), groups);
         let mut primitives = Vec::with_capacity(program.primitives().len());
         let mut boxes = Vec::new();
+        let mut kinds = KindSet::NONE;
         for (i, p) in program.primitives().iter().enumerate() {
             let k = program.kernel_of(i as u32);
             let group = program.group_of(i as u32) as u32;
@@ -313,6 +316,7 @@ impl PackedScene {
                 f4(b.center(), 0.5 * b.diagonal())
             });
             let kind = gpu_kind(p);
+            kinds = kinds.with(kind);
             let mut extra = 0;
             let (a, b, c, d) = match p {
                 Primitive::Point(x) => (
@@ -385,6 +389,7 @@ impl PackedScene {
             });
         }
         Ok(Self {
+            kinds,
             primitives,
             kernels: (0..groups)
                 .map(|g| GpuKernel {

@@ -624,11 +624,12 @@ impl GpuRenderer {
     pub fn set_scene(&mut self, compiled: &Arc<Compiled>) -> Result<(), BackendError> {
         let program = &compiled.program;
         let packed = PackedScene::new(compiled).map_err(BackendError::Unsupported)?;
-        // The pipelines hold the blend tree's code (blend_wgsl.rs): a new tree needs new ones.
+        // The pipelines hold the blend tree's code (blend_wgsl.rs) and the code of the scene's
+        // primitive kinds (shared.rs KindSet): a new tree or a new kind needs new ones.
         if self
             .scene
             .as_ref()
-            .is_some_and(|old| old.packed.blend != packed.blend)
+            .is_some_and(|old| old.packed.blend != packed.blend || old.packed.kinds != packed.kinds)
         {
             self.trace_pipelines.clear();
             self.ray_pipelines.clear();
@@ -716,7 +717,13 @@ impl GpuRenderer {
         let pipeline = self
             .ray_pipelines
             .entry(method)
-            .or_insert_with(|| pipeline(d, &method.source(&scene.packed.blend), "trace_rays"))
+            .or_insert_with(|| {
+                pipeline(
+                    d,
+                    &method.source(&scene.packed.blend, scene.packed.kinds),
+                    "trace_rays",
+                )
+            })
             .clone();
         let n = rays.len() as u32;
         let globals = GpuGlobals {
@@ -924,7 +931,11 @@ impl GpuRenderer {
         if let Some(scene) = &self.scene {
             for &m in methods {
                 self.trace_pipelines.entry(m).or_insert_with(|| {
-                    pipeline(&self.device, &m.source(&scene.packed.blend), "trace_pixels")
+                    pipeline(
+                        &self.device,
+                        &m.source(&scene.packed.blend, scene.packed.kinds),
+                        "trace_pixels",
+                    )
                 });
             }
         }

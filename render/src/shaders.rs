@@ -9,7 +9,7 @@ use skeletrace_core::methods::{
 };
 
 use crate::blend_wgsl::BlendWgsl;
-use crate::shared::{MarchBound, wgsl_constants};
+use crate::shared::{KindSet, MarchBound, wgsl_constants};
 
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
 const MARCH: &str = include_str!("../shaders/march.wgsl");
@@ -240,10 +240,11 @@ impl GpuMethod {
         !matches!(self, Self::ScalisQuadratic | Self::FieldInversion)
     }
 
-    /// The composed compute shader for a scene whose blend tree compiles to `blend`: the
-    /// shared constants, the prelude, the blend, the method family, the entry point.
+    /// The composed compute shader for a scene whose blend tree compiles to `blend` and whose
+    /// primitives are of the kinds in `kinds`: the shared constants, the prelude, the blend, the
+    /// method family, the entry point.
     #[must_use]
-    pub fn source(self, blend: &BlendWgsl) -> String {
+    pub fn source(self, blend: &BlendWgsl, kinds: KindSet) -> String {
         let family = match self {
             Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
             Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
@@ -289,8 +290,9 @@ impl GpuMethod {
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
         format!(
-            "{}\nconst RESUMABLE: bool = {};\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
+            "{}{}\nconst RESUMABLE: bool = {};\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
             wgsl_constants(),
+            kinds.wgsl(),
             self.resumable(),
             blend.values
         )
@@ -370,7 +372,7 @@ mod tests {
         use crate::buffers::{GpuKernel, GpuLight, GpuMaterial, GpuPrimitive};
         use crate::gpu_renderer::GpuGlobals;
         use crate::tile_binning::GpuBinning;
-        let trace = GpuMethod::QuadraticTaylor.source(&summed(2));
+        let trace = GpuMethod::QuadraticTaylor.source(&summed(2), KindSet::ALL);
         let binning = binning_source();
         check_twin(
             &trace,
@@ -491,7 +493,7 @@ mod tests {
     /// `PATH_BYTES`; naga's layout of the WGSL structs must agree.
     #[test]
     fn per_pixel_state_bytes_match_the_wgsl_structs() {
-        let source = GpuMethod::Sphere.source(&summed(2));
+        let source = GpuMethod::Sphere.source(&summed(2), KindSet::ALL);
         let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{e}"));
         let span_of = |name: &str| {
             module
@@ -526,12 +528,29 @@ mod tests {
         BlendWgsl::new(&BlendTree::Sum((0..groups).map(BlendTree::Group).collect()))
     }
 
-    /// Every method's shader with the default blend, and the inclusion family's (which holds
+    /// Every method's shader with the default blend, for every kind and for each kind alone
+    /// (the `HAS_*` constants cut the others' code), and the inclusion family's (which holds
     /// every blend function) with a tree of every operator, nested, and with empty operators.
     #[test]
     fn every_composed_shader_parses_and_validates() {
+        use crate::shared::PrimitiveKind as K;
+        let kinds = [
+            K::Point,
+            K::DistanceSegment,
+            K::ScalisSegment,
+            K::Plane,
+            K::Box,
+            K::RoundedBox,
+            K::Torus,
+            K::Cylinder,
+            K::Hrbf,
+        ];
         for method in GpuMethod::ALL {
-            validate(method.name(), &method.source(&summed(3)));
+            validate(method.name(), &method.source(&summed(3), KindSet::ALL));
+            for kind in kinds {
+                let source = method.source(&summed(3), KindSet::NONE.with(kind));
+                validate(&format!("{} ({kind:?} only)", method.name()), &source);
+            }
         }
         let g = BlendTree::Group;
         let every = BlendTree::SmoothIntersection {
@@ -554,7 +573,10 @@ mod tests {
             ],
         };
         for method in [GpuMethod::QuadraticMixed, GpuMethod::Sphere] {
-            validate(method.name(), &method.source(&BlendWgsl::new(&every)));
+            validate(
+                method.name(),
+                &method.source(&BlendWgsl::new(&every), KindSet::ALL),
+            );
         }
         validate("binning", &binning_source());
         validate("blit", &blit_source());
