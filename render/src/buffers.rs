@@ -115,7 +115,8 @@ pub struct PackedScene {
     pub lights: Vec<GpuLight>,
     /// The blend tree as WGSL.
     pub blend: BlendWgsl,
-    /// The kinds of [`PackedScene::primitives`].
+    /// The kinds its pipelines are compiled for: the tier covering those of
+    /// [`PackedScene::primitives`] ([`KindSet::covering`]).
     pub kinds: KindSet,
     /// The boxes of the HRBF sets, three `vec4`s each ([`GpuPrimitive::extra`]).
     pub boxes: Vec<[f32; 4]>,
@@ -389,7 +390,7 @@ impl PackedScene {
             });
         }
         Ok(Self {
-            kinds,
+            kinds: kinds.covering(),
             primitives,
             kernels: (0..groups)
                 .map(|g| GpuKernel {

@@ -36,12 +36,14 @@ pub enum PrimitiveKind {
     Hrbf = 8,
 }
 
-/// The primitive kinds a scene holds, which its pipelines are compiled for: every shader
-/// dispatch on `Primitive.kind` tests a `HAS_*` constant first ([`KindSet::wgsl`]), so the code
-/// of an absent kind folds away before the driver compiles it. Lavapipe inlines every function
-/// and compiles a pipeline for tens of seconds; a scene of point blobs alone compiles in about
-/// half the time of one with every kind. A scene whose kinds change gets new pipelines
-/// (`GpuRenderer::set_scene`), as one whose blend tree changes.
+/// The primitive kinds a scene's pipelines are compiled for: every shader dispatch on
+/// `Primitive.kind` tests a `HAS_*` constant first ([`KindSet::wgsl`]), so the code of an
+/// absent kind folds away before the driver compiles it. Lavapipe inlines every function and
+/// compiles a pipeline for tens of seconds; one for point blobs alone compiles in about half
+/// the time of one for every kind. A scene is compiled for the first of [`KindSet::TIERS`] that
+/// holds its kinds ([`KindSet::covering`]), so that scenes of similar kinds share pipelines and
+/// an edit seldom needs new ones; when it does (`GpuRenderer::set_scene`), as when the blend
+/// tree changes, each method shown builds its pipeline again.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct KindSet(u32);
 
@@ -51,6 +53,26 @@ impl KindSet {
 
     /// No kind.
     pub const NONE: Self = Self(0);
+
+    /// The sets pipelines are compiled for, smallest first: point blobs; point blobs and
+    /// segments (the skeletons); every kind.
+    pub const TIERS: [Self; 3] = [
+        Self::NONE.with(PrimitiveKind::Point),
+        Self::NONE
+            .with(PrimitiveKind::Point)
+            .with(PrimitiveKind::DistanceSegment)
+            .with(PrimitiveKind::ScalisSegment),
+        Self::ALL,
+    ];
+
+    /// The first of [`KindSet::TIERS`] that holds this set.
+    #[must_use]
+    pub fn covering(self) -> Self {
+        Self::TIERS
+            .into_iter()
+            .find(|tier| tier.0 & self.0 == self.0)
+            .unwrap_or(Self::ALL)
+    }
 
     /// This set with `kind` added.
     #[must_use]
@@ -255,4 +277,23 @@ pub fn wgsl_constants() -> String {
         f32_array(&mut out, name, &row);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::KindSet;
+
+    /// Every set of kinds is compiled for a tier that holds it, and for the smallest such.
+    #[test]
+    fn every_kind_set_is_compiled_for_the_smallest_tier_holding_it() {
+        for bits in 0..=KindSet::ALL.0 {
+            let set = KindSet(bits);
+            let tier = set.covering();
+            assert!(KindSet::TIERS.contains(&tier));
+            assert_eq!(tier.0 & bits, bits, "{set:?} not in {tier:?}");
+            let smallest = KindSet::TIERS.iter().find(|t| t.0 & bits == bits);
+            assert_eq!(Some(&tier), smallest);
+        }
+        assert_eq!(KindSet::ALL.0.count_ones(), 9);
+    }
 }

@@ -5,7 +5,7 @@
 //! `cargo test --workspace` prints that they were skipped and why; with
 //! `SKELETRACE_REQUIRE_GPU=1` (set by `scripts/test`, hence CI) they fail instead.
 
-use std::sync::{Mutex, MutexGuard, OnceLock, PoisonError};
+use std::sync::{Mutex, MutexGuard, OnceLock, TryLockError};
 
 use skeletrace_render::GpuRenderer;
 
@@ -15,9 +15,8 @@ pub fn gpu_required() -> bool {
     std::env::var("SKELETRACE_REQUIRE_GPU").is_ok_and(|v| v == "1")
 }
 
-/// One renderer per test binary: one device, and every pipeline built once for all the tests
-/// (building them is most of a small test's time on lavapipe). Or why there is none.
-fn shared_renderer() -> &'static Result<Mutex<GpuRenderer>, String> {
+/// The test binary's first GPU renderer, or why there is none.
+fn first_renderer() -> &'static Result<Mutex<GpuRenderer>, String> {
     static RENDERER: OnceLock<Result<Mutex<GpuRenderer>, String>> = OnceLock::new();
     RENDERER.get_or_init(|| {
         GpuRenderer::new()
@@ -26,9 +25,28 @@ fn shared_renderer() -> &'static Result<Mutex<GpuRenderer>, String> {
     })
 }
 
+/// Most renderers a test binary opens besides the first.
+const MORE_RENDERERS: usize = 3;
+
+/// The renderers opened when every other one was held: up to one per core in all, each on its
+/// own device. Building pipelines is most of a GPU test's time on lavapipe, which compiles each
+/// on one thread: with a renderer per core, tests compile theirs at once, and Mesa's shader
+/// cache hands a pipeline one renderer built to the others.
+fn more_renderers() -> impl Iterator<Item = &'static Mutex<GpuRenderer>> {
+    static MORE: [OnceLock<Option<Mutex<GpuRenderer>>>; MORE_RENDERERS] =
+        [const { OnceLock::new() }; MORE_RENDERERS];
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    MORE[..(cores - 1).min(MORE_RENDERERS)]
+        .iter()
+        .filter_map(|slot| {
+            slot.get_or_init(|| GpuRenderer::new().ok().map(Mutex::new))
+                .as_ref()
+        })
+}
+
 /// Why no adapter could be opened; `None` when there is one.
 fn missing_adapter() -> Option<&'static str> {
-    shared_renderer().as_ref().err().map(String::as_str)
+    first_renderer().as_ref().err().map(String::as_str)
 }
 
 /// `true` (after printing why) when test `name` must be skipped for want of a GPU adapter;
@@ -52,9 +70,10 @@ pub fn skip_without_gpu(name: &str) -> bool {
     true
 }
 
-/// The test binary's GPU renderer, held by test `name` until the guard drops (the tests that
-/// use it run one at a time), or `None` (after printing why) when it must be skipped. A test
-/// that changes the renderer's settings restores them.
+/// A GPU renderer of the test binary, held by test `name` until the guard drops (at most one
+/// test per renderer at a time: the first free one, waiting for one to be freed), or `None`
+/// (after printing why) when it must be skipped. A test that changes the renderer's settings
+/// restores them.
 ///
 /// # Panics
 /// As [`skip_without_gpu`].
@@ -63,7 +82,17 @@ pub fn gpu_or_skip(name: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
     if skip_without_gpu(name) {
         return None;
     }
-    let renderer = shared_renderer().as_ref().ok()?;
-    // A test that panicked while holding it leaves a renderer that still works.
-    Some(renderer.lock().unwrap_or_else(PoisonError::into_inner))
+    let first = first_renderer().as_ref().ok()?;
+    loop {
+        // Lazily: a renderer is opened only when those before it are held.
+        for renderer in std::iter::once(first).chain(more_renderers()) {
+            match renderer.try_lock() {
+                Ok(guard) => return Some(guard),
+                // A test that panicked while holding it leaves a renderer that still works.
+                Err(TryLockError::Poisoned(poisoned)) => return Some(poisoned.into_inner()),
+                Err(TryLockError::WouldBlock) => {}
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
