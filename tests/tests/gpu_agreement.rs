@@ -359,28 +359,45 @@ fn self_agreement(
     (own.agreeing_steps, own.worst_depth)
 }
 
+/// Every asset, in three tests by the kinds their pipelines are compiled for (shared.rs
+/// `KindSet::TIERS`), which the test binary's renderers run at once.
 #[test]
-fn gpu_frames_match_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("gpu_frames_match_the_cpu_tracer") else {
+fn gpu_frames_match_the_cpu_tracer_on_point_blobs() {
+    frames_match("point blobs", &["blobs", "molecule", "summed-blobs"]);
+}
+
+/// See [`gpu_frames_match_the_cpu_tracer_on_point_blobs`].
+#[test]
+fn gpu_frames_match_the_cpu_tracer_on_skeletons() {
+    frames_match(
+        "skeletons",
+        &[
+            "tree",
+            "creature",
+            "hand",
+            "truss",
+            "foam",
+            "random-skeleton",
+        ],
+    );
+}
+
+/// See [`gpu_frames_match_the_cpu_tracer_on_point_blobs`].
+#[test]
+fn gpu_frames_match_the_cpu_tracer_on_shapes_and_hrbf() {
+    frames_match("shapes and HRBF", &["operators", "hrbf"]);
+}
+
+/// Every GPU method on each of `assets`, against the CPU tracer.
+fn frames_match(what: &str, assets: &[&str]) {
+    let Some(mut gpu) = gpu_or_skip(&format!("gpu_frames_match_the_cpu_tracer ({what})")) else {
         return;
     };
     eprintln!("adapter: {}", gpu.adapter_name());
     let mut failures = Vec::new();
     // SKELETRACE_GPU_ASSETS=a,b narrows the run while investigating one scene.
     let only = std::env::var("SKELETRACE_GPU_ASSETS").ok();
-    for asset in [
-        "blobs",
-        "molecule",
-        "tree",
-        "creature",
-        "operators",
-        "hrbf",
-        "hand",
-        "truss",
-        "foam",
-        "random-skeleton",
-        "summed-blobs",
-    ] {
+    for &asset in assets {
         if only
             .as_ref()
             .is_some_and(|o| !o.split(',').any(|a| a == asset))
