@@ -7,6 +7,148 @@ use std::sync::OnceLock;
 /// up to a radius ratio of 21 when integrating in `ln τ`).
 pub const SCALIS_ORDER: usize = 12;
 
+/// Radius ratio up to which the 12-point rule integrates a SCALIS segment in arc length (the
+/// kernels without a node table): MATH.md §3's `δ·ℓ < 0.05` at a unit radius, made
+/// scale-invariant.
+pub const ARC_LENGTH_RATIO: f64 = 1.05;
+
+/// Up to which radius ratio `V = τ(l₂)/τ(l₁)` a SCALIS integral takes a rule of `nodes` points,
+/// and whether in arc length or in `u = ln τ` (`scalis.rs` `QuadraturePlan`).
+#[derive(Clone, Copy, Debug)]
+pub struct NodeStep {
+    /// Largest radius ratio of the step.
+    pub ratio: f64,
+    /// Gauss–Legendre nodes.
+    pub nodes: usize,
+    /// Arc length (else `ln τ`).
+    pub arc_length: bool,
+}
+
+const fn step(ratio: f64, nodes: usize, arc_length: bool) -> NodeStep {
+    NodeStep {
+        ratio,
+        nodes,
+        arc_length,
+    }
+}
+
+/// Node counts of SCALIS integrals of compact kernels `(1 − x/σ²)^m`, `m = 1..=4` (index
+/// `m − 1`), by increasing radius ratio: the fewest nodes that keep the field within 10⁻¹³ of
+/// converged, plus one, in arc length as long as 12 nodes suffice there (a node costs about
+/// half of one in `ln τ`, which needs an exponential), then in `ln τ`, which converges faster;
+/// past the last ratio, panels of at most that ratio. Printed by `scripts/scalis-nodes` (σ = 2,
+/// 30 000 random segments and points per power); `field_accuracy.rs` checks it against
+/// adaptive quadrature.
+pub const COMPACT_NODES: [&[NodeStep]; 4] = [
+    &[
+        step(1.001, 4, true),
+        step(1.015, 5, true),
+        step(1.057, 6, true),
+        step(1.14, 7, true),
+        step(1.22, 8, true),
+        step(1.346, 9, true),
+        step(1.543, 10, true),
+        step(1.681, 11, true),
+        step(1.855, 12, true),
+        step(3.113, 8, false),
+        step(6.225, 9, false),
+        step(17.2, 10, false),
+        step(26.48, 11, false),
+    ],
+    &[
+        step(1.001, 5, true),
+        step(1.012, 6, true),
+        step(1.045, 7, true),
+        step(1.111, 8, true),
+        step(1.175, 9, true),
+        step(1.276, 10, true),
+        step(1.433, 11, true),
+        step(1.543, 12, true),
+        step(2.072, 9, false),
+        step(3.113, 10, false),
+        step(5.167, 11, false),
+        step(9.217, 12, false),
+    ],
+    &[
+        step(1.001, 6, true),
+        step(1.012, 7, true),
+        step(1.045, 8, true),
+        step(1.089, 9, true),
+        step(1.175, 10, true),
+        step(1.276, 11, true),
+        step(1.346, 12, true),
+        step(1.681, 10, false),
+        step(2.344, 11, false),
+        step(3.113, 12, false),
+    ],
+    &[
+        step(1.001, 7, true),
+        step(1.012, 8, true),
+        step(1.036, 9, true),
+        step(1.089, 10, true),
+        step(1.14, 11, true),
+        step(1.22, 12, true),
+        step(1.276, 10, false),
+        step(1.543, 11, false),
+        step(2.072, 12, false),
+    ],
+];
+
+/// The same for the GPU's `f32` arithmetic (`prelude.wgsl` `scalis_segment`): within 10⁻⁷
+/// (`TARGET=1e-7 scripts/scalis-nodes 20000`), below which `f32` rounding dominates.
+pub const COMPACT_NODES_F32: [&[NodeStep]; 4] = [
+    &[
+        step(1.0001, 3, true),
+        step(1.036, 4, true),
+        step(1.175, 5, true),
+        step(1.346, 6, true),
+        step(1.681, 7, true),
+        step(2.072, 8, true),
+        step(2.685, 9, true),
+        step(4.323, 6, false),
+        step(17.2, 7, false),
+    ],
+    &[
+        step(1.0001, 4, true),
+        step(1.029, 5, true),
+        step(1.14, 6, true),
+        step(1.276, 7, true),
+        step(1.543, 8, true),
+        step(1.855, 9, true),
+        step(2.072, 10, true),
+        step(2.685, 11, true),
+        step(4.323, 8, false),
+        step(13.92, 9, false),
+        step(26.48, 10, false),
+    ],
+    &[
+        step(1.001, 5, true),
+        step(1.029, 6, true),
+        step(1.111, 7, true),
+        step(1.276, 8, true),
+        step(1.433, 9, true),
+        step(1.681, 10, true),
+        step(1.855, 11, true),
+        step(2.344, 12, true),
+        step(3.113, 9, false),
+        step(6.225, 10, false),
+        step(11.3, 11, false),
+        step(21.32, 12, false),
+    ],
+    &[
+        step(1.001, 6, true),
+        step(1.029, 7, true),
+        step(1.111, 8, true),
+        step(1.276, 9, true),
+        step(1.433, 10, true),
+        step(1.681, 11, true),
+        step(1.855, 12, true),
+        step(2.685, 10, false),
+        step(5.167, 11, false),
+        step(11.3, 12, false),
+    ],
+];
+
 /// Nodes and weights of the Gauss–Legendre rule on `[-1, 1]`.
 #[derive(Debug)]
 pub struct GaussLegendre {
