@@ -298,7 +298,7 @@ fn mixed(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bo
 
 fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32, h: f32) -> Inclusion {
     if METHOD == BOUND_SEGMENT {
-        return symmetric(f, summed_lipschitz(sp, ray, t, t + h), h);
+        return symmetric(f, summed_lipschitz(sp, ray, t, t + h, false), h);
     }
     var composed = Composed(Inclusion(f, vec2<f32>(0.0), vec2<f32>(0.0), h), false);
     if METHOD == BOUND_BOTTOM_UP_QUADRATIC {

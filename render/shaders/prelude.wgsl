@@ -115,8 +115,6 @@ struct Light {
 @group(0) @binding(12) var<storage, read> boxes: array<vec4<f32>>;
 
 const INF: f32 = 3.0e38;
-// Size of a ray's support window (see RaySupports).
-const RAY_SUPPORTS: u32 = 64u;
 
 struct Ray {
     origin: vec3<f32>,

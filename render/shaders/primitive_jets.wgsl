@@ -3,17 +3,25 @@
 // ray_jet; hrbf.rs ray_jet; field/program.rs ray_jet and summed_lipschitz), for every
 // primitive kind, blended by the scene's generated code (blend_wgsl.rs).
 
+// A point blob seen along a ray over [lo, hi] (point.rs): the squared distance h² from the ray
+// to its centre, and a and b, lo and hi measured from the ray's closest point, in radii.
+fn point_along(ray: Ray, prim: Primitive, lo: f32, hi: f32) -> vec3<f32> {
+    let rho = prim.a.w;
+    let t_closest = dot(prim.a.xyz - ray.origin, ray.dir);
+    let off = ray.origin + t_closest * ray.dir - prim.a.xyz;
+    return vec3<f32>(dot(off, off) / (rho * rho), (lo - t_closest) / rho, (hi - t_closest) / rho);
+}
+
 // The jet of point blob i over [lo, hi] (exact extrema, MATH.md §5).
 fn point_jet(ray: Ray, i: u32, lo: f32, hi: f32) -> Jet {
     let prim = primitives[i];
     let k = kernels[prim.group];
     let rho = prim.a.w;
     let norm = prim.c.x;
-    let t_closest = dot(prim.a.xyz - ray.origin, ray.dir);
-    let off = ray.origin + t_closest * ray.dir - prim.a.xyz;
-    let h2 = dot(off, off) / (rho * rho);
-    let a = (lo - t_closest) / rho;
-    let b = (hi - t_closest) / rho;
+    let along = point_along(ray, prim, lo, hi);
+    let h2 = along.x;
+    let a = along.y;
+    let b = along.z;
     let near = clamp(0.0, a, b);
     let far = select(b, a, abs(a) > abs(b));
     let value = vec2<f32>(norm * kernel_d1(k, min(far * far + h2, k.support_sq)).x,
@@ -501,9 +509,11 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
     return blend_jets(group_jets(sp, ray, lo, hi));
 }
 
-// Segment tracing's Lipschitz bound over [lo, hi] (blend.rs lipschitz): per group, the sum of
-// its items' largest |f′|, through the scene's blend (`blend_lipschitz`).
-fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> f32 {
+// Segment tracing's Lipschitz bound over [lo, hi] (blend.rs lipschitz, program.rs
+// summed_lipschitz): per group, the sum of its items' largest |f′| — the range of their jets'
+// derivative, or for point blobs when `published`, Galin et al.'s bound (PrimitiveSlope::
+// Published, point_published_slope) — through the scene's blend (`blend_lipschitz`).
+fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32, published: bool) -> f32 {
     var groups: array<f32, MAX_GROUPS>;
     let items = support_count(sp);
     for (var j = 0u; j < items; j++) {
@@ -511,8 +521,51 @@ fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) 
         if !overlaps(item, lo, hi) {
             continue;
         }
-        let d1 = item_jet(ray, item, lo, hi).d1;
-        groups[primitives[item.id].group] += max(abs(d1.x), abs(d1.y));
+        var slope: f32;
+        if published && HAS_POINT && primitives[item.id].kind == KIND_POINT {
+            slope = point_published_slope(ray, item, lo, hi);
+        } else {
+            let d1 = item_jet(ray, item, lo, hi).d1;
+            slope = max(abs(d1.x), abs(d1.y));
+        }
+        groups[primitives[item.id].group] += slope;
     }
     return blend_lipschitz(groups);
 }
+
+// Where 2√x·|K′(x)| peaks inside the support (kernel.rs steepest_x).
+fn kernel_steepest_x(k: Kernel) -> f32 {
+    let s2 = 1.0 / k.inv_sigma2;
+    var critical = 0.5 * s2;
+    if k.family == KERNEL_COMPACT_POLYNOMIAL {
+        critical = s2 / (2.0 * k.exponent - 1.0);
+    } else if k.family == KERNEL_CAUCHY {
+        critical = s2 / (2.0 * k.exponent + 1.0);
+    }
+    return min(critical, k.support_sq);
+}
+
+// The largest slope in r = √x of the kernel over x ∈ xs (kernel.rs max_slope_on).
+fn kernel_max_slope_on(k: Kernel, xs: vec2<f32>) -> f32 {
+    let lo = clamp(xs.x, 0.0, k.support_sq);
+    let hi = clamp(xs.y, lo, k.support_sq);
+    let x = clamp(kernel_steepest_x(k), lo, hi);
+    return 2.0 * sqrt(x) * abs(kernel_d2_inside(k, x).y);
+}
+
+// Galin et al.'s bound of a point blob's |f′| over [lo, hi] ∩ its support (point.rs
+// kernel_slope_times_cosine): the kernel's largest slope times the largest |cos|.
+fn point_published_slope(ray: Ray, item: SupportItem, lo: f32, hi: f32) -> f32 {
+    let prim = primitives[item.id];
+    let k = kernels[prim.group];
+    let along = point_along(ray, prim, max(lo, item.span.x), min(hi, item.span.y));
+    let h2 = along.x;
+    let a = along.y;
+    let b = along.z;
+    let nearest = clamp(0.0, a, b);
+    let farthest = max(abs(a), abs(b));
+    let distances = vec2<f32>(nearest * nearest + h2, farthest * farthest + h2);
+    let cosine = select(0.0, farthest / sqrt(farthest * farthest + h2), farthest > 0.0);
+    return prim.c.x * kernel_max_slope_on(k, distances) * cosine / prim.a.w;
+}
+

@@ -32,8 +32,8 @@ const BLIT: &str = include_str!("../shaders/viewport_blit.wgsl");
 const STEP_STATISTICS: &str = include_str!("../shaders/step_statistics.wgsl");
 const BINNING: &str = include_str!("../shaders/binning.wgsl");
 
-/// The size of a ray's window of supports (prelude.wgsl `RAY_SUPPORTS`; a unit test holds the
-/// two equal): a ray that crosses more supports marches parts cut at the window's horizon.
+/// The size of a ray's window of supports (prelude.wgsl `RaySupports`; emitted as
+/// `RAY_SUPPORTS` by `shared::wgsl_constants`): a ray that crosses more supports marches parts cut at the window's horizon.
 pub const RAY_SUPPORTS: usize = 64;
 
 /// The tile-binning passes: the shared constants and binning.wgsl.
@@ -439,16 +439,6 @@ mod tests {
         );
     }
 
-    /// The Rust twin of the prelude's window size is the prelude's.
-    #[test]
-    fn the_window_size_is_the_preludes() {
-        let line = format!("const RAY_SUPPORTS: u32 = {RAY_SUPPORTS}u;");
-        assert!(
-            PRELUDE.lines().any(|l| l == line),
-            "prelude.wgsl lacks {line}"
-        );
-    }
-
     /// Every shared constant is emitted once, and none is typed again in a WGSL file.
     #[test]
     fn shared_constants_are_defined_only_in_rust() {
@@ -533,21 +523,9 @@ mod tests {
     /// every blend function) with a tree of every operator, nested, and with empty operators.
     #[test]
     fn every_composed_shader_parses_and_validates() {
-        use crate::shared::PrimitiveKind as K;
-        let kinds = [
-            K::Point,
-            K::DistanceSegment,
-            K::ScalisSegment,
-            K::Plane,
-            K::Box,
-            K::RoundedBox,
-            K::Torus,
-            K::Cylinder,
-            K::Hrbf,
-        ];
         for method in GpuMethod::ALL {
             validate(method.name(), &method.source(&summed(3), KindSet::ALL));
-            for kind in kinds {
+            for kind in crate::shared::PrimitiveKind::ALL {
                 let source = method.source(&summed(3), KindSet::NONE.with(kind));
                 validate(&format!("{} ({kind:?} only)", method.name()), &source);
             }

@@ -38,6 +38,46 @@ pub enum PrimitiveKind {
     Hrbf = 8,
 }
 
+impl PrimitiveKind {
+    /// Every kind, in code order.
+    pub const ALL: [Self; 9] = [
+        Self::Point,
+        Self::DistanceSegment,
+        Self::ScalisSegment,
+        Self::Plane,
+        Self::Box,
+        Self::RoundedBox,
+        Self::Torus,
+        Self::Cylinder,
+        Self::Hrbf,
+    ];
+
+    /// The name of the kind's code in WGSL (`KIND_*`).
+    #[must_use]
+    pub const fn wgsl_name(self) -> &'static str {
+        match self {
+            Self::Point => "KIND_POINT",
+            Self::DistanceSegment => "KIND_DISTANCE_SEGMENT",
+            Self::ScalisSegment => "KIND_SCALIS_SEGMENT",
+            Self::Plane => "KIND_PLANE",
+            Self::Box => "KIND_BOX",
+            Self::RoundedBox => "KIND_ROUNDED_BOX",
+            Self::Torus => "KIND_TORUS",
+            Self::Cylinder => "KIND_CYLINDER",
+            Self::Hrbf => "KIND_HRBF",
+        }
+    }
+
+    /// One of the four solid shapes (shapes.rs), which share the shaders' `HAS_SHAPE`.
+    #[must_use]
+    pub const fn is_shape(self) -> bool {
+        matches!(
+            self,
+            Self::Box | Self::RoundedBox | Self::Torus | Self::Cylinder
+        )
+    }
+}
+
 /// The primitive kinds a scene's pipelines are compiled for: every shader dispatch on
 /// `Primitive.kind` tests a `HAS_*` constant first ([`KindSet::wgsl`]), so the code of an
 /// absent kind folds away before the driver compiles it. Lavapipe inlines every function and
@@ -93,14 +133,9 @@ impl KindSet {
     #[must_use]
     pub fn wgsl(self) -> String {
         let mut out = String::new();
-        let shape = [
-            PrimitiveKind::Box,
-            PrimitiveKind::RoundedBox,
-            PrimitiveKind::Torus,
-            PrimitiveKind::Cylinder,
-        ]
-        .into_iter()
-        .any(|k| self.has(k));
+        let shape = PrimitiveKind::ALL
+            .into_iter()
+            .any(|k| k.is_shape() && self.has(k));
         for (name, present) in [
             ("HAS_POINT", self.has(PrimitiveKind::Point)),
             (
@@ -224,18 +259,13 @@ fn f32_array(out: &mut String, name: &str, values: &[f64]) {
 pub fn wgsl_constants() -> String {
     let mut out = String::from("// Emitted by render/src/shared.rs from the Rust definitions.\n");
     u32_const(&mut out, "STATS_ROW", crate::gpu_stats::STATS_ROW);
-    for (name, kind) in [
-        ("KIND_POINT", PrimitiveKind::Point),
-        ("KIND_DISTANCE_SEGMENT", PrimitiveKind::DistanceSegment),
-        ("KIND_SCALIS_SEGMENT", PrimitiveKind::ScalisSegment),
-        ("KIND_PLANE", PrimitiveKind::Plane),
-        ("KIND_BOX", PrimitiveKind::Box),
-        ("KIND_ROUNDED_BOX", PrimitiveKind::RoundedBox),
-        ("KIND_TORUS", PrimitiveKind::Torus),
-        ("KIND_CYLINDER", PrimitiveKind::Cylinder),
-        ("KIND_HRBF", PrimitiveKind::Hrbf),
-    ] {
-        u32_const(&mut out, name, kind as u32);
+    u32_const(
+        &mut out,
+        "RAY_SUPPORTS",
+        crate::shaders::RAY_SUPPORTS as u32,
+    );
+    for kind in PrimitiveKind::ALL {
+        u32_const(&mut out, kind.wgsl_name(), kind as u32);
     }
     for (name, family) in [
         ("KERNEL_COMPACT_POLYNOMIAL", KernelFamily::CompactPolynomial),
