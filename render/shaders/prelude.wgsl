@@ -348,21 +348,18 @@ fn distance_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(prim.c.x * v.x, (2.0 * prim.c.x * v.y * inv_t2) * d);
 }
 
-// Gauss–Legendre rules of 1 to 12 nodes on [−1, 1], by their upper halves (GL_FIRST, GL_NODES,
-// GL_WEIGHTS), and the compact kernels' node counts by radius ratio (SCALIS_STEP_*): shared.rs.
+// 12-point Gauss–Legendre nodes and weights on [−1, 1] (quadrature.rs, SCALIS_ORDER).
 
 // SCALIS segment (scalis.rs): N ∫ K(h²) ds/τ over the part of the segment whose support ball
-// contains p, in arc length or in u = ln τ, with as many nodes as the radius ratio
-// V = τ(l₂)/τ(l₁) over that part needs in f32 (QuadraturePlan; core quadrature.rs
-// COMPACT_NODES_F32) for compact kernels, 12 in panels for the clipped ones. Offsets from the
-// part's middle: |p − q(s)|² = |w|² + σ(σ − 2w·v), σ = s − s_m.
+// contains p, in u = ln τ (or arc length when the radius barely varies), in panels for clipped
+// kernels.
 fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
     let cone = cone_of(prim);
     let inv_r2 = 1.0 / k.support_sq;
-    let w0 = p - cone.start;
+    let w = p - cone.start;
     let qa = inv_r2 - cone.slope * cone.slope;
-    let qb = dot(w0, cone.axis) * inv_r2 + cone.radius * cone.slope;
-    let qc = dot(w0, w0) * inv_r2 - cone.radius * cone.radius;
+    let qb = dot(w, cone.axis) * inv_r2 + cone.radius * cone.slope;
+    let qc = dot(w, w) * inv_r2 - cone.radius * cone.radius;
     let disc = qb * qb - qa * qc;
     if disc < 0.0 {
         return vec4<f32>(0.0);
@@ -377,83 +374,47 @@ fn scalis_segment(prim: Primitive, k: Kernel, p: vec3<f32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let tau1 = cone.radius + cone.slope * l1;
-    let tau2 = cone.radius + cone.slope * l2;
-    let ratio = tau2 / tau1;
-    var n = SCALIS_ORDER;
-    var arc = ratio <= SCALIS_ARC_LENGTH_RATIO;
     var panels = 1u;
-    let m = u32(k.exponent);
-    if k.family == KERNEL_COMPACT_POLYNOMIAL && cone.slope == 0.0 {
-        // A polynomial integrand of degree 2m: exact with m + 1 nodes.
-        n = min(m + 1u, SCALIS_ORDER);
-        arc = true;
-    } else if k.family == KERNEL_COMPACT_POLYNOMIAL && m >= 1u && m <= 4u {
-        var j = SCALIS_STEP_FIRST[m - 1u];
-        let last = SCALIS_STEP_FIRST[m] - 1u;
-        while j < last && ratio > SCALIS_STEP_RATIO[j] {
-            j++;
-        }
-        n = SCALIS_STEP_NODES[j] % SCALIS_ARC_LENGTH;
-        arc = SCALIS_STEP_NODES[j] >= SCALIS_ARC_LENGTH;
-        if ratio > SCALIS_STEP_RATIO[j] {
-            panels = u32(ceil(log(ratio) / log(SCALIS_STEP_RATIO[j])));
-            arc = false;
-        }
-    } else if k.clip > 0.0 {
+    if k.clip > 0.0 {
         panels = u32(clamp(ceil((l2 - l1) / (2.0 * tau1)), 1.0, 16.0));
     }
-    let middle = 0.5 * (l1 + l2);
-    let w = p - (cone.start + middle * cone.axis);
-    let w_sq = dot(w, w);
-    let twice_along = 2.0 * dot(w, cone.axis);
-    let tau_middle = cone.radius + cone.slope * middle;
-    var lo = l1 - middle;
-    var hi = l2 - middle;
+    var sum = 0.0;
+    var grad = vec3<f32>(0.0);
+    let arc = cone.slope * (l2 - l1) < 0.05;
+    var lo = l1;
+    var hi = l2;
     if !arc {
         lo = log(tau1);
-        hi = log(tau2);
+        hi = log(cone.radius + cone.slope * l2);
     }
     let h = (hi - lo) / f32(panels);
-    let first = GL_FIRST[n - 1u];
-    let half = GL_FIRST[n] - first;
-    var sum = 0.0;
-    var slope_sum = 0.0;
-    var slope_along = 0.0;
     for (var panel = 0u; panel < panels; panel++) {
         let mid = lo + (f32(panel) + 0.5) * h;
-        for (var j = 0u; j < n; j++) {
-            // Nodes 0..half: +ξ of the upper half; then −ξ, but for an odd rule's middle node.
-            var u = j;
-            var xi = 0.0;
-            if j < half {
-                xi = GL_NODES[first + j];
-            } else {
-                u = j - half + n % 2u;
-                xi = -GL_NODES[first + u];
+        for (var j = 0u; j < SCALIS_ORDER; j++) {
+            var xi = GL_NODES[j % GL_HALF];
+            if j >= GL_HALF {
+                xi = -xi;
             }
-            let wi = GL_WEIGHTS[first + u];
-            var sigma: f32;
-            var inv_tau: f32;
+            let wi = GL_WEIGHTS[j % GL_HALF];
+            var s: f32;
+            var tau: f32;
             var measure: f32;
             if arc {
-                sigma = mid + 0.5 * h * xi;
-                inv_tau = 1.0 / (tau_middle + cone.slope * sigma);
-                measure = 0.5 * h * wi * inv_tau;
+                s = mid + 0.5 * h * xi;
+                tau = cone.radius + cone.slope * s;
+                measure = 0.5 * h * wi / tau;
             } else {
-                let tau = exp(mid + 0.5 * h * xi);
-                inv_tau = 1.0 / tau;
-                sigma = (tau - tau_middle) / cone.slope;
+                tau = exp(mid + 0.5 * h * xi);
+                s = (tau - cone.radius) / cone.slope;
                 measure = 0.5 * h * wi / cone.slope;
             }
-            let x = (w_sq + sigma * (sigma - twice_along)) * inv_tau * inv_tau;
-            let kv = kernel_d1(k, x);
+            let offset = p - (cone.start + s * cone.axis);
+            let kv = kernel_d1(k, dot(offset, offset) / (tau * tau));
             sum += kv.x * measure;
-            let c = 2.0 * kv.y * measure * inv_tau * inv_tau;
-            slope_sum += c;
-            slope_along += c * sigma;
+            grad += (2.0 * kv.y * measure / (tau * tau)) * offset;
         }
     }
-    return prim.c.x * vec4<f32>(sum, slope_sum * w - slope_along * cone.axis);
+    return prim.c.x * vec4<f32>(sum, grad);
 }
 
 // ---- support intervals along a ray (geometry.rs) ----

@@ -6,9 +6,7 @@
 use std::fmt::Write as _;
 
 use skeletrace_core::cpu::renderer::MAX_BOUNCES;
-use skeletrace_core::field::quadrature::{
-    ARC_LENGTH_RATIO, COMPACT_NODES_F32, GaussLegendre, SCALIS_ORDER,
-};
+use skeletrace_core::field::quadrature::{GaussLegendre, SCALIS_ORDER};
 use skeletrace_core::frame::{self as shading, TURBO};
 
 /// Most groups the GPU blends (per-pixel group slots in the shaders).
@@ -232,17 +230,6 @@ fn u32_const(out: &mut String, name: &str, value: u32) {
     let _ = writeln!(out, "const {name}: u32 = {value}u;");
 }
 
-/// A WGSL `const` array of `u32`.
-fn u32_array(out: &mut String, name: &str, values: &[u32]) {
-    let list: Vec<String> = values.iter().map(|v| format!("{v}u")).collect();
-    let _ = writeln!(
-        out,
-        "const {name}: array<u32, {n}> = array<u32, {n}>({});",
-        list.join(", "),
-        n = values.len()
-    );
-}
-
 /// A WGSL `const` array of `f32`.
 fn f32_array(out: &mut String, name: &str, values: &[f64]) {
     let list: Vec<String> = values.iter().map(|v| format!("{v:?}")).collect();
@@ -304,38 +291,14 @@ pub fn wgsl_constants() -> String {
     u32_const(&mut out, "AO_SAMPLES", shading::AO_SAMPLES);
     f32_const(&mut out, "AO_STEP", shading::AO_STEP);
     f32_const(&mut out, "AO_DECAY", shading::AO_DECAY);
-    // The SCALIS quadrature (MATH.md §3, core scalis.rs `QuadraturePlan`): the Gauss–Legendre
-    // rules of 1 to 12 nodes, each by its upper half (the middle node first for an odd rule; the
-    // rules are symmetric, so node j and −node j share weight j), from GL_FIRST[n − 1]; and the
-    // compact kernels' node counts by radius ratio for f32 (core quadrature.rs
-    // `COMPACT_NODES_F32`), power m's steps from SCALIS_STEP_FIRST[m − 1].
-    let (mut first, mut nodes, mut weights) = (Vec::new(), Vec::new(), Vec::new());
-    for n in 1..=SCALIS_ORDER {
-        let rule = GaussLegendre::with_nodes(n);
-        first.push(nodes.len() as u32);
-        nodes.extend_from_slice(&rule.nodes[n / 2..]);
-        weights.extend_from_slice(&rule.weights[n / 2..]);
-    }
-    first.push(nodes.len() as u32);
+    // The SCALIS quadrature rule (MATH.md §3): its positive half, nodes increasing; the rule is
+    // symmetric, so node j and −node j share weight j.
+    let rule = GaussLegendre::scalis();
+    let half = SCALIS_ORDER / 2;
     u32_const(&mut out, "SCALIS_ORDER", SCALIS_ORDER as u32);
-    u32_array(&mut out, "GL_FIRST", &first);
-    f32_array(&mut out, "GL_NODES", &nodes);
-    f32_array(&mut out, "GL_WEIGHTS", &weights);
-    let (mut step_first, mut ratios, mut counts) = (Vec::new(), Vec::new(), Vec::new());
-    for steps in COMPACT_NODES_F32 {
-        step_first.push(ratios.len() as u32);
-        for step in steps {
-            ratios.push(step.ratio);
-            // The node count, plus SCALIS_ARC_LENGTH for arc length.
-            counts.push(step.nodes as u32 + if step.arc_length { 256 } else { 0 });
-        }
-    }
-    step_first.push(ratios.len() as u32);
-    u32_const(&mut out, "SCALIS_ARC_LENGTH", 256);
-    f32_const(&mut out, "SCALIS_ARC_LENGTH_RATIO", ARC_LENGTH_RATIO);
-    u32_array(&mut out, "SCALIS_STEP_FIRST", &step_first);
-    f32_array(&mut out, "SCALIS_STEP_RATIO", &ratios);
-    u32_array(&mut out, "SCALIS_STEP_NODES", &counts);
+    u32_const(&mut out, "GL_HALF", half as u32);
+    f32_array(&mut out, "GL_NODES", &rule.nodes[SCALIS_ORDER - half..]);
+    f32_array(&mut out, "GL_WEIGHTS", &rule.weights[SCALIS_ORDER - half..]);
     // The step-count colour map (core frame.rs heat_colour).
     for (name, row) in ["TURBO_RED", "TURBO_GREEN", "TURBO_BLUE"]
         .into_iter()

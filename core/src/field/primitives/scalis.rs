@@ -16,7 +16,7 @@ use crate::field::geometry::{
     Aabb, ChordToAxis, RELATIVE_SUPPORT_MARGIN, Ray, SphereCone, rounding_margin,
 };
 use crate::field::kernel::{FixedKernel, KernelLoop, KernelProfile};
-use crate::field::quadrature::{ARC_LENGTH_RATIO, COMPACT_NODES, GaussLegendre};
+use crate::field::quadrature::GaussLegendre;
 
 /// Pieces per segment in the derivative bounds, at most.
 const MAX_BOUND_PIECES: usize = 24;
@@ -329,7 +329,7 @@ impl KernelLoop for ValueGradientAt<'_> {
 ///
 /// The integrands are analytic, so Gauss–Legendre converges geometrically, at a rate set by the
 /// radius ratio `V = τ(l₂)/τ(l₁)` over the clipped range and, for compact kernels `(1 − x/σ²)^m`,
-/// by the power `m`. [`COMPACT_NODES`] (`quadrature.rs`) gives, per `m`, the fewest nodes that keep the
+/// by the power `m`. [`COMPACT_NODES`] gives, per `m`, the fewest nodes that keep the
 /// normalised field within 10⁻¹³ of converged (measured over random segments and points,
 /// plus one node of margin; `field_accuracy.rs` checks it against adaptive quadrature),
 /// so a nearly constant radius costs the degree-6 kernel 6–8 nodes instead of 12. Past the table's last ratio the
@@ -342,6 +342,80 @@ struct QuadraturePlan {
     panels: usize,
     arc_length: bool,
 }
+
+/// Up to which radius ratio a rule of `nodes` points is used, and whether in arc length.
+struct NodeStep {
+    ratio: f64,
+    nodes: usize,
+    arc_length: bool,
+}
+
+const fn step(ratio: f64, nodes: usize, arc_length: bool) -> NodeStep {
+    NodeStep {
+        ratio,
+        nodes,
+        arc_length,
+    }
+}
+
+/// Node counts of compact kernels of power `m = 1..=4` (index `m − 1`), by increasing radius
+/// ratio: in arc length as long as 12 nodes suffice there (a node costs about half of one in
+/// `ln τ`, which needs an exponential), then in `ln τ`, which converges faster. Printed by
+/// `scripts/scalis-nodes` (σ = 2, 30 000 random segments and points per power).
+const COMPACT_NODES: [&[NodeStep]; 4] = [
+    &[
+        step(1.001, 4, true),
+        step(1.015, 5, true),
+        step(1.057, 6, true),
+        step(1.14, 7, true),
+        step(1.22, 8, true),
+        step(1.346, 9, true),
+        step(1.543, 10, true),
+        step(1.681, 11, true),
+        step(1.855, 12, true),
+        step(3.113, 8, false),
+        step(6.225, 9, false),
+        step(17.2, 10, false),
+        step(26.48, 11, false),
+    ],
+    &[
+        step(1.001, 5, true),
+        step(1.012, 6, true),
+        step(1.045, 7, true),
+        step(1.111, 8, true),
+        step(1.175, 9, true),
+        step(1.276, 10, true),
+        step(1.433, 11, true),
+        step(1.543, 12, true),
+        step(2.072, 9, false),
+        step(3.113, 10, false),
+        step(5.167, 11, false),
+        step(9.217, 12, false),
+    ],
+    &[
+        step(1.001, 6, true),
+        step(1.012, 7, true),
+        step(1.045, 8, true),
+        step(1.089, 9, true),
+        step(1.175, 10, true),
+        step(1.276, 11, true),
+        step(1.346, 12, true),
+        step(1.681, 10, false),
+        step(2.344, 11, false),
+        step(3.113, 12, false),
+    ],
+    &[
+        step(1.001, 7, true),
+        step(1.012, 8, true),
+        step(1.036, 9, true),
+        step(1.089, 10, true),
+        step(1.14, 11, true),
+        step(1.22, 12, true),
+        step(1.276, 10, false),
+        step(1.543, 11, false),
+        step(2.072, 12, false),
+    ],
+];
 
 impl QuadraturePlan {
     /// The plan for the clipped range `[l₁, l₂]` of a segment of radius slope `δ`, with
@@ -390,3 +464,7 @@ impl QuadraturePlan {
         }
     }
 }
+
+/// Radius ratio up to which the 12-point rule integrates in arc length: MATH.md §3's `δ·ℓ < 0.05`
+/// at a unit radius, made scale-invariant.
+const ARC_LENGTH_RATIO: f64 = 1.05;
