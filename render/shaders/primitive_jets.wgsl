@@ -568,4 +568,3 @@ fn point_published_slope(ray: Ray, item: SupportItem, lo: f32, hi: f32) -> f32 {
     let cosine = select(0.0, farthest / sqrt(farthest * farthest + h2), farthest > 0.0);
     return prim.c.x * kernel_max_slope_on(k, distances) * cosine / prim.a.w;
 }
-

@@ -33,7 +33,8 @@ const STEP_STATISTICS: &str = include_str!("../shaders/step_statistics.wgsl");
 const BINNING: &str = include_str!("../shaders/binning.wgsl");
 
 /// The size of a ray's window of supports (prelude.wgsl `RaySupports`; emitted as
-/// `RAY_SUPPORTS` by `shared::wgsl_constants`): a ray that crosses more supports marches parts cut at the window's horizon.
+/// `RAY_SUPPORTS` by `shared::wgsl_constants`): a ray that crosses more supports marches parts
+/// cut at the window's horizon.
 pub const RAY_SUPPORTS: usize = 64;
 
 /// The tile-binning passes: the shared constants and binning.wgsl.

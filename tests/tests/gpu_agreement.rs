@@ -361,31 +361,58 @@ fn self_agreement(
 
 /// Every asset, in three tests by the kinds their pipelines are compiled for (shared.rs
 /// `KindSet::TIERS`), which the test binary's renderers run at once.
+const POINT_BLOB_ASSETS: [&str; 3] = ["blobs", "molecule", "summed-blobs"];
+/// See [`POINT_BLOB_ASSETS`].
+const SKELETON_ASSETS: [&str; 6] = [
+    "tree",
+    "creature",
+    "hand",
+    "truss",
+    "foam",
+    "random-skeleton",
+];
+/// See [`POINT_BLOB_ASSETS`].
+const SHAPE_AND_HRBF_ASSETS: [&str; 2] = ["operators", "hrbf"];
+
+/// The three lists above hold every scene of `assets/scenes`, each once, so that a new asset
+/// cannot miss the agreement test.
+#[test]
+fn every_asset_is_in_one_agreement_test() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+    let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|entry| {
+            let name = entry.ok()?.file_name().into_string().ok()?;
+            name.strip_suffix(".ron").map(str::to_owned)
+        })
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = [
+        &POINT_BLOB_ASSETS[..],
+        &SKELETON_ASSETS[..],
+        &SHAPE_AND_HRBF_ASSETS[..],
+    ]
+    .concat()
+    .into_iter()
+    .map(str::to_owned)
+    .collect();
+    listed.sort();
+    assert_eq!(listed, on_disk);
+}
+
 #[test]
 fn gpu_frames_match_the_cpu_tracer_on_point_blobs() {
-    frames_match("point blobs", &["blobs", "molecule", "summed-blobs"]);
+    frames_match("point blobs", &POINT_BLOB_ASSETS);
 }
 
-/// See [`gpu_frames_match_the_cpu_tracer_on_point_blobs`].
 #[test]
 fn gpu_frames_match_the_cpu_tracer_on_skeletons() {
-    frames_match(
-        "skeletons",
-        &[
-            "tree",
-            "creature",
-            "hand",
-            "truss",
-            "foam",
-            "random-skeleton",
-        ],
-    );
+    frames_match("skeletons", &SKELETON_ASSETS);
 }
 
-/// See [`gpu_frames_match_the_cpu_tracer_on_point_blobs`].
 #[test]
 fn gpu_frames_match_the_cpu_tracer_on_shapes_and_hrbf() {
-    frames_match("shapes and HRBF", &["operators", "hrbf"]);
+    frames_match("shapes and HRBF", &SHAPE_AND_HRBF_ASSETS);
 }
 
 /// Every GPU method on each of `assets`, against the CPU tracer.
