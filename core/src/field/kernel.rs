@@ -188,6 +188,52 @@ pub trait FixedKernel {
     fn value(&self, x: f64) -> f64;
     /// `(K(x), K′(x))`.
     fn value_d1(&self, x: f64) -> (f64, f64);
+    /// [`KernelProfile::ranges`], bit for bit.
+    fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool);
+}
+
+/// What [`ranges_over`] needs of a kernel.
+struct RangeRule<F, G> {
+    support_sq: f64,
+    /// `(K, K′, K″)` at `x` inside the support, clipped and rescaled.
+    value_d2: F,
+    /// `K′` at the support boundary, seen from inside (asked only where the range reaches it).
+    slope_at_edge: G,
+    kinked: bool,
+}
+
+/// Exact ranges of `K`, `K′`, `K″` over `x ∈ xs`, using `K` decreasing, `K′` increasing
+/// towards 0 and `K″ ≥ 0` decreasing on the support; the flag tells whether `xs` straddles
+/// the support boundary of a kinked kernel. One body for [`KernelProfile::ranges`] and the
+/// fixed kernels' (so the two agree bit for bit).
+#[inline(always)]
+fn ranges_over<F: Fn(f64) -> (f64, f64, f64), G: Fn() -> f64>(
+    rule: &RangeRule<F, G>,
+    xs: Interval,
+) -> (Interval, Interval, Interval, bool) {
+    let lo = xs.lo.max(0.0);
+    let hi = xs.hi.max(lo);
+    if lo >= rule.support_sq {
+        return (Interval::ZERO, Interval::ZERO, Interval::ZERO, false);
+    }
+    let (k_lo, k1_lo, k2_lo) = (rule.value_d2)(lo);
+    if hi >= rule.support_sq {
+        // The range reaches the boundary: K and K″ reach 0, K′ reaches its value at the
+        // boundary from inside (0 for m ≥ 2) and 0 outside.
+        return (
+            Interval::new(0.0, k_lo),
+            Interval::new(k1_lo, (rule.slope_at_edge)().max(k1_lo)).include(0.0),
+            Interval::new(0.0, k2_lo),
+            rule.kinked,
+        );
+    }
+    let (k_hi, k1_hi, k2_hi) = (rule.value_d2)(hi);
+    (
+        Interval::new(k_hi, k_lo),
+        Interval::new(k1_lo, k1_hi),
+        Interval::new(k2_hi, k2_lo),
+        false,
+    )
 }
 
 /// A loop over kernel evaluations, run by [`KernelProfile::with_family`].
@@ -222,6 +268,23 @@ impl<const M: i32> FixedKernel for CompactKernel<M> {
         let (k, k1, _) = compact_raw(M, self.a, x.max(0.0));
         (k.max(0.0), k1)
     }
+    #[inline(always)]
+    fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool) {
+        ranges_over(
+            &RangeRule {
+                support_sq: self.support_sq,
+                // Inside the support (the only place the rule calls it), as `value_d2`.
+                value_d2: |x: f64| {
+                    let (k, k1, k2) = compact_raw(M, self.a, x);
+                    (k.max(0.0), k1, k2)
+                },
+                slope_at_edge: || compact_raw(M, self.a, self.support_sq).1,
+                // `M ≥ 2`: `K′` is continuous at the boundary.
+                kinked: false,
+            },
+            xs,
+        )
+    }
 }
 
 impl FixedKernel for KernelProfile {
@@ -232,6 +295,10 @@ impl FixedKernel for KernelProfile {
     #[inline]
     fn value_d1(&self, x: f64) -> (f64, f64) {
         Self::value_d1(self, x)
+    }
+    #[inline]
+    fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool) {
+        Self::ranges(self, xs)
     }
 }
 
@@ -391,35 +458,18 @@ impl KernelProfile {
         (((k - self.clip) * s).max(0.0), k1 * s, k2 * s)
     }
 
-    /// Exact ranges of `K`, `K′`, `K″` over `x ∈ xs`, using `K` decreasing, `K′` increasing
-    /// towards 0 and `K″ ≥ 0` decreasing on the support; the flag tells whether `xs` straddles
-    /// the support boundary of a kinked kernel.
+    /// Exact ranges of `K`, `K′`, `K″` over `x ∈ xs` ([`ranges_over`]); the flag tells whether
+    /// `xs` straddles the support boundary of a kinked kernel.
     #[must_use]
     pub fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool) {
-        let lo = xs.lo.max(0.0);
-        let hi = xs.hi.max(lo);
-        if lo >= self.support_sq {
-            return (Interval::ZERO, Interval::ZERO, Interval::ZERO, false);
-        }
-        let (k_lo, k1_lo, k2_lo) = self.value_d2(lo);
-        if hi >= self.support_sq {
-            // The range reaches the boundary: K and K″ reach 0, K′ reaches its value at the
-            // boundary from inside (0 for m ≥ 2) and 0 outside.
-            let (_, k1_edge, _) = self.raw(self.support_sq);
-            let k1_edge = k1_edge * self.clip_scale;
-            return (
-                Interval::new(0.0, k_lo),
-                Interval::new(k1_lo, k1_edge.max(k1_lo)).include(0.0),
-                Interval::new(0.0, k2_lo),
-                self.kinked,
-            );
-        }
-        let (k_hi, k1_hi, k2_hi) = self.value_d2(hi);
-        (
-            Interval::new(k_hi, k_lo),
-            Interval::new(k1_lo, k1_hi),
-            Interval::new(k2_hi, k2_lo),
-            false,
+        ranges_over(
+            &RangeRule {
+                support_sq: self.support_sq,
+                value_d2: |x: f64| self.value_d2(x),
+                slope_at_edge: || self.raw(self.support_sq).1 * self.clip_scale,
+                kinked: self.kinked,
+            },
+            xs,
         )
     }
 
@@ -605,20 +655,39 @@ mod tests {
     struct Sample(Vec<f64>);
 
     impl KernelLoop for Sample {
-        type Output = Vec<(f64, f64, f64)>;
+        type Output = Vec<((f64, f64, f64), RangeBits)>;
         fn run<K: FixedKernel>(self, kernel: &K) -> Self::Output {
             self.0
                 .iter()
-                .map(|x| {
+                .zip(self.0.iter().cycle().skip(1))
+                .map(|(x, y)| {
                     let (v, d1) = kernel.value_d1(*x);
-                    (kernel.value(*x), v, d1)
+                    let range = kernel.ranges(ordered(*x, *y));
+                    ((kernel.value(*x), v, d1), range_bits(range))
                 })
                 .collect()
         }
     }
 
+    /// The ends of [`KernelProfile::ranges`]'s intervals as bits (signs of zeros included) and
+    /// its kink flag.
+    type RangeBits = ([u64; 6], bool);
+
+    fn range_bits((k, k1, k2, kink): (Interval, Interval, Interval, bool)) -> RangeBits {
+        let ends = [k.lo, k.hi, k1.lo, k1.hi, k2.lo, k2.hi];
+        (ends.map(f64::to_bits), kink)
+    }
+
+    fn ordered(x: f64, y: f64) -> Interval {
+        Interval {
+            lo: x.min(y),
+            hi: x.max(y),
+        }
+    }
+
     /// The kernel a loop gets with its family fixed is the profile's own, equal number for
-    /// equal number, on every family and degree, inside, at and beyond the support.
+    /// equal number, on every family and degree, inside, at and beyond the support: values,
+    /// slopes, and ranges over intervals between the samples (bit for bit).
     #[test]
     fn kernels_with_their_family_fixed_are_the_profiles() {
         let mut rng = crate::model::rng::SplitMix64::new(41);
@@ -651,12 +720,19 @@ mod tests {
             let mut xs: Vec<f64> = (0..2000).map(|_| rng.range(-0.1, 1.2) * s2).collect();
             xs.extend([0.0, -0.0, s2, s2 * (1.0 - 1e-16), f64::INFINITY]);
             let fixed = profile.with_family(Sample(xs.clone()));
-            for (x, (v, v1, d1)) in xs.iter().zip(fixed) {
+            let next = xs.iter().cycle().skip(1);
+            for ((x, y), ((v, v1, d1), range)) in xs.iter().zip(next).zip(fixed) {
                 let (w1, e1) = profile.value_d1(*x);
                 assert!(
                     v == profile.value(*x) && v1 == w1 && d1 == e1,
                     "{kernel:?} at {x}: {v} {v1} {d1} vs {} {w1} {e1}",
                     profile.value(*x)
+                );
+                let want = profile.ranges(ordered(*x, *y));
+                assert_eq!(
+                    range,
+                    range_bits(want),
+                    "{kernel:?} over {x}, {y}: {want:?}"
                 );
             }
         }
