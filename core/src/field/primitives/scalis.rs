@@ -21,12 +21,15 @@ use crate::field::quadrature::GaussLegendre;
 /// Pieces per segment in the derivative bounds, at most.
 const MAX_BOUND_PIECES: usize = 24;
 
-/// The end of a piece in [`ScalisSegment::ray_jet`]: the radius there, its inverse, and the
-/// squared distances from the skeleton point to the two ends of the ray's chord.
+/// The end of a piece in [`ScalisSegment::ray_jet`]: the radius there, its inverse and the
+/// inverse's square and cube, and the squared distances from the skeleton point to the two
+/// ends of the ray's chord.
 #[derive(Clone, Copy)]
 struct PieceEnd {
     tau: f64,
     inv_tau: f64,
+    inv_tau2: f64,
+    inv_tau3: f64,
     to_a: f64,
     to_b: f64,
 }
@@ -212,7 +215,7 @@ impl ScalisSegment {
         let c = &self.cone;
         let u = ray.direction;
         let (ray_a, ray_b) = (ray.at(span.lo), ray.at(span.hi));
-        let pieces = ((2.0 * c.length / c.radius).ceil() as usize).clamp(2, MAX_BOUND_PIECES);
+        let pieces = self.bound_pieces();
         let ds = c.length / pieces as f64;
         let reached = self.pieces_within_reach((ray_a, ray_b), pieces, ds, support_sq.sqrt());
         let w_origin = u.dot(ray.origin - c.start);
@@ -220,14 +223,19 @@ impl ScalisSegment {
         let chord = ChordToAxis::new(ray_a, ray_b, c.start, c.axis);
         // What one boundary between pieces gives both pieces meeting there: computed once and
         // carried to the next piece, by the same expressions as when each piece computed its
-        // own (the bound is unchanged bit for bit).
+        // own (the bound is unchanged bit for bit: the powers of `1/τ` are the products
+        // `Interval::square` and `times_positive` take of positive ends).
         let boundary = |i: usize| {
             let s = i as f64 * ds;
             let tau = c.radius + c.slope * s;
             let q = c.start + s * c.axis;
+            let inv_tau = 1.0 / tau;
+            let inv_tau2 = inv_tau * inv_tau;
             PieceEnd {
                 tau,
-                inv_tau: 1.0 / tau,
+                inv_tau,
+                inv_tau2,
+                inv_tau3: inv_tau2 * inv_tau,
                 to_a: (ray_a - q).length_squared(),
                 to_b: (ray_b - q).length_squared(),
             }
@@ -267,8 +275,14 @@ impl ScalisSegment {
                 lo: end.inv_tau,
                 hi: start.inv_tau,
             };
-            let inv_tau2 = inv_tau.square();
-            let inv_tau3 = inv_tau2.times_positive(inv_tau);
+            let inv_tau2 = Interval {
+                lo: end.inv_tau2,
+                hi: start.inv_tau2,
+            };
+            let inv_tau3 = Interval {
+                lo: end.inv_tau3,
+                hi: start.inv_tau3,
+            };
             let (kv, k1, k2, kink) = kernel.ranges(x);
             let mut d2 = (k2 * w.square())
                 .times_positive(inv_tau3)
@@ -289,6 +303,21 @@ impl ScalisSegment {
         jet.scale(self.norm)
     }
 
+    /// How many equal pieces [`Self::ray_jet`] cuts the segment into: about two per radius at
+    /// the thin end, 2 to [`MAX_BOUND_PIECES`] (`⌈2L/r⌉` by an integer cast: `f64::ceil` is a
+    /// library call on the baseline x86-64).
+    #[inline]
+    fn bound_pieces(&self) -> usize {
+        let per_radius = 2.0 * self.cone.length / self.cone.radius;
+        let whole = per_radius as usize;
+        let pieces = if (whole as f64) < per_radius {
+            whole + 1
+        } else {
+            whole
+        };
+        pieces.clamp(2, MAX_BOUND_PIECES)
+    }
+
     /// The pieces `[i·ds, (i + 1)·ds]` of [`Self::ray_jet`] that the chord `[a, b]` may reach:
     /// the others are farther from it than `R·τ` at their far end (`R` the support radius), so
     /// their homothetic distance is past the support and the loop would skip them. Projection
@@ -296,7 +325,7 @@ impl ScalisSegment {
     /// projection is at least `gap` from the chord. The margins (10⁻⁹ relative to the scene's
     /// coordinates) keep every piece whose test could go either way by rounding, so the pieces
     /// kept are a superset of those the loop uses and the jet is unchanged bit for bit.
-    #[inline]
+    #[inline(always)]
     fn pieces_within_reach(
         &self,
         (a, b): (DVec3, DVec3),
@@ -310,14 +339,17 @@ impl ScalisSegment {
         let scale = c.start.abs().max_element() + a.abs().max_element() + b.abs().max_element();
         let margin = 1e-9 * (scale + c.length + c.radius + c.slope * c.length);
         let widest = support_radius * (c.radius + c.slope * c.length) * (1.0 + 1e-9) + margin;
-        // Pieces ending before `low − R·τ_max` are out of reach.
-        let first = ((low - widest) / ds).floor() - 1.0;
+        // Pieces ending before `low − R·τ_max` are out of reach. (Truncating casts, not
+        // `floor` and `ceil`, which are library calls on the baseline x86-64; each bound
+        // keeps a piece more than it needs.)
+        let first = (low - widest) / ds - 1.0;
         // A piece starting at `s = i·ds` past `high` is out of reach once
         // `s − high ≥ R·(r + δ·(s + ds))`, that is `s·(1 − Rδ) ≥ high + R·(r + δ·ds)`.
         let shrink = 1.0 - support_radius * c.slope * (1.0 + 1e-9);
         let last = if shrink > 1e-6 {
-            let reach = (high + support_radius * (c.radius + c.slope * ds)) * (1.0 + 1e-9) + margin;
-            (reach / (ds * shrink)).ceil() + 1.0
+            let reach = high + support_radius * (c.radius + c.slope * ds);
+            let reach = reach + 1e-9 * reach.abs() + margin;
+            reach / (ds * shrink) + 2.0
         } else {
             f64::INFINITY
         };
@@ -601,8 +633,11 @@ mod tests {
             let lo = rng.range(-3.0, 3.0);
             let span = Interval::new(lo, lo + rng.range(0.0, 2.0).powi(3));
             let (a, b) = (ray.at(span.lo), ray.at(span.hi));
-            let pieces =
-                ((2.0 * cone.length / cone.radius).ceil() as usize).clamp(2, MAX_BOUND_PIECES);
+            let pieces = segment.bound_pieces();
+            assert_eq!(
+                pieces,
+                ((2.0 * cone.length / cone.radius).ceil() as usize).clamp(2, MAX_BOUND_PIECES)
+            );
             let ds = cone.length / pieces as f64;
             let reached = segment.pieces_within_reach((a, b), pieces, ds, k.support_radius());
             let chord = ChordToAxis::new(a, b, cone.start, cone.axis);
