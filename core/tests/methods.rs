@@ -287,6 +287,70 @@ fn conservative_methods_never_skip_a_crossing_on_the_assets() {
     assert_no_failures(&failures, "failures");
 }
 
+/// Seeds of the generated-scene checks: `SKELETRACE_SEEDS` (comma-separated) where set, so that
+/// a run can try seeds nobody tried before; otherwise a fixed set, none of them an asset's.
+fn generated_seeds() -> Vec<u64> {
+    std::env::var("SKELETRACE_SEEDS").map_or_else(
+        |_| vec![31, 4242],
+        |list| {
+            list.split(',')
+                .map(|s| {
+                    s.trim()
+                        .parse()
+                        .unwrap_or_else(|e| panic!("SKELETRACE_SEEDS: {s}: {e}"))
+                })
+                .collect()
+        },
+    )
+}
+
+/// Scenes of every generator, small, from [`generated_seeds`]: SCALIS and distance skeletons
+/// with constant and varying radii, foams, trusses, max-of-sums blobs and Gaussian atoms. Rays
+/// aimed at random primitives: no conservative method skips the reference's first crossing or
+/// reports one it does not have.
+#[test]
+fn conservative_methods_never_skip_a_crossing_on_generated_scenes() {
+    let seeds = generated_seeds();
+    let mut jobs = Vec::new();
+    for &seed in &seeds {
+        for (kind, name) in GeneratorKind::ALL {
+            let (size, varying_radii) = match kind {
+                GeneratorKind::Tree => (3, false),
+                GeneratorKind::RandomSkeleton => (10, true),
+                GeneratorKind::Foam => (5, true),
+                GeneratorKind::Truss => (2, false),
+                GeneratorKind::Blobs => (30, false),
+                GeneratorKind::Molecule => (40, false),
+            };
+            let fields: &[Option<SkeletonField>] = match kind {
+                GeneratorKind::RandomSkeleton => &[None, Some(SkeletonField::Distance)],
+                _ => &[None],
+            };
+            for &field in fields {
+                let options = GenerateOptions {
+                    seed,
+                    size: Some(size),
+                    groups: (kind == GeneratorKind::Blobs).then_some(3),
+                    varying_radii,
+                    field,
+                    allow_large: false,
+                };
+                let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{name}: {e}"));
+                jobs.push((format!("{name} {field:?} seed {seed}"), scene, seed));
+            }
+        }
+    }
+    assert_eq!(jobs.len(), 7 * seeds.len());
+    let failures: Vec<String> = jobs
+        .par_iter()
+        .flat_map_iter(|(label, scene, seed)| {
+            let program = FieldProgram::new(scene);
+            compare_with_reference(&program, label, 40, *seed, |_| false)
+        })
+        .collect();
+    assert_no_failures(&failures, "failures");
+}
+
 /// Summed compact blobs, as in the forward-inclusion paper's figure 10 (Table 1), generated from
 /// several seeds and sizes: under the paper's protocol quadratic Taylor needs at most 0.6× the
 /// average steps of segment tracing as published (the paper: 4.79 / 8.90 = 0.54), and neither
