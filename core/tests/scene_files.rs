@@ -100,6 +100,27 @@ const BROKEN: &[(&str, &str, usize, &[&str])] = &[
     ("radius: 0.4", "radius: 0.0", 11, &["radius", "got 0"]),
     ("(1.0, 0.0, 0.0)", "(NaN, 0.0, 0.0)", 11, &["finite", "NaN"]),
     ("(1.0, 0.0, 0.0)", "(inf, 0.0, 0.0)", 11, &["finite", "inf"]),
+    // Found by mutating the assets: a radius or coordinate of 1e308 passed validation, and
+    // its support box overflowed (`export` panicked on an infinite grid).
+    (
+        "radius: 0.4",
+        "radius: 1e308",
+        11,
+        &["radius", "1e6", "got 1e308"],
+    ),
+    (
+        "radius: 0.4",
+        "radius: 1e-320",
+        11,
+        &["radius", "1e-6", "got 1e-320"],
+    ),
+    ("(1.0, 0.0, 0.0)", "(1.0, -2e9, 0.0)", 11, &["±1e6", "-2e9"]),
+    (
+        "scale: 2.0",
+        "scale: 1e308",
+        5,
+        &["support radius", "1000", "decrease"],
+    ),
     (
         "edges: [(0, 1)]",
         "edges: [(0, 7)]",

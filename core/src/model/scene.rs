@@ -679,29 +679,45 @@ struct Rule {
     what: &'static str,
 }
 
+/// Largest magnitude of a coordinate, length or other scene number. Past it the compiled
+/// scene's sums of squares and support boxes leave the range where `f64` (and the GPU's `f32`)
+/// keep a modelling scene's detail, and at 10³⁰⁸ they overflow: one clear error instead.
+pub const MAX_MAGNITUDE: f64 = 1e6;
+/// Smallest radius or other positive length: below it inverses and squares of radii overflow
+/// or underflow (a radius of 10⁻³²⁰ has no finite inverse).
+pub const MIN_LENGTH: f64 = 1e-6;
+
+fn within(v: f64) -> bool {
+    v.is_finite() && v.abs() <= MAX_MAGNITUDE
+}
+
+fn length(v: f64) -> bool {
+    (MIN_LENGTH..=MAX_MAGNITUDE).contains(&v)
+}
+
 const FINITE: Rule = Rule {
-    ok: f64::is_finite,
-    what: "expected a finite number",
+    ok: within,
+    what: "expected a finite number within ±1e6",
 };
 const FINITE3: Rule = Rule {
-    ok: f64::is_finite,
-    what: "expected three finite numbers",
+    ok: within,
+    what: "expected three finite numbers within ±1e6",
 };
 const POSITIVE: Rule = Rule {
-    ok: |v| v.is_finite() && v > 0.0,
-    what: "expected a finite number > 0",
+    ok: length,
+    what: "expected a number between 1e-6 and 1e6",
 };
 const POSITIVE3: Rule = Rule {
-    ok: |v| v.is_finite() && v > 0.0,
-    what: "expected three finite numbers > 0",
+    ok: length,
+    what: "expected three numbers between 1e-6 and 1e6",
 };
 const NONNEGATIVE: Rule = Rule {
-    ok: |v| v.is_finite() && v >= 0.0,
-    what: "expected a finite number ≥ 0",
+    ok: |v| (0.0..=MAX_MAGNITUDE).contains(&v),
+    what: "expected a number between 0 and 1e6",
 };
 const RADIUS: Rule = Rule {
-    ok: |v| v.is_finite() && v > 0.0,
-    what: "radius must be finite and > 0",
+    ok: length,
+    what: "radius must be between 1e-6 and 1e6",
 };
 const UNIT: Rule = Rule {
     ok: |v| (0.0..=1.0).contains(&v),
@@ -729,7 +745,7 @@ impl Rule {
         if (self.ok)(v) {
             Ok(())
         } else {
-            Err(format!("{}, got {v}", self.what))
+            Err(format!("{}, got {}", self.what, shown(v)))
         }
     }
 
@@ -737,8 +753,24 @@ impl Rule {
         if v.iter().all(|&x| (self.ok)(x)) {
             Ok(())
         } else {
-            Err(format!("{}, got ({}, {}, {})", self.what, v[0], v[1], v[2]))
+            Err(format!(
+                "{}, got ({}, {}, {})",
+                self.what,
+                shown(v[0]),
+                shown(v[1]),
+                shown(v[2])
+            ))
         }
+    }
+}
+
+/// A number as an error message shows it: as written for everyday magnitudes, in scientific
+/// notation for huge and tiny ones (`1e308`, not its 309 digits).
+fn shown(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-5..1e7).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 
