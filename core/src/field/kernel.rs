@@ -136,7 +136,7 @@ impl Kernel {
         }
         // A support of more than a thousand radii makes every primitive cover the scene (and
         // at σ = 10³⁰⁸ it is infinite).
-        if !(support <= 1e3) {
+        if support.is_nan() || support > 1e3 {
             return Err(format!(
                 "{self:?}: the clipped support radius {support:.4e} is more than 1000 times the                  prescribed radius; decrease the scale"
             ));
