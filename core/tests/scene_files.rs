@@ -119,7 +119,11 @@ const BROKEN: &[(&str, &str, usize, &[&str])] = &[
         "scale: 2.0",
         "scale: 1e308",
         5,
-        &["support radius", "1000", "decrease"],
+        &[
+            "support radius",
+            "1000 times the prescribed radius",
+            "decrease",
+        ],
     ),
     (
         "edges: [(0, 1)]",

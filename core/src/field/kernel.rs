@@ -138,7 +138,8 @@ impl Kernel {
         // at σ = 10³⁰⁸ it is infinite).
         if support.is_nan() || support > 1e3 {
             return Err(format!(
-                "{self:?}: the clipped support radius {support:.4e} is more than 1000 times the                  prescribed radius; decrease the scale"
+                "{self:?}: the clipped support radius {support:.4e} is more than 1000 times the \
+                 prescribed radius; decrease the scale"
             ));
         }
         Ok(())
@@ -669,7 +670,7 @@ mod tests {
                 .zip(self.0.iter().cycle().skip(1))
                 .map(|(x, y)| {
                     let (v, d1) = kernel.value_d1(*x);
-                    let range = kernel.ranges(ordered(*x, *y));
+                    let range = kernel.ranges(Interval::new(*x, *y));
                     ((kernel.value(*x), v, d1), range_bits(range))
                 })
                 .collect()
@@ -683,13 +684,6 @@ mod tests {
     fn range_bits((k, k1, k2, kink): (Interval, Interval, Interval, bool)) -> RangeBits {
         let ends = [k.lo, k.hi, k1.lo, k1.hi, k2.lo, k2.hi];
         (ends.map(f64::to_bits), kink)
-    }
-
-    fn ordered(x: f64, y: f64) -> Interval {
-        Interval {
-            lo: x.min(y),
-            hi: x.max(y),
-        }
     }
 
     /// The kernel a loop gets with its family fixed is the profile's own, equal number for
@@ -735,7 +729,7 @@ mod tests {
                     "{kernel:?} at {x}: {v} {v1} {d1} vs {} {w1} {e1}",
                     profile.value(*x)
                 );
-                let want = profile.ranges(ordered(*x, *y));
+                let want = profile.ranges(Interval::new(*x, *y));
                 assert_eq!(
                     range,
                     range_bits(want),

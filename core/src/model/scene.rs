@@ -682,33 +682,33 @@ struct Rule {
 /// Largest magnitude of a coordinate, length or other scene number. Past it the compiled
 /// scene's sums of squares and support boxes leave the range where `f64` (and the GPU's `f32`)
 /// keep a modelling scene's detail, and at 10³⁰⁸ they overflow: one clear error instead.
-pub const MAX_MAGNITUDE: f64 = 1e6;
+const MAX_MAGNITUDE: f64 = 1e6;
 /// Smallest radius or other positive length: below it inverses and squares of radii overflow
 /// or underflow (a radius of 10⁻³²⁰ has no finite inverse).
-pub const MIN_LENGTH: f64 = 1e-6;
+const MIN_LENGTH: f64 = 1e-6;
 
-fn within(v: f64) -> bool {
+fn is_coordinate(v: f64) -> bool {
     v.is_finite() && v.abs() <= MAX_MAGNITUDE
 }
 
-fn length(v: f64) -> bool {
+fn is_length(v: f64) -> bool {
     (MIN_LENGTH..=MAX_MAGNITUDE).contains(&v)
 }
 
 const FINITE: Rule = Rule {
-    ok: within,
+    ok: is_coordinate,
     what: "expected a finite number within ±1e6",
 };
 const FINITE3: Rule = Rule {
-    ok: within,
+    ok: is_coordinate,
     what: "expected three finite numbers within ±1e6",
 };
 const POSITIVE: Rule = Rule {
-    ok: length,
+    ok: is_length,
     what: "expected a number between 1e-6 and 1e6",
 };
 const POSITIVE3: Rule = Rule {
-    ok: length,
+    ok: is_length,
     what: "expected three numbers between 1e-6 and 1e6",
 };
 const NONNEGATIVE: Rule = Rule {
@@ -716,7 +716,7 @@ const NONNEGATIVE: Rule = Rule {
     what: "expected a number between 0 and 1e6",
 };
 const RADIUS: Rule = Rule {
-    ok: length,
+    ok: is_length,
     what: "radius must be between 1e-6 and 1e6",
 };
 const UNIT: Rule = Rule {
