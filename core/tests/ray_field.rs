@@ -44,6 +44,13 @@ fn compare(program: &FieldProgram, field: &RayField, rng: &mut SplitMix64) -> Op
         if !same_bits(field.value(t), b.0) {
             return Some(format!("value({t}): {} vs {}", field.value(t), b.0));
         }
+        let (gradient, expected) = (
+            field.value_gradient(t).1,
+            program.value_gradient(ray.at(t)).1,
+        );
+        if gradient.to_array().map(f64::to_bits) != expected.to_array().map(f64::to_bits) {
+            return Some(format!("gradient at {t}: {gradient} vs {expected}"));
+        }
         if k % 4 != 0 {
             continue;
         }

@@ -65,6 +65,12 @@ struct FrameContext {
     far: f64,
 }
 
+/// What shading needs of the field at a ray's first crossing.
+struct SurfacePoint {
+    gradient: DVec3,
+    material: Material,
+}
+
 impl<'a> Renderer<'a> {
     /// Binds `tracer` (prepared on `compiled.program` with `settings`) to the compiled
     /// scene's materials and lights.
@@ -127,15 +133,18 @@ impl<'a> Renderer<'a> {
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let ray = pinhole.ray(x, y, w, h);
-                        // The field is dropped before shading, so that the shadow rays'
-                        // fields reuse its arrays.
-                        let trace = {
+                        // The field gives the crossing's normal and material, then is
+                        // dropped before shading, so that the shadow rays' fields reuse its
+                        // arrays.
+                        let (trace, surface) = {
                             let field = RayField::from_tile(self.program, &ray, span, &candidates);
-                            self.tracer.trace_field(&field, TraceMode::Opaque)
+                            let trace = self.tracer.trace_field(&field, TraceMode::Opaque);
+                            let surface = trace.first().map(|hit| self.surface_on(&field, hit.t));
+                            (trace, surface)
                         };
                         let mut steps = 0;
                         let (colour, depth) =
-                            self.shade_trace(&ray, &trace, 0, &context, &mut steps);
+                            self.shade_trace(&ray, &trace, surface, 0, &context, &mut steps);
                         pixels.push((colour.as_vec3().to_array(), depth, steps));
                     }
                 }
@@ -173,26 +182,40 @@ impl<'a> Renderer<'a> {
         let trace = self
             .tracer
             .trace(ray, Interval::new(0.0, context.far), TraceMode::Opaque);
-        self.shade_trace(ray, &trace, bounce, context, steps)
+        let surface = trace.first().map(|hit| SurfacePoint {
+            gradient: self.program.value_gradient(ray.at(hit.t)).1,
+            material: self.material_of(&self.program.group_values_along_ray(ray, hit.t)),
+        });
+        self.shade_trace(ray, &trace, surface, bounce, context, steps)
     }
 
-    /// Colour seen along `ray`, traced as `trace`, and the distance of its first crossing.
+    /// The gradient and material at the crossing `ray.at(t)` of a camera ray, from its field:
+    /// the same bits as from the program, without walking the BVH.
+    fn surface_on(&self, field: &RayField, t: f64) -> SurfacePoint {
+        SurfacePoint {
+            gradient: field.value_gradient(t).1,
+            material: self.material_of(&field.group_values(t)),
+        }
+    }
+
+    /// Colour seen along `ray`, traced as `trace`, whose first crossing is at `surface`, and
+    /// the distance of that crossing.
     fn shade_trace(
         &self,
         ray: &Ray,
         trace: &Trace,
+        surface: Option<SurfacePoint>,
         bounce: u32,
         context: &FrameContext,
         steps: &mut u32,
     ) -> (DVec3, f64) {
         *steps += trace.steps;
-        let Some(hit) = trace.first() else {
+        let (Some(hit), Some(SurfacePoint { gradient, material })) = (trace.first(), surface)
+        else {
             return (background(ray.direction), f64::INFINITY);
         };
         let p = ray.at(hit.t);
-        let (_, gradient) = self.program.value_gradient(p);
         let outward = (-gradient).normalize_or(-ray.direction);
-        let material = self.material_at(ray, hit.t);
         let lit = self.shade(p, outward, ray.direction, &material, context);
         if material.opacity >= 1.0 || bounce >= MAX_BOUNCES {
             return (lit, hit.t);
@@ -239,7 +262,11 @@ impl<'a> Renderer<'a> {
 
     /// Material of the group contributing most at the crossing.
     fn material_at(&self, ray: &Ray, t: f64) -> Material {
-        let values = self.program.group_values_along_ray(ray, t);
+        self.material_of(&self.program.group_values_along_ray(ray, t))
+    }
+
+    /// Material of the group whose value in `values` (one `(f, f′)` per group) is largest.
+    fn material_of(&self, values: &[(f64, f64)]) -> Material {
         let best = values
             .iter()
             .enumerate()

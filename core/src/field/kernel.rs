@@ -317,6 +317,8 @@ pub struct KernelProfile {
     inv_sigma2: f64,
     /// `x` beyond which the (clipped) kernel is zero.
     support_sq: f64,
+    /// `√support_sq`, asked for once per candidate primitive of every ray.
+    support_radius: f64,
     /// Subtracted before rescaling (0 for compact kernels).
     clip: f64,
     /// `1 / (1 − clip)`.
@@ -329,13 +331,14 @@ impl KernelProfile {
     /// Builds the profile of a validated kernel.
     #[must_use]
     pub fn new(kernel: Kernel) -> Self {
-        match kernel {
+        let profile = match kernel {
             Kernel::CompactPolynomial { degree, scale } => {
                 let m = i32::try_from(degree / 2).unwrap_or(1);
                 Self {
                     family: Family::Compact { m },
                     inv_sigma2: 1.0 / (scale * scale),
                     support_sq: scale * scale,
+                    support_radius: 0.0,
                     clip: 0.0,
                     clip_scale: 1.0,
                     kinked: m == 1,
@@ -348,6 +351,7 @@ impl KernelProfile {
                     family: Family::Cauchy { n },
                     inv_sigma2: 1.0 / s2,
                     support_sq: s2 * (CLIP_EPSILON.powf(-1.0 / n) - 1.0),
+                    support_radius: 0.0,
                     clip: CLIP_EPSILON,
                     clip_scale: 1.0 / (1.0 - CLIP_EPSILON),
                     kinked: true,
@@ -359,18 +363,23 @@ impl KernelProfile {
                     family: Family::Gaussian,
                     inv_sigma2: 1.0 / s2,
                     support_sq: s2 * (1.0 / CLIP_EPSILON).ln(),
+                    support_radius: 0.0,
                     clip: CLIP_EPSILON,
                     clip_scale: 1.0 / (1.0 - CLIP_EPSILON),
                     kinked: true,
                 }
             }
+        };
+        Self {
+            support_radius: profile.support_sq.sqrt(),
+            ..profile
         }
     }
 
     /// Normalised distance beyond which the kernel vanishes (`σ` for compact kernels).
     #[must_use]
     pub fn support_radius(&self) -> f64 {
-        self.support_sq.sqrt()
+        self.support_radius
     }
 
     /// Squared normalised support radius.

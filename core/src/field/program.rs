@@ -42,6 +42,29 @@ fn total_order_key(x: f64) -> u64 {
     }
 }
 
+/// Adds the closed interval `s` to `parts`, sorted disjoint closed intervals with a gap between
+/// each two, keeping them so: the parts `s` meets or touches become one with `s`. Whatever the
+/// order of the intervals added, the parts are the connected pieces of their union, each from
+/// the least entry (in [`f64::total_cmp`]'s order, as sorting the entries would take it) to the
+/// greatest exit.
+fn merge_into_parts(parts: &mut Vec<Interval>, s: Interval) {
+    // The parts wholly before `s`, then those that meet it.
+    let first = parts.partition_point(|p| p.hi < s.lo);
+    let end = first + parts[first..].partition_point(|p| p.lo <= s.hi);
+    if first == end {
+        parts.insert(first, s);
+        return;
+    }
+    let lo = if total_order_key(s.lo) < total_order_key(parts[first].lo) {
+        s.lo
+    } else {
+        parts[first].lo
+    };
+    let hi = parts[end - 1].hi.max(s.hi);
+    parts[first] = Interval { lo, hi };
+    parts.drain(first + 1..end);
+}
+
 /// How segment tracing bounds one primitive's `|f′|` on a ray interval.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PrimitiveSlope {
@@ -445,18 +468,10 @@ impl FieldProgram {
         ray: &Ray,
         span: Interval,
     ) -> Vec<Interval> {
-        // Sorted by entry alone: supports entering together merge into one part in any order,
-        // so the parts are those of the supports sorted as `ray_supports_in` sorts them.
-        let mut spans: Vec<Interval> = Vec::new();
-        lookup.on_ray(span, |_, span| spans.push(span));
-        spans.sort_unstable_by_key(|s| total_order_key(s.lo));
+        // Each support is merged into the parts as the lookup visits it: no sort of the
+        // supports (issue 18), the parts are few.
         let mut out: Vec<Interval> = Vec::new();
-        for s in spans {
-            match out.last_mut() {
-                Some(last) if s.lo <= last.hi => last.hi = last.hi.max(s.hi),
-                _ => out.push(s),
-            }
-        }
+        lookup.on_ray(span, |_, span| merge_into_parts(&mut out, span));
         for b in &self.cut_boxes {
             let Some(inside) = b.box_interval(ray, span) else {
                 continue;
@@ -873,7 +888,7 @@ fn shape_primitive(shape: &Shape, norm: f64) -> ShapePrimitive {
 
 #[cfg(test)]
 mod tests {
-    use super::total_order_key;
+    use super::{Interval, merge_into_parts, total_order_key};
     use crate::model::rng::SplitMix64;
 
     /// Sorting by the key orders numbers as `f64::total_cmp` does: negative and positive, both
@@ -910,5 +925,69 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Merging intervals into parts one at a time, in any order, gives the parts of sorting
+    /// them by entry and sweeping: on random sets with shared and touching ends, signed zeros,
+    /// nested and point intervals.
+    #[test]
+    fn parts_merged_one_at_a_time_are_the_sorted_sweep() {
+        let sweep = |mut spans: Vec<Interval>| {
+            spans.sort_unstable_by_key(|s| total_order_key(s.lo));
+            let mut out: Vec<Interval> = Vec::new();
+            for s in spans {
+                match out.last_mut() {
+                    Some(last) if s.lo <= last.hi => last.hi = last.hi.max(s.hi),
+                    _ => out.push(s),
+                }
+            }
+            out
+        };
+        let mut rng = SplitMix64::new(11);
+        let mut merged_any = false;
+        for case in 0..20_000 {
+            let count = 1 + case % 40;
+            // Ends on a coarse grid, so that ends coincide and intervals touch often.
+            let grid = [1.0, 0.25, 1e-3][case % 3];
+            let end = |rng: &mut SplitMix64| {
+                let x = (rng.range(-8.0, 8.0) / grid).round() * grid;
+                if x == 0.0 && rng.unit() < 0.5 {
+                    -0.0
+                } else {
+                    x
+                }
+            };
+            let spans: Vec<Interval> = (0..count)
+                .map(|_| {
+                    let (a, b) = (end(&mut rng), end(&mut rng));
+                    let lo = if total_order_key(a) < total_order_key(b) {
+                        a
+                    } else {
+                        b
+                    };
+                    let hi = if total_order_key(a) < total_order_key(b) {
+                        b
+                    } else {
+                        a
+                    };
+                    Interval { lo, hi }
+                })
+                .collect();
+            let mut parts = Vec::new();
+            for s in &spans {
+                merge_into_parts(&mut parts, *s);
+            }
+            merged_any |= parts.len() < spans.len();
+            let want = sweep(spans.clone());
+            assert_eq!(parts.len(), want.len(), "{spans:?}");
+            for (got, want) in parts.iter().zip(&want) {
+                assert_eq!(
+                    (got.lo.to_bits(), got.hi.to_bits()),
+                    (want.lo.to_bits(), want.hi.to_bits()),
+                    "{spans:?}"
+                );
+            }
+        }
+        assert!(merged_any);
     }
 }

@@ -406,10 +406,19 @@ impl<'a> RayField<'a> {
         if !self.reach.contains(t) {
             return self.program.along_ray(&self.ray, t);
         }
-        let (v, g) = self
-            .program
-            .value_gradient_in(&AtParameter(self, t), self.ray.at(t));
+        let (v, g) = self.value_gradient(t);
         (v, g.dot(self.ray.direction))
+    }
+
+    /// Value and gradient at `ray.at(t)`, as [`FieldProgram::value_gradient`] there (the
+    /// shading normal at a crossing, without a BVH walk).
+    #[must_use]
+    pub fn value_gradient(&self, t: f64) -> (f64, DVec3) {
+        let p = self.ray.at(t);
+        if !self.reach.contains(t) {
+            return self.program.value_gradient(p);
+        }
+        self.program.value_gradient_in(&AtParameter(self, t), p)
     }
 
     /// `f(t)`: bit for bit the value of [`RayField::along`], without the derivative.
