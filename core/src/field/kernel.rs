@@ -198,6 +198,12 @@ pub trait FixedKernel {
     fn value_d1(&self, x: f64) -> (f64, f64);
     /// [`KernelProfile::ranges`], bit for bit.
     fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool);
+    /// [`KernelProfile::value_d2_inside`], bit for bit.
+    fn value_d2_inside(&self, x: f64) -> (f64, f64, f64);
+    /// [`KernelProfile::support_sq`].
+    fn support_sq(&self) -> f64;
+    /// [`KernelProfile::point_critical_tau2`], bit for bit.
+    fn point_critical_tau2(&self, h2: f64) -> (f64, f64);
 }
 
 /// What [`ranges_over`] needs of a kernel.
@@ -293,6 +299,27 @@ impl<const M: i32> FixedKernel for CompactKernel<M> {
             xs,
         )
     }
+    #[inline(always)]
+    fn value_d2_inside(&self, x: f64) -> (f64, f64, f64) {
+        let (k, k1, k2) = compact_raw(M, self.a, x.clamp(0.0, self.support_sq));
+        (k.max(0.0), k1, k2)
+    }
+    #[inline(always)]
+    fn support_sq(&self) -> f64 {
+        self.support_sq
+    }
+    #[inline(always)]
+    fn point_critical_tau2(&self, h2: f64) -> (f64, f64) {
+        compact_critical_tau2(M, 1.0 / self.a, h2)
+    }
+}
+
+/// [`KernelProfile::point_critical_tau2`] of the compact kernel `(1 − x/σ²)^m`, `s2 = σ²`.
+#[inline(always)]
+fn compact_critical_tau2(m: i32, s2: f64, h2: f64) -> (f64, f64) {
+    let p = (s2 - h2).max(0.0);
+    let q = f64::from(2 * m - 1);
+    (p / q, 3.0 * p / q)
 }
 
 impl FixedKernel for KernelProfile {
@@ -307,6 +334,18 @@ impl FixedKernel for KernelProfile {
     #[inline]
     fn ranges(&self, xs: Interval) -> (Interval, Interval, Interval, bool) {
         Self::ranges(self, xs)
+    }
+    #[inline]
+    fn value_d2_inside(&self, x: f64) -> (f64, f64, f64) {
+        Self::value_d2_inside(self, x)
+    }
+    #[inline]
+    fn support_sq(&self) -> f64 {
+        self.support_sq
+    }
+    #[inline]
+    fn point_critical_tau2(&self, h2: f64) -> (f64, f64) {
+        Self::point_critical_tau2(self, h2)
     }
 }
 
@@ -515,11 +554,7 @@ impl KernelProfile {
     pub fn point_critical_tau2(&self, h2: f64) -> (f64, f64) {
         let s2 = 1.0 / self.inv_sigma2;
         match self.family {
-            Family::Compact { m } => {
-                let p = (s2 - h2).max(0.0);
-                let q = f64::from(2 * m - 1);
-                (p / q, 3.0 * p / q)
-            }
+            Family::Compact { m } => compact_critical_tau2(m, s2, h2),
             Family::Cauchy { n } => {
                 let b = s2 + h2;
                 let q = 2.0 * n + 1.0;
@@ -672,7 +707,7 @@ mod tests {
     struct Sample(Vec<f64>);
 
     impl KernelLoop for Sample {
-        type Output = Vec<((f64, f64, f64), RangeBits)>;
+        type Output = Vec<((f64, f64, f64), RangeBits, [u64; 6])>;
         fn run<K: FixedKernel>(self, kernel: &K) -> Self::Output {
             self.0
                 .iter()
@@ -680,10 +715,21 @@ mod tests {
                 .map(|(x, y)| {
                     let (v, d1) = kernel.value_d1(*x);
                     let range = kernel.ranges(Interval::new(*x, *y));
-                    ((kernel.value(*x), v, d1), range_bits(range))
+                    let point = point_bits(
+                        kernel.value_d2_inside(*x),
+                        kernel.point_critical_tau2(*x),
+                        kernel.support_sq(),
+                    );
+                    ((kernel.value(*x), v, d1), range_bits(range), point)
                 })
                 .collect()
         }
+    }
+
+    /// `K, K′, K″` inside the support, the critical `τ²` of a point blob at `ĥ² = x` and the
+    /// support, as bits.
+    fn point_bits((k, k1, k2): (f64, f64, f64), (c1, c2): (f64, f64), support_sq: f64) -> [u64; 6] {
+        [k, k1, k2, c1, c2, support_sq].map(f64::to_bits)
     }
 
     /// The ends of [`KernelProfile::ranges`]'s intervals as bits (signs of zeros included) and
@@ -697,7 +743,8 @@ mod tests {
 
     /// The kernel a loop gets with its family fixed is the profile's own, equal number for
     /// equal number, on every family and degree, inside, at and beyond the support: values,
-    /// slopes, and ranges over intervals between the samples (bit for bit).
+    /// slopes, and ranges over intervals between the samples, and a point blob's terms (bit for
+    /// bit).
     #[test]
     fn kernels_with_their_family_fixed_are_the_profiles() {
         let mut rng = crate::model::rng::SplitMix64::new(41);
@@ -731,7 +778,13 @@ mod tests {
             xs.extend([0.0, -0.0, s2, s2 * (1.0 - 1e-16), f64::INFINITY]);
             let fixed = profile.with_family(Sample(xs.clone()));
             let next = xs.iter().cycle().skip(1);
-            for ((x, y), ((v, v1, d1), range)) in xs.iter().zip(next).zip(fixed) {
+            for ((x, y), ((v, v1, d1), range, point)) in xs.iter().zip(next).zip(fixed) {
+                let want = point_bits(
+                    profile.value_d2_inside(*x),
+                    profile.point_critical_tau2(*x),
+                    profile.support_sq(),
+                );
+                assert_eq!(point, want, "{kernel:?}: point blob terms at {x}");
                 let (w1, e1) = profile.value_d1(*x);
                 assert!(
                     v == profile.value(*x) && v1 == w1 && d1 == e1,

@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::geometry::{Aabb, RELATIVE_SUPPORT_MARGIN, Ray, ball_interval, rounding_margin};
-use crate::field::kernel::KernelProfile;
+use crate::field::kernel::{FixedKernel, KernelLoop, KernelProfile};
 
 /// A point primitive with its normalisation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,6 +24,10 @@ impl PointBlob {
     /// Value and gradient at `p`.
     #[must_use]
     pub fn value_gradient(&self, p: DVec3, k: &KernelProfile) -> (f64, DVec3) {
+        k.with_family(ValueGradientAt { blob: self, p })
+    }
+
+    fn value_gradient_with<K: FixedKernel>(&self, p: DVec3, k: &K) -> (f64, DVec3) {
         let inv_r2 = 1.0 / (self.radius * self.radius);
         let d = p - self.center;
         let (v, d1) = k.value_d1(d.length_squared() * inv_r2);
@@ -69,6 +73,16 @@ impl PointBlob {
     /// Exact enclosures of `f`, `f′`, `f″` over `span`, which must lie in the support interval.
     #[must_use]
     pub fn ray_jet(&self, ray: &Ray, span: Interval, k: &KernelProfile) -> Jet {
+        k.with_family(RayJetOver {
+            blob: self,
+            ray,
+            span,
+        })
+    }
+
+    /// [`Self::ray_jet`] with the kernel's family fixed (issue 18: the compact kernels'
+    /// powers unrolled), bit for bit.
+    fn ray_jet_with<K: FixedKernel>(&self, ray: &Ray, span: Interval, k: &K) -> Jet {
         let rho = self.radius;
         let t_closest = (self.center - ray.origin).dot(ray.direction);
         let h2 = (ray.at(t_closest) - self.center).length_squared() / (rho * rho);
@@ -88,16 +102,34 @@ impl PointBlob {
             let (_, k1, k2) = k.value_d2_inside(x_of(tau));
             d2_of(tau, k1, k2)
         };
-        let nearest = 0.0_f64.clamp(a, b);
-        let farthest = if a.abs() > b.abs() { a } else { b };
-        let value = Interval::new(
-            self.norm * k.value(x_of(farthest)),
-            self.norm * k.value(x_of(nearest)),
-        );
+        // The kernel once per end point, for the value and both derivatives.
+        let (x_a, x_b) = (x_of(a), x_of(b));
+        let ((k_a, k1_a, k2_a), (k_b, k1_b, k2_b)) =
+            (k.value_d2_inside(x_a), k.value_d2_inside(x_b));
+        // `K(x)` from the terms inside the support, as `FixedKernel::value` gives it: 0 from the
+        // support's boundary on.
+        let support_sq = k.support_sq();
+        let value_of = |x: f64, k_inside: f64| if x >= support_sq { 0.0 } else { k_inside };
+        // The largest value is at the point of the span nearest the closest point (`τ = 0`);
+        // where that is inside the span, the kernel there serves `f″`'s critical point too.
+        let mut closest = None;
+        let nearest = if 0.0 < a {
+            value_of(x_a, k_a)
+        } else if 0.0 > b {
+            value_of(x_b, k_b)
+        } else {
+            let x = x_of(0.0);
+            let terms = k.value_d2_inside(x);
+            closest = Some(terms);
+            value_of(x, terms.0)
+        };
+        let farthest = if a.abs() > b.abs() {
+            value_of(x_a, k_a)
+        } else {
+            value_of(x_b, k_b)
+        };
+        let value = Interval::new(self.norm * farthest, self.norm * nearest);
         let (c1, c2) = k.point_critical_tau2(h2);
-        // The kernel once per end point, for both derivatives.
-        let ((_, k1_a, k2_a), (_, k1_b, k2_b)) =
-            (k.value_d2_inside(x_of(a)), k.value_d2_inside(x_of(b)));
         let mut d1 = Interval::new(d1_of(a, k1_a), d1_of(b, k1_b));
         let mut d2 = Interval::new(d2_of(a, k1_a, k2_a), d2_of(b, k1_b, k2_b));
         for tau in [c1.sqrt(), -c1.sqrt()] {
@@ -105,7 +137,10 @@ impl PointBlob {
                 d1 = d1.include(d1_at(tau));
             }
         }
-        for tau in [0.0, c2.sqrt(), -c2.sqrt()] {
+        if let Some((_, k1, k2)) = closest {
+            d2 = d2.include(d2_of(0.0, k1, k2));
+        }
+        for tau in [c2.sqrt(), -c2.sqrt()] {
             if (a..=b).contains(&tau) {
                 d2 = d2.include(d2_at(tau));
             }
@@ -134,5 +169,32 @@ impl PointBlob {
             0.0
         };
         self.norm * k.max_slope_on(distances) * cosine / rho
+    }
+}
+
+/// [`PointBlob::value_gradient`] as a [`KernelLoop`].
+struct ValueGradientAt<'a> {
+    blob: &'a PointBlob,
+    p: DVec3,
+}
+
+impl KernelLoop for ValueGradientAt<'_> {
+    type Output = (f64, DVec3);
+    fn run<K: FixedKernel>(self, kernel: &K) -> (f64, DVec3) {
+        self.blob.value_gradient_with(self.p, kernel)
+    }
+}
+
+/// [`PointBlob::ray_jet`] as a [`KernelLoop`].
+struct RayJetOver<'a> {
+    blob: &'a PointBlob,
+    ray: &'a Ray,
+    span: Interval,
+}
+
+impl KernelLoop for RayJetOver<'_> {
+    type Output = Jet;
+    fn run<K: FixedKernel>(self, kernel: &K) -> Jet {
+        self.blob.ray_jet_with(self.ray, self.span, kernel)
     }
 }
