@@ -182,15 +182,32 @@ impl NearRay {
     #[inline]
     #[must_use]
     pub fn interval(&self, b: &Aabb) -> Option<Interval> {
-        let t_a = (b.min - self.low) * self.inv;
-        let t_b = (b.max - self.high) * self.inv;
-        let enter = t_a.min(t_b).max_element().max(self.span.lo);
-        let exit = t_a.max(t_b).min_element().min(self.span.hi);
-        (enter <= exit).then_some(Interval {
-            lo: enter,
-            hi: exit,
-        })
+        near_slab_interval(
+            (b.min - self.low) * self.inv,
+            (b.max - self.high) * self.inv,
+            self.span,
+        )
     }
+
+    /// The widened box's lower corner minus the origin, `min − (o + pad)`, and its upper
+    /// corner's, `max − (o − pad)`: what [`NearRay::interval`] multiplies by the direction's
+    /// reciprocal (rays from one origin share them).
+    #[must_use]
+    pub fn offsets(origin: DVec3, pad: f64, b: &Aabb) -> (DVec3, DVec3) {
+        (b.min - (origin + pad), b.max - (origin - pad))
+    }
+}
+
+/// [`NearRay::interval`] from the widened box's planes' parameters on the ray.
+#[inline]
+#[must_use]
+pub fn near_slab_interval(t_a: DVec3, t_b: DVec3, span: Interval) -> Option<Interval> {
+    let enter = t_a.min(t_b).max_element().max(span.lo);
+    let exit = t_a.max(t_b).min_element().min(span.hi);
+    (enter <= exit).then_some(Interval {
+        lo: enter,
+        hi: exit,
+    })
 }
 
 /// The rays from one origin whose directions lie in the cone over a convex quadrilateral of

@@ -99,21 +99,32 @@ impl Aabb {
     /// (once per ray in a traversal).
     #[must_use]
     pub fn ray_interval_with(&self, ray: &Ray, inv: DVec3, span: Interval) -> Option<Interval> {
-        let t_a = (self.min - ray.origin) * inv;
-        let t_b = (self.max - ray.origin) * inv;
-        let mut lo = span.lo;
-        let mut hi = span.hi;
-        for axis in 0..3 {
-            let (a, b) = (t_a[axis], t_b[axis]);
-            if a.is_nan() || b.is_nan() {
-                // Direction component is 0 and the origin lies on a slab plane: inside.
-                continue;
-            }
-            lo = lo.max(a.min(b));
-            hi = hi.min(a.max(b));
-        }
-        (lo <= hi).then_some(Interval { lo, hi })
+        slab_interval(
+            (self.min - ray.origin) * inv,
+            (self.max - ray.origin) * inv,
+            span,
+        )
     }
+}
+
+/// The slab test from its planes' parameters on the ray, `t_a = (min − o)·inv` and
+/// `t_b = (max − o)·inv` ([`Aabb::ray_interval_with`]; a camera tile's rays share `min − o`
+/// and `max − o`), clipped to `span`.
+#[inline]
+#[must_use]
+pub fn slab_interval(t_a: DVec3, t_b: DVec3, span: Interval) -> Option<Interval> {
+    let mut lo = span.lo;
+    let mut hi = span.hi;
+    for axis in 0..3 {
+        let (a, b) = (t_a[axis], t_b[axis]);
+        if a.is_nan() || b.is_nan() {
+            // Direction component is 0 and the origin lies on a slab plane: inside.
+            continue;
+        }
+        lo = lo.max(a.min(b));
+        hi = hi.min(a.max(b));
+    }
+    (lo <= hi).then_some(Interval { lo, hi })
 }
 
 /// Real roots of `a t² + b t + c`, in increasing order, computed without cancellation.
@@ -163,8 +174,15 @@ pub fn rounding_margin(origin: DVec3, center: DVec3, reach: f64) -> f64 {
 #[must_use]
 pub fn ball_interval(ray: &Ray, center: DVec3, radius: f64) -> Option<Interval> {
     let oc = ray.origin - center;
-    let b = oc.dot(ray.direction);
-    let c = oc.length_squared() - radius * radius;
+    ball_interval_from(oc, oc.length_squared() - radius * radius, ray.direction)
+}
+
+/// [`ball_interval`] from `oc = origin − centre` and `c = |oc|² − radius²`, which the rays from
+/// one origin share, and the ray's `direction`.
+#[inline]
+#[must_use]
+pub fn ball_interval_from(oc: DVec3, c: f64, direction: DVec3) -> Option<Interval> {
+    let b = oc.dot(direction);
     let disc = b * b - c;
     if disc < 0.0 {
         return None;

@@ -12,6 +12,9 @@
 //! The candidates are kept one array per field (structure of arrays), and a point question
 //! tests a box only where the ray's parameter lies in that box's (widened) interval on the ray;
 //! the arrays are recycled from ray to ray on each thread, so that a ray allocates nothing.
+//! Camera rays take their candidates from their screen tile's list ([`TileCandidates`]), which
+//! holds what the tile's rays share: the differences between their origin and each box's
+//! corners and each point blob's centre, so that a ray's tests are a few products each.
 //!
 //! The answers are bit for bit those of the program's own queries: the list keeps the BVH's
 //! depth-first order (which every program query follows), a point query keeps exactly the items
@@ -29,8 +32,10 @@ use std::cell::{Cell, OnceCell};
 use glam::DVec3;
 
 use crate::bounds::interval::{Interval, Jet};
-use crate::field::bvh::{Beam, NearRay};
-use crate::field::geometry::{Aabb, RELATIVE_SUPPORT_MARGIN, Ray, rounding_margin};
+use crate::field::bvh::{Beam, NearRay, near_slab_interval};
+use crate::field::geometry::{
+    Aabb, RELATIVE_SUPPORT_MARGIN, Ray, ball_interval_from, rounding_margin, slab_interval,
+};
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
@@ -85,6 +90,7 @@ impl Candidates {
         self.primitive.len()
     }
 
+    #[inline]
     fn push(&mut self, primitive: u32, near: Interval, line: Interval, support: Option<Interval>) {
         self.primitive.push(primitive);
         self.near.push(near);
@@ -152,7 +158,23 @@ fn reach_of(span: Interval) -> Interval {
 #[derive(Debug)]
 pub struct TileCandidates {
     span: Interval,
-    items: Vec<(u32, Aabb)>,
+    origin: DVec3,
+    items: Vec<TileItem>,
+}
+
+/// One primitive of a tile's list, with what every ray from the tile's origin computes alike
+/// from it (issue 18): the differences of the slab tests and, for a ball-shaped support, of
+/// the ball's. The per-ray tests take them as the program's queries compute them, bit for bit.
+#[derive(Debug)]
+struct TileItem {
+    primitive: u32,
+    bounds: Aabb,
+    /// [`NearRay::offsets`] of the box.
+    near: (DVec3, DVec3),
+    /// `bounds.min − o`, `bounds.max − o`: the unwidened slab test's differences.
+    line: (DVec3, DVec3),
+    /// A point blob's `o − c` and `|o − c|² − r²` for its support ball ([`ball_interval`]).
+    ball: Option<(DVec3, f64)>,
 }
 
 impl TileCandidates {
@@ -185,16 +207,36 @@ impl TileCandidates {
                 ));
             beam.misses_hull(balls, margin)
         };
+        let pad = pad_of(program);
         let mut items = Vec::new();
         program
             .lookup_parts()
             .0
             .for_each_in_beam(&beam, |i, bounds| {
-                if !zero_on_tile(i) {
-                    items.push((i, *bounds));
+                if zero_on_tile(i) {
+                    return;
                 }
+                let ball = match &program.primitives()[i as usize] {
+                    Primitive::Point(blob) => {
+                        let oc = origin - blob.center;
+                        let radius = blob.support_radius(program.kernel_of(i));
+                        Some((oc, oc.length_squared() - radius * radius))
+                    }
+                    _ => None,
+                };
+                items.push(TileItem {
+                    primitive: i,
+                    bounds: *bounds,
+                    near: NearRay::offsets(origin, pad, bounds),
+                    line: (bounds.min - origin, bounds.max - origin),
+                    ball,
+                });
             });
-        Self { span, items }
+        Self {
+            span,
+            origin,
+            items,
+        }
     }
 
     /// Primitives in the list.
@@ -296,20 +338,71 @@ impl Cells {
     }
 }
 
+/// The per-primitive tests of a ray's gathering.
+struct Sieve<'p> {
+    program: &'p FieldProgram,
+    ray: &'p Ray,
+    /// The farthest the reach goes from the origin, in ray parameter.
+    t_max: f64,
+}
+
+impl<'p> Sieve<'p> {
+    fn new(program: &'p FieldProgram, ray: &'p Ray, reach: Interval) -> Self {
+        Self {
+            program,
+            ray,
+            t_max: reach.lo.abs().max(reach.hi.abs()),
+        }
+    }
+
+    /// Primitive `i`'s support on the ray's line.
+    fn support(&self, i: u32) -> Option<Interval> {
+        self.program.primitives()[i as usize].support_interval(self.ray, self.program.kernel_of(i))
+    }
+
+    /// Whether the ray's line misses primitive `i`'s support by more than rounding: it is then
+    /// zero at every point question and meets no interval question, so it is left out and no
+    /// answer changes (its terms would be `±0`).
+    fn zero_on_ray(&self, i: u32) -> bool {
+        self.program.primitives()[i as usize].zero_on_line(
+            self.ray,
+            self.program.kernel_of(i),
+            self.t_max,
+        )
+    }
+}
+
 impl<'a> RayField<'a> {
     /// Gathers the candidates of `ray` on `span` from `program` (one BVH traversal).
     #[must_use]
     pub fn new(program: &'a FieldProgram, ray: &Ray, span: Interval) -> Self {
+        let reach = reach_of(span);
+        let sieve = Sieve::new(program, ray, reach);
+        let inv = ray.direction.recip();
+        let mut candidates = Candidates::recycled();
         let (bvh, _) = program.lookup_parts();
-        Self::gather(program, ray, span, |near, push| {
-            bvh.for_each_near(near, push)
-        })
+        bvh.for_each_near(
+            &NearRay::new(ray, reach, pad_of(program)),
+            |i, bounds, near| {
+                let on_line = sieve.support(i);
+                if on_line.is_none() && sieve.zero_on_ray(i) {
+                    return;
+                }
+                let line = bounds
+                    .ray_interval_with(ray, inv, Interval::ENTIRE)
+                    .unwrap_or(NO_SUPPORT);
+                candidates.push(i, near, line, on_line);
+                candidates.boxes.push(*bounds);
+            },
+        );
+        Self::with_candidates(program, ray, span, candidates)
     }
 
     /// As [`RayField::new`] for a ray of the bundle `tile` was gathered for: the tile's list
     /// filtered by the BVH walk's own test on each box, which gives the walk's candidates in
     /// its order (a box the ray meets has every enclosing node's box met too), so every
-    /// question is answered bit for bit as by [`RayField::new`].
+    /// question is answered bit for bit as by [`RayField::new`]. The tests take the
+    /// differences the tile computed once for its rays, with the arithmetic of the walk's.
     #[must_use]
     pub fn from_tile(
         program: &'a FieldProgram,
@@ -321,51 +414,48 @@ impl<'a> RayField<'a> {
             tile.span == span,
             "a tile list serves the span it was gathered for"
         );
-        Self::gather(program, ray, span, |near, push| {
-            for (i, bounds) in &tile.items {
-                if let Some(interval) = near.interval(bounds) {
-                    push(*i, bounds, interval);
-                }
+        debug_assert!(
+            ray.origin == tile.origin,
+            "a tile list serves the rays from its origin"
+        );
+        let reach = reach_of(span);
+        let sieve = Sieve::new(program, ray, reach);
+        let inv = ray.direction.recip();
+        let mut candidates = Candidates::recycled();
+        for item in &tile.items {
+            let (low, high) = item.near;
+            let Some(near) = near_slab_interval(low * inv, high * inv, reach) else {
+                continue;
+            };
+            let on_line = match item.ball {
+                Some((oc, c)) => ball_interval_from(oc, c, ray.direction),
+                None => sieve.support(item.primitive),
+            };
+            if on_line.is_none() && sieve.zero_on_ray(item.primitive) {
+                continue;
             }
-        })
+            let (low, high) = item.line;
+            let line = slab_interval(low * inv, high * inv, Interval::ENTIRE).unwrap_or(NO_SUPPORT);
+            candidates.push(item.primitive, near, line, on_line);
+            candidates.boxes.push(item.bounds);
+        }
+        Self::with_candidates(program, ray, span, candidates)
     }
 
-    /// The field with the bounded candidates `walk` pushes, in its order, then the unbounded
-    /// ones. `walk` receives the test that decides which boxes the ray's list keeps.
-    fn gather(
+    /// The field with `candidates` holding the bounded candidates, in the BVH's order; the
+    /// unbounded ones are added after them.
+    fn with_candidates(
         program: &'a FieldProgram,
         ray: &Ray,
         span: Interval,
-        walk: impl FnOnce(&NearRay, &mut dyn FnMut(u32, &Aabb, Interval)),
+        mut candidates: Candidates,
     ) -> Self {
         let (_, unbounded) = program.lookup_parts();
         let reach = reach_of(span);
-        let mut candidates = Candidates::recycled();
-        let support =
-            |i: u32| program.primitives()[i as usize].support_interval(ray, program.kernel_of(i));
-        // A primitive whose support the line misses by more than rounding is zero at every
-        // point question and meets no interval question: left out, no answer changes (its
-        // terms would be `±0`).
-        let t_max = reach.lo.abs().max(reach.hi.abs());
-        let zero_on_ray = |i: u32| {
-            program.primitives()[i as usize].zero_on_line(ray, program.kernel_of(i), t_max)
-        };
-        let inv = ray.direction.recip();
-        let near = NearRay::new(ray, reach, pad_of(program));
-        walk(&near, &mut |i, bounds, near| {
-            let on_line = support(i);
-            if on_line.is_none() && zero_on_ray(i) {
-                return;
-            }
-            let line = bounds
-                .ray_interval_with(ray, inv, Interval::ENTIRE)
-                .unwrap_or(NO_SUPPORT);
-            candidates.push(i, near, line, on_line);
-            candidates.boxes.push(*bounds);
-        });
+        let sieve = Sieve::new(program, ray, reach);
         candidates.bounded = candidates.len();
         for &i in unbounded {
-            candidates.push(i, Interval::ENTIRE, Interval::ENTIRE, support(i));
+            candidates.push(i, Interval::ENTIRE, Interval::ENTIRE, sieve.support(i));
         }
         Self {
             program,

@@ -49,10 +49,16 @@ impl PointBlob {
         Aabb::ball(self.center, self.radius * k.support_radius())
     }
 
+    /// Radius of the support ball.
+    #[must_use]
+    pub fn support_radius(&self, k: &KernelProfile) -> f64 {
+        self.radius * k.support_radius()
+    }
+
     /// Interval of the ray inside the support ball.
     #[must_use]
     pub fn support_interval(&self, ray: &Ray, k: &KernelProfile) -> Option<Interval> {
-        ball_interval(ray, self.center, self.radius * k.support_radius())
+        ball_interval(ray, self.center, self.support_radius(k))
     }
 
     /// Whether the ray's line passes outside the support ball by [`RELATIVE_SUPPORT_MARGIN`]
