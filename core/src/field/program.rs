@@ -48,6 +48,28 @@ fn total_order_key(x: f64) -> u64 {
 /// the least entry (in [`f64::total_cmp`]'s order, as sorting the entries would take it) to the
 /// greatest exit.
 fn merge_into_parts(parts: &mut Vec<Interval>, s: Interval) {
+    // `s` joined to the parts from `first` to `last`, which it meets.
+    let joined = |first: Interval, last: Interval| Interval {
+        lo: if total_order_key(s.lo) < total_order_key(first.lo) {
+            s.lo
+        } else {
+            first.lo
+        },
+        hi: last.hi.max(s.hi),
+    };
+    // The common cases first (the supports come in the BVH's order, mostly near the last
+    // part): `s` after every part, or entering inside the last one.
+    match parts.last_mut() {
+        Some(last) if s.lo > last.hi => {
+            parts.push(s);
+            return;
+        }
+        Some(last) if last.lo <= s.lo => {
+            *last = joined(*last, *last);
+            return;
+        }
+        _ => {}
+    }
     // The parts wholly before `s`, then those that meet it.
     let first = parts.partition_point(|p| p.hi < s.lo);
     let end = first + parts[first..].partition_point(|p| p.lo <= s.hi);
@@ -55,13 +77,7 @@ fn merge_into_parts(parts: &mut Vec<Interval>, s: Interval) {
         parts.insert(first, s);
         return;
     }
-    let lo = if total_order_key(s.lo) < total_order_key(parts[first].lo) {
-        s.lo
-    } else {
-        parts[first].lo
-    };
-    let hi = parts[end - 1].hi.max(s.hi);
-    parts[first] = Interval { lo, hi };
+    parts[first] = joined(parts[first], parts[end - 1]);
     parts.drain(first + 1..end);
 }
 

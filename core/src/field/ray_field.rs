@@ -37,7 +37,7 @@ use crate::field::geometry::{
     Aabb, RELATIVE_SUPPORT_MARGIN, Ray, ball_interval_from, rounding_margin, slab_interval,
 };
 use crate::field::kernel::KernelProfile;
-use crate::field::primitives::Primitive;
+use crate::field::primitives::{PointBlob, Primitive};
 use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
 
 /// The primitives the ray may meet, one array per field (structure of arrays: a question's
@@ -173,8 +173,49 @@ struct TileItem {
     near: (DVec3, DVec3),
     /// `bounds.min − o`, `bounds.max − o`: the unwidened slab test's differences.
     line: (DVec3, DVec3),
-    /// A point blob's `o − c` and `|o − c|² − r²` for its support ball ([`ball_interval`]).
-    ball: Option<(DVec3, f64)>,
+    /// A point blob's support ball, seen from the origin.
+    ball: Option<TileBall>,
+}
+
+/// A point blob's support ball (centre `c`, radius `r`) seen from a tile's origin `o`.
+#[derive(Debug)]
+struct TileBall {
+    /// `o − c`.
+    oc: DVec3,
+    /// `|o − c|² − r²`: with `oc`, [`ball_interval`]'s terms.
+    c: f64,
+    /// `(r + m)²`, `m` the margin of [`PointBlob::line_misses_support`] for the tile's
+    /// farthest reach along any unit direction (`|u|₁ ≤ √3 < 2`): no smaller than the margin
+    /// of any of the tile's rays.
+    miss_sq: f64,
+}
+
+impl TileBall {
+    fn new(origin: DVec3, blob: &PointBlob, k: &KernelProfile, t_max: f64) -> Self {
+        let oc = origin - blob.center;
+        let radius = blob.support_radius(k);
+        let margin =
+            RELATIVE_SUPPORT_MARGIN * radius + rounding_margin(origin, blob.center, 2.0 * t_max);
+        Self {
+            oc,
+            c: oc.length_squared() - radius * radius,
+            miss_sq: (radius + margin) * (radius + margin),
+        }
+    }
+
+    /// The ball's interval on the line along `direction`, as [`ball_interval`] gives it.
+    #[inline]
+    fn interval(&self, direction: DVec3) -> Option<Interval> {
+        ball_interval_from(self.oc, self.c, direction)
+    }
+
+    /// Whether the line along `direction` misses the ball by the margin, so that the blob is
+    /// zero on it (as [`PointBlob::line_misses_support`] decides with its own margin).
+    #[inline]
+    fn line_misses(&self, direction: DVec3) -> bool {
+        let across = (-self.oc).cross(direction).length_squared() / direction.length_squared();
+        across > self.miss_sq
+    }
 }
 
 impl TileCandidates {
@@ -217,11 +258,12 @@ impl TileCandidates {
                     return;
                 }
                 let ball = match &program.primitives()[i as usize] {
-                    Primitive::Point(blob) => {
-                        let oc = origin - blob.center;
-                        let radius = blob.support_radius(program.kernel_of(i));
-                        Some((oc, oc.length_squared() - radius * radius))
-                    }
+                    Primitive::Point(blob) => Some(TileBall::new(
+                        origin,
+                        blob,
+                        program.kernel_of(i),
+                        reach_length,
+                    )),
                     _ => None,
                 };
                 items.push(TileItem {
@@ -427,11 +469,15 @@ impl<'a> RayField<'a> {
             let Some(near) = near_slab_interval(low * inv, high * inv, reach) else {
                 continue;
             };
-            let on_line = match item.ball {
-                Some((oc, c)) => ball_interval_from(oc, c, ray.direction),
+            let on_line = match &item.ball {
+                Some(ball) => ball.interval(ray.direction),
                 None => sieve.support(item.primitive),
             };
-            if on_line.is_none() && sieve.zero_on_ray(item.primitive) {
+            let zero = |item: &TileItem| match &item.ball {
+                Some(ball) => ball.line_misses(ray.direction),
+                None => sieve.zero_on_ray(item.primitive),
+            };
+            if on_line.is_none() && zero(item) {
                 continue;
             }
             let (low, high) = item.line;
