@@ -209,6 +209,7 @@ fn stats_json_follows_the_design_schema() {
         "\"median_steps\"",
         "\"p95_steps\"",
         "\"max_steps\"",
+        "\"out_of_steps\": 0",
         "\"ns_per_ray\"",
         "\"max_depth_error\"",
     ] {

@@ -18,7 +18,8 @@ use skeletrace_core::backend::BackendError;
 use skeletrace_core::bounds::interval::Interval;
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::cpu::stats::{
-    MethodStats, MethodTally, SceneStats, StatsSetup, rays_of_iter, reference_crossings,
+    MethodStats, MethodTally, SceneStats, StatsSetup, ran_out_of_steps, rays_of_iter,
+    reference_crossings,
 };
 use skeletrace_core::field::geometry::Ray;
 use skeletrace_core::methods::{Crossing, TraceMode, TraceSettings};
@@ -194,6 +195,7 @@ pub fn run(
             steps: Vec::with_capacity(setup.rays),
             evaluations: None,
             hits: 0,
+            out_of_steps: 0,
             nanoseconds: 0.0,
         };
         let mut found: Vec<Vec<Crossing>> = Vec::with_capacity(sample.len());
@@ -216,6 +218,12 @@ pub fn run(
                 let i = tally.steps.len();
                 tally.steps.push(steps);
                 tally.hits += usize::from(t.is_finite());
+                tally.out_of_steps += usize::from(ran_out_of_steps(
+                    TraceMode::Opaque,
+                    steps,
+                    settings.max_steps,
+                    usize::from(t.is_finite()),
+                ));
                 if i < sample.len() {
                     found.push(if t.is_finite() {
                         vec![Crossing {

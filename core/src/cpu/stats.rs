@@ -51,6 +51,11 @@ pub struct MethodStats {
     pub p95_steps: u32,
     /// Largest steps per ray.
     pub max_steps: u32,
+    /// Rays that spent the whole step budget ([`TraceSettings::max_steps`]) without finishing:
+    /// opaque, without a crossing; transparent, before the end of their span (or exactly at
+    /// it). The method gave up on them, whatever the step columns say (in transparent mode
+    /// they count steps to the last crossing found, not the steps spent after it).
+    pub out_of_steps: usize,
     /// Mean time per ray, in nanoseconds: one CPU thread's, or on the GPU the batches' wall
     /// time over their rays.
     pub ns_per_ray: f64,
@@ -173,6 +178,8 @@ pub struct MethodTally {
     pub evaluations: Option<u64>,
     /// Rays with a crossing.
     pub hits: usize,
+    /// Rays that spent the step budget without finishing ([`MethodStats::out_of_steps`]).
+    pub out_of_steps: usize,
     /// Nanoseconds over all rays.
     pub nanoseconds: f64,
 }
@@ -202,6 +209,7 @@ impl MethodStats {
             median_steps: percentile(steps, 0.5),
             p95_steps: percentile(steps, 0.95),
             max_steps: steps.last().copied().unwrap_or(0),
+            out_of_steps: tally.out_of_steps,
             ns_per_ray: tally.nanoseconds / count,
             max_depth_error: 0.0,
         };
@@ -236,7 +244,15 @@ struct Outcome {
     crossings: Vec<Crossing>,
     steps: u32,
     evaluations: u32,
+    out_of_steps: bool,
     nanoseconds: u128,
+}
+
+/// Whether a ray traced in `mode` that took `steps` of a budget of `max_steps` and found
+/// `crossings` stopped because the budget was spent ([`MethodStats::out_of_steps`]).
+#[must_use]
+pub fn ran_out_of_steps(mode: TraceMode, steps: u32, max_steps: u32, crossings: usize) -> bool {
+    steps >= max_steps && (mode == TraceMode::Transparent || crossings == 0)
 }
 
 /// Traces the protocol's rays with each method; `progress` is called with the method name and
@@ -278,6 +294,12 @@ pub fn run(
                 Outcome {
                     steps,
                     evaluations,
+                    out_of_steps: ran_out_of_steps(
+                        setup.mode,
+                        trace.steps,
+                        settings.max_steps,
+                        trace.crossings.len(),
+                    ),
                     nanoseconds,
                     crossings: trace.crossings,
                 }
@@ -287,6 +309,7 @@ pub fn run(
             steps: results.iter().map(|r| r.steps).collect(),
             evaluations: Some(results.iter().map(|r| u64::from(r.evaluations)).sum()),
             hits: results.iter().filter(|r| !r.crossings.is_empty()).count(),
+            out_of_steps: results.iter().filter(|r| r.out_of_steps).count(),
             nanoseconds: results.iter().map(|r| r.nanoseconds as f64).sum(),
         };
         let compared = reference
@@ -383,8 +406,8 @@ impl SceneStats {
                     "{{\"name\": {}, \"rays\": {}, \"hits\": {}, \"compared\": {}, \
                      \"missed\": {}, \"spurious\": {}, \
                      \"avg_steps\": {}, \"avg_evaluations\": {}, \"median_steps\": {}, \
-                     \"p95_steps\": {}, \"max_steps\": {}, \"ns_per_ray\": {}, \
-                     \"max_depth_error\": {}}}",
+                     \"p95_steps\": {}, \"max_steps\": {}, \"out_of_steps\": {}, \
+                     \"ns_per_ray\": {}, \"max_depth_error\": {}}}",
                     json::string(&m.name),
                     m.rays,
                     m.hits,
@@ -396,6 +419,7 @@ impl SceneStats {
                     m.median_steps,
                     m.p95_steps,
                     m.max_steps,
+                    m.out_of_steps,
                     json::number(m.ns_per_ray),
                     json::number(m.max_depth_error)
                 )
@@ -416,12 +440,12 @@ impl SceneStats {
     #[must_use]
     pub fn to_table(&self) -> String {
         let mut out = String::from(
-            "| method | hits | missed | spurious | avg steps | avg evaluations | median | p95 | max | ns/ray | max depth error |\n\
-             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+            "| method | hits | missed | spurious | avg steps | avg evaluations | median | p95 | max | out of steps | ns/ray | max depth error |\n\
+             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for m in &self.methods {
             out.push_str(&format!(
-                "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {:.0} | {:.1e} |\n",
+                "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {} | {:.0} | {:.1e} |\n",
                 m.name,
                 m.hits,
                 m.missed,
@@ -435,6 +459,7 @@ impl SceneStats {
                 m.median_steps,
                 m.p95_steps,
                 m.max_steps,
+                m.out_of_steps,
                 m.ns_per_ray,
                 m.max_depth_error
             ));
@@ -445,7 +470,20 @@ impl SceneStats {
 
 #[cfg(test)]
 mod tests {
-    use super::{Crossing, compare};
+    use super::{Crossing, TraceMode, compare, ran_out_of_steps};
+
+    /// A ray is out of steps when it spent the budget: opaque, only without a crossing (one
+    /// found on the last step finished the ray); transparent, with or without crossings.
+    #[test]
+    fn rays_out_of_steps_spent_the_budget_unfinished() {
+        let (opaque, transparent) = (TraceMode::Opaque, TraceMode::Transparent);
+        assert!(ran_out_of_steps(opaque, 2048, 2048, 0));
+        assert!(!ran_out_of_steps(opaque, 2048, 2048, 1));
+        assert!(!ran_out_of_steps(opaque, 2047, 2048, 0));
+        assert!(ran_out_of_steps(transparent, 2048, 2048, 3));
+        assert!(ran_out_of_steps(transparent, 2048, 2048, 0));
+        assert!(!ran_out_of_steps(transparent, 12, 2048, 2));
+    }
 
     fn crossings(list: &[(f64, bool)]) -> Vec<Crossing> {
         list.iter()
