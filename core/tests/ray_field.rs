@@ -402,3 +402,65 @@ fn primitives_left_out_of_a_ray_are_zero_on_it() {
     assert!(left_out > 100, "only {left_out} lines left out");
     assert_no_failures(&failures, "left-out primitives not zero on their ray");
 }
+
+/// A camera ray's field takes a tile's blobs with the tile's own zero test (`TileBall`, its
+/// margin computed once for the tile's farthest reach): on rays tangent to blobs' supports,
+/// offset outward and inward by 10⁻¹⁵ to 10⁻² of the support radius, each the only ray of a
+/// tile about it, the field answers every point question as the program does, bit for bit,
+/// sampled uniformly and ever closer around the point of tangency, for every kernel.
+#[test]
+fn tile_rays_tangent_to_blobs_are_answered_as_by_the_program() {
+    let mut rng = SplitMix64::new(12);
+    let mut failures = Vec::new();
+    let mut nonzero_near_tangency = 0;
+    for kernel in KERNELS {
+        for _ in 0..12 {
+            let mut g = group(kernel);
+            add_primitive(&mut g, Kind::Point, &mut rng);
+            let compiled = compile(&scene(vec![g], None));
+            let program = &compiled.program;
+            let Primitive::Point(blob) = program.primitives()[0] else {
+                panic!("a point blob was added");
+            };
+            let radius = blob.support_radius(program.kernel_of(0));
+            let normal = DVec3::from(rng.direction());
+            let touch = blob.center + radius * normal;
+            let (u, v) = normal.any_orthonormal_pair();
+            let angle = rng.range(0.0, std::f64::consts::TAU);
+            let direction = u * angle.cos() + v * angle.sin();
+            for relative in [
+                -1e-2, -1e-9, -1e-15, 1e-15, 1e-13, 1e-11, 1e-9, 1e-7, 1e-5, 1e-2,
+            ] {
+                let reach = 4.0 * radius * rng.range(1.0, 20.0);
+                let origin = touch + relative * radius * normal - reach * direction;
+                let ray = Ray::new(origin, direction);
+                let span = Interval::new(0.0, 2.0 * reach);
+                // A tile of directions about the ray's, a few 10⁻⁷ radians wide.
+                let (a, b) = ray.direction.any_orthonormal_pair();
+                let corners = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
+                    .map(|(x, y)| ray.direction + 3e-7 * (x * a + y * b));
+                let tile = TileCandidates::gather(program, origin, corners, span);
+                let field = RayField::from_tile(program, &ray, span, &tile);
+                for sample in 0..300 {
+                    let t = if sample < 60 {
+                        rng.range(span.lo, span.hi)
+                    } else {
+                        let closeness = 10f64.powi(-(sample % 15));
+                        reach + radius * closeness * rng.range(-1.0, 1.0)
+                    };
+                    let (got, want) = (field.value_gradient(t), program.value_gradient(ray.at(t)));
+                    let bits = |(v, g): (f64, DVec3)| (v.to_bits(), g.to_array().map(f64::to_bits));
+                    if bits(got) != bits(want) {
+                        failures.push(format!(
+                            "{kernel:?} at {relative:e}, t = {t}: {got:?} vs {want:?}"
+                        ));
+                        break;
+                    }
+                    nonzero_near_tangency += usize::from(relative > 0.0 && want.0 != 0.0);
+                }
+            }
+        }
+    }
+    eprintln!("{nonzero_near_tangency} non-zero values just outside the supports");
+    assert_no_failures(&failures, "tile rays tangent to blobs");
+}
