@@ -200,13 +200,13 @@ pub fn evaluate<T: BlendOperand>(b: &BlendTree, groups: &[T], isovalue: f64) -> 
                 complement
             }
         }
-        BlendTree::Ricci { p, of } => {
-            let parts: Vec<T> = of
-                .iter()
-                .map(|c| operand(c, groups, isovalue).positive_part())
-                .collect();
-            T::ricci(&parts, *p)
-        }
+        BlendTree::Ricci { p, of } => gathered(
+            of.iter()
+                .map(|c| operand(c, groups, isovalue).positive_part()),
+            of.len(),
+            T::ZERO,
+            |parts| T::ricci(parts, *p),
+        ),
         BlendTree::SmoothUnion { width, of } => of
             .iter()
             .map(|c| operand(c, groups, isovalue))
@@ -218,6 +218,30 @@ pub fn evaluate<T: BlendOperand>(b: &BlendTree, groups: &[T], isovalue: f64) -> 
             .reduce(|a, b| a.smooth_max(b, *width))
             .map_or(T::ZERO, T::negated),
     }
+}
+
+/// Operands an operator gathers before combining them: on the stack for up to this many (a
+/// point question or a march step allocates nothing), in a vector beyond.
+const INLINE_OPERANDS: usize = 8;
+
+/// `combine` of the items, at most `count` of them, gathered on the stack where they are few.
+fn gathered<T: Copy, R>(
+    items: impl Iterator<Item = T>,
+    count: usize,
+    zero: T,
+    combine: impl FnOnce(&[T]) -> R,
+) -> R {
+    if count > INLINE_OPERANDS {
+        let all: Vec<T> = items.collect();
+        return combine(&all);
+    }
+    let mut inline = [zero; INLINE_OPERANDS];
+    let mut n = 0;
+    for item in items {
+        inline[n] = item;
+        n += 1;
+    }
+    combine(&inline[..n])
 }
 
 /// An operand of an operator: a group's entry read directly (most trees are one operator over
@@ -297,10 +321,12 @@ pub fn jet(b: &BlendTree, groups: &[Jet], isovalue: f64) -> Jet {
             let complement = Jet::constant(2.0 * isovalue) - jet(b, groups, isovalue);
             jet(a, groups, isovalue).min(complement)
         }
-        BlendTree::Ricci { p, of } => {
-            let operands: Vec<Jet> = of.iter().map(|c| jet(c, groups, isovalue)).collect();
-            ricci_jet(*p, &operands)
-        }
+        BlendTree::Ricci { p, of } => gathered(
+            of.iter().map(|c| jet(c, groups, isovalue)),
+            of.len(),
+            Jet::ZERO,
+            |operands| ricci_jet(*p, operands),
+        ),
         BlendTree::SmoothUnion { width, of } => of
             .iter()
             .map(|c| jet(c, groups, isovalue))
@@ -369,35 +395,43 @@ pub fn lipschitz(b: &BlendTree, groups: &[f64]) -> f64 {
 /// (`R.lo = 0`) covers.
 #[must_use]
 pub fn ricci_jet(p: f64, operands: &[Jet]) -> Jet {
-    let positive: Vec<&Jet> = operands.iter().filter(|f| f.value.hi > 0.0).collect();
-    match positive.as_slice() {
-        [] => return Jet::ZERO,
-        [only] => return only.max(Jet::ZERO),
-        _ => {}
-    }
-    if p == 1.0 {
-        return positive
-            .iter()
-            .fold(Jet::ZERO, |acc, f| acc + f.max(Jet::ZERO));
-    }
-    // gᵢ with the C¹ clamp (see above).
-    let parts: Vec<Jet> = positive
-        .iter()
-        .map(|f| {
-            if f.value.lo >= 0.0 {
-                **f
-            } else {
-                Jet {
-                    value: Interval {
-                        lo: 0.0,
-                        hi: f.value.hi,
-                    },
-                    d1: f.d1.include(0.0),
-                    d2: f.d2.include(0.0),
-                }
-            }
-        })
-        .collect();
+    let positive = operands.iter().copied().filter(|f| f.value.hi > 0.0);
+    gathered(
+        positive,
+        operands.len(),
+        Jet::ZERO,
+        |positive| match positive {
+            [] => Jet::ZERO,
+            [only] => only.max(Jet::ZERO),
+            _ if p == 1.0 => positive
+                .iter()
+                .fold(Jet::ZERO, |acc, f| acc + f.max(Jet::ZERO)),
+            // gᵢ with the C¹ clamp (see above).
+            _ => gathered(
+                positive.iter().map(|f| {
+                    if f.value.lo >= 0.0 {
+                        *f
+                    } else {
+                        Jet {
+                            value: Interval {
+                                lo: 0.0,
+                                hi: f.value.hi,
+                            },
+                            d1: f.d1.include(0.0),
+                            d2: f.d2.include(0.0),
+                        }
+                    }
+                }),
+                positive.len(),
+                Jet::ZERO,
+                |parts| ricci_of_parts(p, parts),
+            ),
+        },
+    )
+}
+
+/// [`ricci_jet`] of several clamped parts `gᵢ`, `p > 1`.
+fn ricci_of_parts(p: f64, parts: &[Jet]) -> Jet {
     let norm = |end: fn(&Interval) -> f64| {
         parts
             .iter()
@@ -418,7 +452,7 @@ pub fn ricci_jet(p: f64, operands: &[Jet]) -> Jet {
         },
     };
     let (mut d1, mut weighted_d2, mut curvature) = (Interval::ZERO, Interval::ZERO, 0.0);
-    for g in &parts {
+    for g in parts {
         let u = ratio(g);
         let weight = Interval {
             lo: u.lo.powf(p - 1.0),

@@ -233,7 +233,7 @@ impl TileCandidates {
         let behind = (-reach.lo).max(0.0);
         let beam = Beam::new(origin, corners, pad_of(program), behind);
         // A primitive whose support every ray of the tile misses by more than rounding is zero
-        // on them all (see `RayField::gather`): left out here once for the tile's rays.
+        // on them all (see `Sieve::zero_on_ray`): left out here once for the tile's rays.
         let reach_length = reach.lo.abs().max(reach.hi.abs());
         let zero_on_tile = |i: u32| {
             let Some(balls) = program.primitives()[i as usize].support_hull(program.kernel_of(i))
