@@ -6,8 +6,10 @@
 //! value, §5.2) and, for the lower bound, the lower bound of the operand with the largest start
 //! value. The minimum is the mirror image.
 
+use std::cell::Cell;
+
 use crate::bounds::interval::Jet;
-use crate::field::blend::BlendTree;
+use crate::field::blend::{BlendTree, gathered};
 
 /// A quadratic `s ↦ a·s + b·s²` (the offset from the exact start value).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -260,26 +262,21 @@ pub fn blend(
     }
 }
 
-/// Operands an operator gathers before combining them: on the stack for up to this many
-/// (a blend step asked at every march step allocates nothing), in a vector beyond.
-const INLINE_OPERANDS: usize = 8;
-
-/// `combine(operands)` where every operand has an inclusion; `None` as soon as one has none.
+/// `combine(operands)` where every operand has an inclusion; `None` as soon as one has none
+/// (the operands after it are not asked). Gathered on the stack as the blend's operands are.
 fn with_operands(
     operands: impl ExactSizeIterator<Item = Option<ForwardInclusion>>,
     combine: impl FnOnce(&[ForwardInclusion]) -> Option<ForwardInclusion>,
 ) -> Option<ForwardInclusion> {
-    if operands.len() > INLINE_OPERANDS {
-        let items: Option<Vec<_>> = operands.collect();
-        return combine(&items?);
-    }
-    let mut items = [ForwardInclusion::zero(0.0); INLINE_OPERANDS];
-    let mut n = 0;
-    for operand in operands {
-        items[n] = operand?;
-        n += 1;
-    }
-    combine(&items[..n])
+    let complete = Cell::new(true);
+    let count = operands.len();
+    let present = operands.map_while(|operand| {
+        complete.set(operand.is_some());
+        operand
+    });
+    gathered(present, count, ForwardInclusion::zero(0.0), |items| {
+        if complete.get() { combine(items) } else { None }
+    })
 }
 
 #[cfg(test)]

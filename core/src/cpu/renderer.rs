@@ -184,7 +184,7 @@ impl<'a> Renderer<'a> {
             .trace(ray, Interval::new(0.0, context.far), TraceMode::Opaque);
         let surface = trace.first().map(|hit| SurfacePoint {
             gradient: self.program.value_gradient(ray.at(hit.t)).1,
-            material: self.material_of(&self.program.group_values_along_ray(ray, hit.t)),
+            material: self.material_at(ray, hit.t),
         });
         self.shade_trace(ray, &trace, surface, bounce, context, steps)
     }

@@ -224,8 +224,9 @@ pub fn evaluate<T: BlendOperand>(b: &BlendTree, groups: &[T], isovalue: f64) -> 
 /// point question or a march step allocates nothing), in a vector beyond.
 const INLINE_OPERANDS: usize = 8;
 
-/// `combine` of the items, at most `count` of them, gathered on the stack where they are few.
-fn gathered<T: Copy, R>(
+/// `combine` of the items, at most `count` of them, gathered on the stack where they are few
+/// (the blend's operators here, the forward inclusions' in `bounds/inclusion.rs`).
+pub(crate) fn gathered<T: Copy, R>(
     items: impl Iterator<Item = T>,
     count: usize,
     zero: T,

@@ -370,48 +370,37 @@ impl KernelProfile {
     /// Builds the profile of a validated kernel.
     #[must_use]
     pub fn new(kernel: Kernel) -> Self {
-        let profile = match kernel {
+        match kernel {
             Kernel::CompactPolynomial { degree, scale } => {
                 let m = i32::try_from(degree / 2).unwrap_or(1);
-                Self {
-                    family: Family::Compact { m },
-                    inv_sigma2: 1.0 / (scale * scale),
-                    support_sq: scale * scale,
-                    support_radius: 0.0,
-                    clip: 0.0,
-                    clip_scale: 1.0,
-                    kinked: m == 1,
-                }
+                let s2 = scale * scale;
+                Self::with(Family::Compact { m }, s2, s2, 0.0, m == 1)
             }
             Kernel::Cauchy { degree, scale } => {
                 let n = f64::from(degree) / 2.0;
                 let s2 = scale * scale;
-                Self {
-                    family: Family::Cauchy { n },
-                    inv_sigma2: 1.0 / s2,
-                    support_sq: s2 * (CLIP_EPSILON.powf(-1.0 / n) - 1.0),
-                    support_radius: 0.0,
-                    clip: CLIP_EPSILON,
-                    clip_scale: 1.0 / (1.0 - CLIP_EPSILON),
-                    kinked: true,
-                }
+                let support_sq = s2 * (CLIP_EPSILON.powf(-1.0 / n) - 1.0);
+                Self::with(Family::Cauchy { n }, s2, support_sq, CLIP_EPSILON, true)
             }
             Kernel::Gaussian { scale } => {
                 let s2 = scale * scale;
-                Self {
-                    family: Family::Gaussian,
-                    inv_sigma2: 1.0 / s2,
-                    support_sq: s2 * (1.0 / CLIP_EPSILON).ln(),
-                    support_radius: 0.0,
-                    clip: CLIP_EPSILON,
-                    clip_scale: 1.0 / (1.0 - CLIP_EPSILON),
-                    kinked: true,
-                }
+                let support_sq = s2 * (1.0 / CLIP_EPSILON).ln();
+                Self::with(Family::Gaussian, s2, support_sq, CLIP_EPSILON, true)
             }
-        };
+        }
+    }
+
+    /// The profile of `family` at squared scale `s2`, clipped at `clip` (0 for compact kernels,
+    /// whose rescaling `1 / (1 − 0)` is then exactly 1), with what is derived from them.
+    fn with(family: Family, s2: f64, support_sq: f64, clip: f64, kinked: bool) -> Self {
         Self {
-            support_radius: profile.support_sq.sqrt(),
-            ..profile
+            family,
+            inv_sigma2: 1.0 / s2,
+            support_sq,
+            support_radius: support_sq.sqrt(),
+            clip,
+            clip_scale: 1.0 / (1.0 - clip),
+            kinked,
         }
     }
 

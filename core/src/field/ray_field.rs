@@ -437,7 +437,7 @@ impl<'a> RayField<'a> {
                 candidates.boxes.push(*bounds);
             },
         );
-        Self::with_candidates(program, ray, span, candidates)
+        Self::with_candidates(program, &sieve, (span, reach), candidates)
     }
 
     /// As [`RayField::new`] for a ray of the bundle `tile` was gathered for: the tile's list
@@ -473,11 +473,12 @@ impl<'a> RayField<'a> {
                 Some(ball) => ball.interval(ray.direction),
                 None => sieve.support(item.primitive),
             };
-            let zero = |item: &TileItem| match &item.ball {
-                Some(ball) => ball.line_misses(ray.direction),
-                None => sieve.zero_on_ray(item.primitive),
-            };
-            if on_line.is_none() && zero(item) {
+            let zero = on_line.is_none()
+                && match &item.ball {
+                    Some(ball) => ball.line_misses(ray.direction),
+                    None => sieve.zero_on_ray(item.primitive),
+                };
+            if zero {
                 continue;
             }
             let (low, high) = item.line;
@@ -485,27 +486,26 @@ impl<'a> RayField<'a> {
             candidates.push(item.primitive, near, line, on_line);
             candidates.boxes.push(item.bounds);
         }
-        Self::with_candidates(program, ray, span, candidates)
+        Self::with_candidates(program, &sieve, (span, reach), candidates)
     }
 
     /// The field with `candidates` holding the bounded candidates, in the BVH's order; the
     /// unbounded ones are added after them.
+    /// `sieve` and `reach` are those the candidates were gathered with, for `span`.
     fn with_candidates(
         program: &'a FieldProgram,
-        ray: &Ray,
-        span: Interval,
+        sieve: &Sieve,
+        (span, reach): (Interval, Interval),
         mut candidates: Candidates,
     ) -> Self {
         let (_, unbounded) = program.lookup_parts();
-        let reach = reach_of(span);
-        let sieve = Sieve::new(program, ray, reach);
         candidates.bounded = candidates.len();
         for &i in unbounded {
             candidates.push(i, Interval::ENTIRE, Interval::ENTIRE, sieve.support(i));
         }
         Self {
             program,
-            ray: *ray,
+            ray: *sieve.ray,
             span,
             reach,
             candidates,
