@@ -6,7 +6,7 @@
 mod common;
 
 use common::{
-    assert_no_failures, assets, every_operator, random_groups, random_nested_scene, scene,
+    assert_no_failures, asset, assets, every_operator, random_groups, random_nested_scene, scene,
 };
 use glam::DVec3;
 use rayon::prelude::*;
@@ -396,11 +396,7 @@ fn transparent_statistics_match_the_reference_crossing_for_crossing() {
         ..GenerateOptions::default()
     };
     let blobs = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
-    let operators = assets()
-        .into_iter()
-        .find(|p| p.ends_with("operators.ron"))
-        .map(|p| Scene::load(&p).unwrap_or_else(|e| panic!("{e}")))
-        .unwrap_or_else(|| panic!("no operators asset"));
+    let operators = asset("operators");
     for scene in [blobs, operators] {
         let program = FieldProgram::new(&scene);
         let chosen: Vec<Box<dyn Method>> = methods::all()
@@ -450,11 +446,7 @@ fn transparent_statistics_match_the_reference_crossing_for_crossing() {
 /// and those whose reference has one are missed.
 #[test]
 fn statistics_count_the_rays_out_of_steps() {
-    let truss = assets()
-        .into_iter()
-        .find(|p| p.ends_with("truss.ron"))
-        .map(|p| Scene::load(&p).unwrap_or_else(|e| panic!("{e}")))
-        .unwrap_or_else(|| panic!("no truss asset"));
+    let truss = asset("truss");
     let program = FieldProgram::new(&truss);
     let chosen: Vec<Box<dyn Method>> = vec![
         MethodId::Sphere.method(),
@@ -727,11 +719,7 @@ fn the_reference_finds_a_crossing_where_the_field_rounds_to_the_isovalue() {
 /// reference, stays within its budget and within 3× segment tracing's average steps.
 #[test]
 fn conservative_methods_stay_close_to_segment_tracing_on_the_operator_scene() {
-    let path = assets()
-        .into_iter()
-        .find(|p| p.ends_with("operators.ron"))
-        .unwrap_or_default();
-    let program = FieldProgram::new(&Scene::load(&path).unwrap_or_else(|e| panic!("{e}")));
+    let program = FieldProgram::new(&asset("operators"));
     let chosen: Vec<Box<dyn Method>> = methods::all()
         .into_iter()
         .filter(|m| {

@@ -209,6 +209,14 @@ pub fn scene(groups: Vec<Group>, blend: Option<Blend>) -> Scene {
     }
 }
 
+/// The asset `assets/scenes/{name}.ron`, loaded.
+pub fn asset(name: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../assets/scenes")
+        .join(format!("{name}.ron"));
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// The `.ron` files of `assets/scenes/`, sorted.
 pub fn assets() -> Vec<std::path::PathBuf> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
