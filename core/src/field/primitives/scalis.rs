@@ -200,7 +200,7 @@ impl ScalisSegment {
             segment: self,
             ray,
             span,
-            support_sq: k.support_sq(),
+            support: (k.support_sq(), k.support_radius()),
         })
     }
 
@@ -209,7 +209,7 @@ impl ScalisSegment {
     fn ray_jet_with<K: FixedKernel>(
         &self,
         (ray, span): (&Ray, Interval),
-        support_sq: f64,
+        (support_sq, support_radius): (f64, f64),
         kernel: &K,
     ) -> Jet {
         let c = &self.cone;
@@ -217,7 +217,8 @@ impl ScalisSegment {
         let (ray_a, ray_b) = (ray.at(span.lo), ray.at(span.hi));
         let pieces = self.bound_pieces();
         let ds = c.length / pieces as f64;
-        let reached = self.pieces_within_reach((ray_a, ray_b), pieces, ds, support_sq.sqrt());
+        let reached = self.pieces_within_reach((ray_a, ray_b), pieces, ds, support_radius);
+        debug_assert!(ds > 0.0, "segments are longer than 1e-9");
         let w_origin = u.dot(ray.origin - c.start);
         let uv = u.dot(c.axis);
         let chord = ChordToAxis::new(ray_a, ray_b, c.start, c.axis);
@@ -258,9 +259,7 @@ impl ScalisSegment {
             let tau_a = start.tau;
             // The largest squared distance between the chord and the piece is at one of the four
             // pairs of their end points (a convex function on a product of segments).
-            let d_max = [start.to_a, end.to_a, start.to_b, end.to_b]
-                .into_iter()
-                .fold(0.0, f64::max);
+            let d_max = larger(larger(start.to_a, end.to_a), larger(start.to_b, end.to_b));
             let x = Interval::new(x_lo, d_max / (tau_a * tau_a));
             // `w` is increasing in `t` and monotone in `s` with the sign of `−uv`: its range is
             // at two corners, the same values the hull of all four rounds to.
@@ -284,21 +283,27 @@ impl ScalisSegment {
                 hi: start.inv_tau3,
             };
             let (kv, k1, k2, kink) = kernel.ranges(x);
-            let mut d2 = (k2 * w.square())
-                .times_positive(inv_tau3)
-                .times_positive(inv_tau2)
-                .scale(4.0)
-                + k1.times_positive(inv_tau3).scale(2.0);
+            let signs = KnownSigns { kv, k1, k2 };
+            let mut d2 = nonneg_times_positive(
+                nonneg_times_positive(signs.k2_times_square(w.square()), inv_tau3),
+                inv_tau2,
+            )
+            .scale(4.0)
+                + signs.k1_times_positive(inv_tau3).scale(2.0);
             if kink {
                 d2.hi = f64::INFINITY;
             }
+            let piece = Jet {
+                value: nonneg_times_positive(signs.kv, inv_tau),
+                d1: signs.k1_times(w).times_positive(inv_tau3).scale(2.0),
+                d2,
+            };
             jet = jet
                 + Jet {
-                    value: kv.times_positive(inv_tau),
-                    d1: (k1 * w).times_positive(inv_tau3).scale(2.0),
-                    d2,
-                }
-                .scale(ds);
+                    value: scale_positive(piece.value, ds),
+                    d1: scale_positive(piece.d1, ds),
+                    d2: scale_positive(piece.d2, ds),
+                };
         }
         jet.scale(self.norm)
     }
@@ -368,19 +373,102 @@ impl ScalisSegment {
     }
 }
 
+/// The kernel's ranges over a piece of [`ScalisSegment::ray_jet`], whose signs are known:
+/// `K ≥ 0`, `K′ ≤ 0`, `K″ ≥ 0` on the support (`ranges_over`'s contract), all finite. Their
+/// products with the piece's other factors (`w` of either sign, powers of `1/τ`, positive)
+/// take the end products the general interval products would select, without testing the
+/// signs again: the same numbers, bit for bit (rounding is monotone, and a zero factor gives
+/// `+0` as [`Interval`]'s products do). The kernel test `scalis_piece_products_are_the_general_ones`
+/// compares them with the general products.
+#[derive(Clone, Copy)]
+struct KnownSigns {
+    kv: Interval,
+    k1: Interval,
+    k2: Interval,
+}
+
+impl KnownSigns {
+    /// `K″ · w²`, both non-negative.
+    #[inline(always)]
+    fn k2_times_square(self, w2: Interval) -> Interval {
+        debug_assert!(self.k2.lo >= 0.0 && w2.lo >= 0.0, "{:?} {w2:?}", self.k2);
+        Interval {
+            lo: mul_finite(self.k2.lo, w2.lo),
+            hi: mul_finite(self.k2.hi, w2.hi),
+        }
+    }
+
+    /// `K′ · o` for `o > 0`: `K′ ≤ 0`, so its low end meets `o`'s high end.
+    #[inline(always)]
+    fn k1_times_positive(self, o: Interval) -> Interval {
+        debug_assert!(self.k1.hi <= 0.0 && o.lo > 0.0, "{:?} {o:?}", self.k1);
+        Interval {
+            lo: mul_finite(self.k1.lo, o.hi),
+            hi: mul_finite(self.k1.hi, o.lo),
+        }
+    }
+
+    /// `K′ · w`, `w` of either sign: with `K′ ∈ [a, b]`, `b ≤ 0`, the smallest product is `a·w.hi`
+    /// where `w.hi ≥ 0` (else `b·w.hi`), the largest `a·w.lo` where `w.lo ≤ 0` (else `b·w.lo`).
+    #[inline(always)]
+    fn k1_times(self, w: Interval) -> Interval {
+        debug_assert!(self.k1.hi <= 0.0, "{:?}", self.k1);
+        let (a, b) = (self.k1.lo, self.k1.hi);
+        Interval {
+            lo: mul_finite(if w.hi >= 0.0 { a } else { b }, w.hi),
+            hi: mul_finite(if w.lo <= 0.0 { a } else { b }, w.lo),
+        }
+    }
+}
+
+/// `v · o` for `v ≥ 0` and `o > 0` (`Interval::times_positive`'s non-negative case).
+#[inline(always)]
+fn nonneg_times_positive(v: Interval, o: Interval) -> Interval {
+    debug_assert!(v.lo >= 0.0 && o.lo > 0.0, "{v:?} {o:?}");
+    Interval {
+        lo: mul_finite(v.lo, o.lo),
+        hi: mul_finite(v.hi, o.hi),
+    }
+}
+
+/// `Interval::scale` by a positive factor.
+#[inline(always)]
+fn scale_positive(v: Interval, k: f64) -> Interval {
+    Interval {
+        lo: mul_finite(v.lo, k),
+        hi: mul_finite(v.hi, k),
+    }
+}
+
+/// The interval products' end product `a·b` (a zero factor gives `+0`) for finite factors
+/// whose product does not underflow: one test of the product instead of one per factor.
+/// An infinite factor (a kinked `K″` bound) times a positive one stays infinite, as there.
+#[inline(always)]
+fn mul_finite(a: f64, b: f64) -> f64 {
+    let product = a * b;
+    if product == 0.0 { 0.0 } else { product }
+}
+
+/// `a.max(b)` for numbers that are not NaN (squared distances), without NaN's tests.
+#[inline(always)]
+fn larger(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
 /// [`ScalisSegment::ray_jet`], run with the kernel's family fixed.
 struct RayJetOver<'a> {
     segment: &'a ScalisSegment,
     ray: &'a Ray,
     span: Interval,
-    support_sq: f64,
+    /// The kernel's squared support radius and the radius.
+    support: (f64, f64),
 }
 
 impl KernelLoop for RayJetOver<'_> {
     type Output = Jet;
     fn run<K: FixedKernel>(self, kernel: &K) -> Jet {
         self.segment
-            .ray_jet_with((self.ray, self.span), self.support_sq, kernel)
+            .ray_jet_with((self.ray, self.span), self.support, kernel)
     }
 }
 
@@ -653,5 +741,92 @@ mod tests {
             }
         }
         assert!(left_out > 10_000, "{left_out}");
+    }
+
+    /// [`KnownSigns`]' products and [`scale_positive`] are the general interval products of
+    /// [`ScalisSegment::ray_jet`] before them, bit for bit: on every kernel's ranges over random
+    /// intervals across the support and its boundary, `w` of either sign and with zero ends,
+    /// powers of `1/τ` from random radii, and infinite (kinked) `K″` bounds scaled by a piece.
+    #[test]
+    fn scalis_piece_products_are_the_general_ones() {
+        let mut rng = SplitMix64::new(2218);
+        let kernels = [
+            Kernel::CompactPolynomial {
+                degree: 2,
+                scale: 1.5,
+            },
+            Kernel::CompactPolynomial {
+                degree: 6,
+                scale: 2.0,
+            },
+            Kernel::CompactPolynomial {
+                degree: 8,
+                scale: 3.0,
+            },
+            Kernel::Cauchy {
+                degree: 1,
+                scale: 1.0,
+            },
+            Kernel::Cauchy {
+                degree: 4,
+                scale: 0.5,
+            },
+            Kernel::Gaussian { scale: 1.0 },
+        ];
+        let bits = |v: Interval| (v.lo.to_bits(), v.hi.to_bits());
+        for case in 0..60_000 {
+            let k = KernelProfile::new(kernels[case % kernels.len()]);
+            let s2 = k.support_sq();
+            let x0 = rng.range(-0.1, 1.1) * s2;
+            let x = Interval::new(x0, x0 + rng.range(0.0, 0.5).powi(2) * s2);
+            let (kv, k1, k2, _) = k.ranges(x);
+            let w = match case % 4 {
+                0 => Interval::new(0.0, rng.range(0.0, 3.0)),
+                1 => Interval::new(-rng.range(0.0, 3.0), 0.0),
+                _ => Interval::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+            };
+            let (tau_a, tau_b) = (rng.range(0.01, 2.0), rng.range(0.0, 0.5));
+            let power = |tau: f64, n: i32| (1.0 / tau).powi(n);
+            let inv = |n| Interval {
+                lo: power(tau_a + tau_b, n),
+                hi: power(tau_a, n),
+            };
+            let (inv_tau, inv_tau2, inv_tau3) = (inv(1), inv(2), inv(3));
+            let signs = KnownSigns { kv, k1, k2 };
+            let general_d2 = (k2 * w.square())
+                .times_positive(inv_tau3)
+                .times_positive(inv_tau2)
+                .scale(4.0)
+                + k1.times_positive(inv_tau3).scale(2.0);
+            let known_d2 = nonneg_times_positive(
+                nonneg_times_positive(signs.k2_times_square(w.square()), inv_tau3),
+                inv_tau2,
+            )
+            .scale(4.0)
+                + signs.k1_times_positive(inv_tau3).scale(2.0);
+            assert_eq!(bits(known_d2), bits(general_d2), "case {case}: {x:?} {w:?}");
+            assert_eq!(
+                bits(nonneg_times_positive(kv, inv_tau)),
+                bits(kv.times_positive(inv_tau)),
+                "case {case}"
+            );
+            assert_eq!(
+                bits(signs.k1_times(w)),
+                bits(k1 * w),
+                "case {case}: {k1:?} {w:?}"
+            );
+            let ds = rng.range(1e-3, 1.0);
+            let kinked = Interval {
+                lo: general_d2.lo,
+                hi: f64::INFINITY,
+            };
+            for v in [general_d2, kinked, kv, k1 * w] {
+                assert_eq!(
+                    bits(scale_positive(v, ds)),
+                    bits(v.scale(ds)),
+                    "case {case}"
+                );
+            }
+        }
     }
 }
