@@ -275,6 +275,16 @@ impl ShapePrimitive {
     }
 
     fn distance_sq_jet(&self, ray: &Ray, span: Interval) -> Jet {
+        // A plane needs neither the local frame nor the distance to its axis: computed only for
+        // the solids that use them.
+        if let Solid::Plane { normal, offset } = self.solid {
+            return Jet::affine(
+                normal.dot(ray.origin) - offset,
+                normal.dot(ray.direction),
+                span,
+            )
+            .square();
+        }
         let o = self.frame.transpose() * (ray.origin - self.center);
         let u = self.frame.transpose() * ray.direction;
         let coord = |i: usize| Jet::affine(o[i], u[i], span);
@@ -284,15 +294,17 @@ impl ShapePrimitive {
         };
         // Distance to the local y axis: 1-Lipschitz along any line (|ρ′| ≤ |u_xz|) and convex
         // (ρ″ ≥ 0), which keeps its jet finite where the ray passes through the axis.
-        let radial_sq = Jet::quadratic(
-            u.x * u.x + u.z * u.z,
-            2.0 * (o.x * u.x + o.z * u.z),
-            o.x * o.x + o.z * o.z,
-            span,
-        );
+        let radial_sq = || {
+            Jet::quadratic(
+                u.x * u.x + u.z * u.z,
+                2.0 * (o.x * u.x + o.z * u.z),
+                o.x * o.x + o.z * o.z,
+                span,
+            )
+        };
         let radial = || {
             let lateral = u.x.hypot(u.z);
-            let mut rho = radial_sq.sqrt();
+            let mut rho = radial_sq().sqrt();
             rho.d1 = rho
                 .d1
                 .intersect(Interval::new(-lateral, lateral))
@@ -301,12 +313,7 @@ impl ShapePrimitive {
             rho
         };
         match self.solid {
-            Solid::Plane { normal, offset } => Jet::affine(
-                normal.dot(ray.origin) - offset,
-                normal.dot(ray.direction),
-                span,
-            )
-            .square(),
+            Solid::Plane { .. } => unreachable!("planes return above"),
             Solid::Box { half_extents } => (0..3)
                 .map(|i| slab_excess_sq(i, half_extents[i]))
                 .fold(Jet::ZERO, |a, b| a + b),
@@ -328,7 +335,7 @@ impl ShapePrimitive {
                 radius,
                 half_height,
             } => {
-                (radial_sq.sqrt_above(radius) - Jet::constant(radius)).positive_part_squared()
+                (radial_sq().sqrt_above(radius) - Jet::constant(radius)).positive_part_squared()
                     + slab_excess_sq(1, half_height)
             }
         }
