@@ -377,8 +377,11 @@ impl ScalisSegment {
 /// `K ≥ 0`, `K′ ≤ 0`, `K″ ≥ 0` on the support (`ranges_over`'s contract), all finite. Their
 /// products with the piece's other factors (`w` of either sign, powers of `1/τ`, positive)
 /// take the end products the general interval products would select, without testing the
-/// signs again: the same numbers, bit for bit (rounding is monotone, and a zero factor gives
-/// `+0` as [`Interval`]'s products do). The kernel test `scalis_piece_products_are_the_general_ones`
+/// signs again: the same numbers, bit for bit (rounding is monotone). The general products
+/// give `+0` for a zero factor; products that may meet a zero of either sign here (those of
+/// `K′`, whose upper end is `−0` at the support's boundary, and `w`) do the same
+/// ([`mul_finite`]); the others multiply non-negative factors that are never `−0`, whose
+/// plain products are already `+0` there. The test `scalis_piece_products_are_the_general_ones`
 /// compares them with the general products.
 #[derive(Clone, Copy)]
 struct KnownSigns {
@@ -393,8 +396,8 @@ impl KnownSigns {
     fn k2_times_square(self, w2: Interval) -> Interval {
         debug_assert!(self.k2.lo >= 0.0 && w2.lo >= 0.0, "{:?} {w2:?}", self.k2);
         Interval {
-            lo: mul_finite(self.k2.lo, w2.lo),
-            hi: mul_finite(self.k2.hi, w2.hi),
+            lo: self.k2.lo * w2.lo,
+            hi: self.k2.hi * w2.hi,
         }
     }
 
@@ -421,23 +424,36 @@ impl KnownSigns {
     }
 }
 
-/// `v · o` for `v ≥ 0` and `o > 0` (`Interval::times_positive`'s non-negative case).
+/// `v · o` for `v ≥ 0`, never `−0`, and `o > 0` (`Interval::times_positive`'s non-negative
+/// case).
 #[inline(always)]
 fn nonneg_times_positive(v: Interval, o: Interval) -> Interval {
-    debug_assert!(v.lo >= 0.0 && o.lo > 0.0, "{v:?} {o:?}");
+    debug_assert!(
+        v.lo >= 0.0 && no_negative_zero(v) && o.lo > 0.0,
+        "{v:?} {o:?}"
+    );
     Interval {
-        lo: mul_finite(v.lo, o.lo),
-        hi: mul_finite(v.hi, o.hi),
+        lo: v.lo * o.lo,
+        hi: v.hi * o.hi,
     }
 }
 
-/// `Interval::scale` by a positive factor.
+/// `Interval::scale` by a positive factor, of an interval whose ends are never `−0` (the
+/// general products' zeros are `+0`).
 #[inline(always)]
 fn scale_positive(v: Interval, k: f64) -> Interval {
+    debug_assert!(k > 0.0 && no_negative_zero(v), "{v:?}");
     Interval {
-        lo: mul_finite(v.lo, k),
-        hi: mul_finite(v.hi, k),
+        lo: v.lo * k,
+        hi: v.hi * k,
     }
+}
+
+/// Whether neither end of `v` is `−0`.
+fn no_negative_zero(v: Interval) -> bool {
+    [v.lo, v.hi]
+        .iter()
+        .all(|e| *e != 0.0 || e.is_sign_positive())
 }
 
 /// The interval products' end product `a·b` (a zero factor gives `+0`) for finite factors
