@@ -305,7 +305,12 @@ impl ScalisSegment {
                     d2: scale_positive(piece.d2, ds),
                 };
         }
-        jet.scale(self.norm)
+        // Sums of the pieces' scaled ends, never `−0`; the normalisation is positive.
+        Jet {
+            value: scale_positive(jet.value, self.norm),
+            d1: scale_positive(jet.d1, self.norm),
+            d2: scale_positive(jet.d2, self.norm),
+        }
     }
 
     /// How many equal pieces [`Self::ray_jet`] cuts the segment into: about two per radius at
