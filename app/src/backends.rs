@@ -29,7 +29,7 @@ impl Backends {
     #[must_use]
     pub fn open(choice: BackendChoice) -> Self {
         let mut backends = Self {
-            cpu: CpuBackend,
+            cpu: CpuBackend::new(),
             gpu: Err("the CPU backend was chosen".to_owned()),
             gpu_tried: false,
         };

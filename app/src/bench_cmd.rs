@@ -3,13 +3,15 @@
 //! has left its idle clock), on the CPU tracer or the GPU backend, with the adapter name. On the
 //! GPU, where the adapter has timestamp queries, also the GPU's own time for the trace pass and
 //! the tile binning: the wall-clock frame holds the readback and the conversion to frames as
-//! well.
+//! well. With `--after-edits`, the frames that follow vertex edits on the CPU, which copies the
+//! tiles an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
 
 use std::time::Instant;
 
-use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
+use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest};
+use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::frame::{FieldShading, View};
-use skeletrace_core::methods::TraceSettings;
+use skeletrace_core::methods::{MethodId, TraceSettings};
 use skeletrace_core::{Scene, compile};
 
 use crate::cli::BenchArgs;
@@ -43,6 +45,51 @@ struct Row {
     frame_ms: f64,
     /// Median GPU milliseconds of the trace pass and of the binning passes.
     passes: Option<(f64, f64)>,
+    /// After edits: the median share of screen tiles copied instead of traced.
+    reused: Option<f64>,
+}
+
+/// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices
+/// moved one after the other, each edit compiled and its frame traced by a CPU backend that
+/// keeps its last frames; the first, full frame is not timed.
+fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Result<Row, String> {
+    let mut scene = scene.clone();
+    let fail = |e: BackendError| format!("{method}: {e}");
+    let mut backend = CpuBackend::reusing_tiles();
+    let compiled = compile(&scene);
+    backend.render(&compiled, request).map_err(fail)?;
+    let tiles = (request.width.div_ceil(8) * request.height.div_ceil(8)) as f64;
+    let vertices: Vec<(usize, usize, usize)> = scene
+        .groups
+        .iter()
+        .enumerate()
+        .flat_map(|(g, group)| {
+            group
+                .skeletons
+                .iter()
+                .enumerate()
+                .flat_map(move |(s, skeleton)| (0..skeleton.vertices.len()).map(move |v| (g, s, v)))
+        })
+        .collect();
+    if vertices.is_empty() {
+        return Err("--after-edits moves skeleton vertices: the scene has none".to_owned());
+    }
+    let (mut times, mut reused) = (Vec::new(), Vec::new());
+    for (g, s, v) in vertices {
+        let vertex = &mut scene.groups[g].skeletons[s].vertices[v];
+        vertex.position[1] += 0.05 * vertex.radius;
+        let compiled = compile(&scene);
+        let start = Instant::now();
+        backend.render(&compiled, request).map_err(fail)?;
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+        reused.push(backend.tiles_reused() as f64 / tiles);
+    }
+    Ok(Row {
+        name: method.name(),
+        frame_ms: median(times),
+        passes: None,
+        reused: Some(median(reused)),
+    })
 }
 
 /// Runs `bench`.
@@ -59,6 +106,9 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         && let Err(why) = &backends.gpu
     {
         return Err(format!("--backend gpu: {why}"));
+    }
+    if args.after_edits && args.backend != BackendChoice::Cpu {
+        return Err("--after-edits times the CPU backend: use --backend cpu".to_owned());
     }
     let mut rows: Vec<Row> = Vec::new();
     let mut devices: Vec<String> = Vec::new();
@@ -82,6 +132,13 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             Err(e) => return Err(e.to_string()),
         };
         let device = backend.describe();
+        if args.after_edits {
+            rows.push(after_edits(scene, method, &request)?);
+            if !devices.contains(&device) {
+                devices.push(device);
+            }
+            continue;
+        }
         let fail = |e: BackendError| format!("{method} on {device}: {e}");
         warm_up(|| backend.render(&compiled, &request).map(drop)).map_err(fail)?;
         let mut times = Vec::with_capacity(frames);
@@ -102,6 +159,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             name: method.name(),
             frame_ms: median(times),
             passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
+            reused: None,
         });
     }
     let device = devices.join(" and ");
@@ -112,6 +170,10 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                 let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                     format!(", \"gpu_trace_ms\": {trace:.3}, \"gpu_binning_ms\": {binning:.3}")
                 });
+                let passes = passes
+                    + &row
+                        .reused
+                        .map_or(String::new(), |r| format!(", \"tiles_reused\": {r:.4}"));
                 format!(
                     "{{\"name\": \"{}\", \"ms_per_frame\": {:.3}{passes}}}",
                     row.name, row.frame_ms
@@ -125,13 +187,20 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             methods.join(", ")
         );
     } else {
+        let timed = if args.after_edits {
+            "median of the frames after editing each skeleton vertex".to_owned()
+        } else {
+            format!("median of {frames} frames")
+        };
         println!(
-            "{}: {width}x{height} on {device}, median of {frames} frames",
+            "{}: {width}x{height} on {device}, {timed}",
             args.scene.display()
         );
         for row in rows {
             let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                 format!("   (GPU: trace {trace:.3} ms, binning {binning:.3} ms)")
+            }) + &row.reused.map_or(String::new(), |r| {
+                format!("   ({:.1} % of tiles copied)", 100.0 * r)
             });
             println!("{:<28} {:>10.2} ms/frame{passes}", row.name, row.frame_ms);
         }

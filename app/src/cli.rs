@@ -81,6 +81,12 @@ pub struct BenchArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Time the frames that follow edits, as the editor traces them on the CPU: every
+    /// skeleton vertex in turn moved up by a twentieth of its radius, each edit's frame traced
+    /// by a backend that copies the screen tiles the edit did not reach (`--frames` is
+    /// unused); reports the median of those frames and of the share of tiles copied.
+    #[arg(long)]
+    pub after_edits: bool,
 }
 
 /// What a render shows.

@@ -20,6 +20,7 @@ use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
 
 use crate::backends::Backends;
+use skeletrace_core::cpu::cpu_backend::CpuBackend;
 
 /// One render: the compiled scene of a revision, a camera, methods and a size.
 #[derive(Clone)]
@@ -141,8 +142,13 @@ fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn())
         while let Ok(newer) = requests.try_recv() {
             request = newer;
         }
-        // The GPU is opened once, on the first request that may use it.
-        let backends = backends.get_or_insert_with(|| Backends::open(request.backend));
+        // The GPU is opened once, on the first request that may use it. The CPU keeps its
+        // last frames: after an edit it traces again only the tiles the edit reached.
+        let backends = backends.get_or_insert_with(|| {
+            let mut opened = Backends::open(request.backend);
+            opened.cpu = CpuBackend::reusing_tiles();
+            opened
+        });
         backends.open_gpu_for(request.backend);
         // A cancelled request has a newer one behind it: that one gets the reply.
         let Some(reply) = trace(&request, backends) else {

@@ -1,17 +1,134 @@
 //! The CPU [`FrameBackend`]: every method, every scene, traced by [`Renderer`] on rayon
 //! threads. It is the reference the GPU's frames are compared with.
+//!
+//! In the editor it keeps its last frames ([`CpuBackend::reusing_tiles`]): after an edit that
+//! moved a few primitives, a frame through the same camera traces again only the screen tiles
+//! whose candidates changed, and copies the others (`Renderer::render_reusing`; issue 18, the
+//! edit loop). It does so only where every ray's trace is known to depend on nothing else:
+//! the same method, camera, size, view and settings; a program that differs only in some
+//! bounded primitives (`FieldProgram::primitives_changed_since`), with the same materials,
+//! lights and method inputs (`Method::scene_inputs`); no shadow rays, no field shading and no
+//! transparent group, whose rays leave the tile. The frames are those a full trace gives, bit
+//! for bit (`cpu_backend` tests).
 
 use std::sync::Arc;
 
 use crate::backend::{BackendError, DeviceKind, FrameBackend, FrameRequest};
 use crate::compile::Compiled;
-use crate::cpu::renderer::{RenderOptions, Renderer};
+use crate::cpu::renderer::{EarlierFrame, RenderOptions, Renderer, TracedFrame};
 use crate::frame::{FieldShading, Frame, View, heat_colour};
-use crate::methods::MethodId;
+use crate::methods::{Method, MethodId, TraceSettings};
+use crate::model::scene::Camera;
+
+/// Frames of how many sizes are kept: a full frame's and those of the previews at the
+/// resolutions the editor moves between while the user drags.
+const KEPT_SIZES: usize = 3;
 
 /// The CPU tracer as a frame backend.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct CpuBackend;
+#[derive(Default)]
+pub struct CpuBackend {
+    /// Whether frames are kept for later frames to reuse.
+    reuse: bool,
+    /// The kept frames, oldest first.
+    kept: Vec<KeptFrame>,
+    /// Tiles the last request's frames copied, all methods together.
+    reused: usize,
+}
+
+/// One method's frame, kept with what decides whether a later one may reuse its tiles.
+struct KeptFrame {
+    compiled: Arc<Compiled>,
+    view: ViewOf,
+    method: MethodId,
+    scene_inputs: Vec<f64>,
+    traced: TracedFrame,
+}
+
+/// What a frame was traced through, besides the scene and the method.
+#[derive(Clone, Copy, PartialEq)]
+struct ViewOf {
+    camera: Camera,
+    width: usize,
+    height: usize,
+    view: View,
+    settings: TraceSettings,
+}
+
+impl CpuBackend {
+    /// A backend that traces every frame in full (`render`, `bench`, the tests' references).
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A backend that keeps its last frames and, after an edit, traces again only the tiles
+    /// it must (the editor).
+    #[must_use]
+    pub fn reusing_tiles() -> Self {
+        Self {
+            reuse: true,
+            ..Self::default()
+        }
+    }
+
+    /// How many screen tiles the last request's frames copied from earlier ones instead of
+    /// tracing, all its methods together.
+    #[must_use]
+    pub fn tiles_reused(&self) -> usize {
+        self.reused
+    }
+
+    /// The frame kept for `method` through `view` whose tiles a frame of `compiled` may reuse,
+    /// with the primitives changed since.
+    fn earlier(
+        &self,
+        compiled: &Compiled,
+        view: &ViewOf,
+        method: &dyn Method,
+        inputs: &[f64],
+    ) -> Option<(&KeptFrame, Vec<bool>)> {
+        self.kept.iter().rev().find_map(|kept| {
+            if kept.method != method.id()
+                || kept.view != *view
+                || kept.scene_inputs != inputs
+                || kept.compiled.materials != compiled.materials
+                || kept.compiled.lights != compiled.lights
+            {
+                return None;
+            }
+            let changed = compiled
+                .program
+                .primitives_changed_since(&kept.compiled.program)?;
+            Some((kept, changed))
+        })
+    }
+
+    /// Keeps `traced`, dropping a frame of the same method and view, and the frames of sizes
+    /// older than the last [`KEPT_SIZES`].
+    fn keep(&mut self, frame: KeptFrame) {
+        self.kept
+            .retain(|k| !(k.method == frame.method && k.view == frame.view));
+        self.kept.push(frame);
+        let mut sizes: Vec<(usize, usize)> = Vec::new();
+        for k in self.kept.iter().rev() {
+            let size = (k.view.width, k.view.height);
+            if !sizes.contains(&size) {
+                sizes.push(size);
+            }
+        }
+        sizes.truncate(KEPT_SIZES);
+        self.kept
+            .retain(|k| sizes.contains(&(k.view.width, k.view.height)));
+    }
+}
+
+/// Whether every ray of a frame stays within its tile's candidates: no shadow rays, no field
+/// shading (soft shadows, occlusion), no transparent group (reflected and refracted rays).
+fn rays_stay_in_their_tiles(compiled: &Compiled, options: &RenderOptions) -> bool {
+    !options.shadows
+        && !options.shading.any()
+        && compiled.materials.iter().all(|m| m.opacity >= 1.0)
+}
 
 impl FrameBackend for CpuBackend {
     fn describe(&self) -> String {
@@ -46,6 +163,15 @@ impl FrameBackend for CpuBackend {
             shadows: request.shadows,
             shading,
         };
+        let view = ViewOf {
+            camera: request.camera,
+            width: request.width,
+            height: request.height,
+            view: request.view,
+            settings: request.settings,
+        };
+        let reuse = self.reuse && rays_stay_in_their_tiles(compiled, &options);
+        self.reused = 0;
         let mut frames = Vec::with_capacity(request.methods.len());
         for &id in &request.methods {
             let method = id.method();
@@ -53,16 +179,46 @@ impl FrameBackend for CpuBackend {
                 .supports(&compiled.program)
                 .map_err(|why| BackendError::Unsupported(format!("{id}: {why}")))?;
             let tracer = method.prepare(&compiled.program, request.settings);
-            let mut frame = Renderer::new(compiled, tracer.as_ref(), request.settings)
-                .render_unless_cancelled(&request.camera, options, &request.cancel)
+            let renderer = Renderer::new(compiled, tracer.as_ref(), request.settings);
+            let inputs = method.scene_inputs(&compiled.program).filter(|_| reuse);
+            let earlier = inputs
+                .as_deref()
+                .and_then(|inputs| self.earlier(compiled, &view, method.as_ref(), inputs));
+            let mut traced = renderer
+                .render_reusing(
+                    &request.camera,
+                    options,
+                    &request.cancel,
+                    earlier
+                        .as_ref()
+                        .map(|(kept, changed)| EarlierFrame {
+                            frame: &kept.traced.frame,
+                            tile_primitives: &kept.traced.tile_primitives,
+                            changed,
+                        })
+                        .as_ref(),
+                )
                 .ok_or(BackendError::Cancelled)?;
+            self.reused += traced.reused_tiles;
             if let View::Steps { steps_max } = request.view {
                 let top = f64::from(steps_max.max(1));
-                for (colour, &steps) in frame.colour.iter_mut().zip(&frame.steps) {
+                for (colour, &steps) in traced.frame.colour.iter_mut().zip(&traced.frame.steps) {
                     *colour = heat_colour(f64::from(steps) / top);
                 }
             }
-            frames.push(frame);
+            match inputs {
+                Some(scene_inputs) => {
+                    frames.push(traced.frame.clone());
+                    self.keep(KeptFrame {
+                        compiled: Arc::clone(compiled),
+                        view,
+                        method: id,
+                        scene_inputs,
+                        traced,
+                    });
+                }
+                None => frames.push(traced.frame),
+            }
         }
         Ok(frames)
     }

@@ -30,6 +30,10 @@ use crate::model::scene::{Camera, Light, Material};
 /// A traced pixel: colour, depth of the first crossing and steps.
 type Pixel = ([f32; 3], f64, u32);
 
+/// A screen tile's pixels, its candidate primitives, and whether the pixels were copied from
+/// an earlier frame.
+type TileOutcome = (Vec<Pixel>, Vec<u32>, bool);
+
 /// Side of the square screen tiles whose camera rays share one candidate list.
 const TILE: usize = 8;
 
@@ -47,6 +51,28 @@ pub struct RenderOptions {
     pub shadows: bool,
     /// Soft shadows and ambient occlusion from the field.
     pub shading: FieldShading,
+}
+
+/// A frame traced earlier by the same method through the same camera and options, on a
+/// program that differs from this one in the primitives `changed` flags only
+/// ([`Renderer::render_reusing`]).
+pub struct EarlierFrame<'f> {
+    /// Its pixels.
+    pub frame: &'f Frame,
+    /// Each tile's candidate primitives ([`TracedFrame::tile_primitives`]).
+    pub tile_primitives: &'f [Vec<u32>],
+    /// The primitives changed since, one flag per primitive of this renderer's program.
+    pub changed: &'f [bool],
+}
+
+/// A frame with what a later one needs to reuse its tiles.
+pub struct TracedFrame {
+    /// The pixels.
+    pub frame: Frame,
+    /// Each screen tile's candidate primitives, in their order (row-major tiles).
+    pub tile_primitives: Vec<Vec<u32>>,
+    /// How many tiles were copied from the earlier frame.
+    pub reused_tiles: usize,
 }
 
 /// A compiled scene bound to a method, ready to render frames through any camera.
@@ -104,6 +130,25 @@ impl<'a> Renderer<'a> {
         options: RenderOptions,
         cancel: &Cancel,
     ) -> Option<Frame> {
+        self.render_reusing(camera, options, cancel, None)
+            .map(|traced| traced.frame)
+    }
+
+    /// As [`Renderer::render_unless_cancelled`], taking from `earlier` the tiles it may: a
+    /// tile whose candidates are those it had in `earlier`'s frame, in the same order, none
+    /// of them changed since, has the same rays over the same primitives, so its pixels are
+    /// copied instead of traced. The caller vouches for the rest (`earlier` was traced by
+    /// this method, through this camera, with these options, on a program that differs from
+    /// this one only in the primitives `earlier.changed` flags, with no global shading and
+    /// no transparent group: `cpu_backend.rs`).
+    #[must_use]
+    pub fn render_reusing(
+        &self,
+        camera: &Camera,
+        options: RenderOptions,
+        cancel: &Cancel,
+        earlier: Option<&EarlierFrame<'_>>,
+    ) -> Option<TracedFrame> {
         let (w, h) = (options.width.max(1), options.height.max(1));
         let pinhole = PinholeCamera::new(camera);
         let context = FrameContext {
@@ -117,9 +162,12 @@ impl<'a> Renderer<'a> {
             let (x0, y0) = ((k % columns) * TILE, (k / columns) * TILE);
             ((x0, (x0 + TILE).min(w)), (y0, (y0 + TILE).min(h)))
         };
+        let earlier = earlier.filter(|e| {
+            (e.frame.width, e.frame.height) == (w, h) && e.tile_primitives.len() == columns * rows
+        });
         // One BVH walk per tile gathers its camera rays' candidates (`TileCandidates`); tiles
         // are scheduled over the threads, each tile's rays traced together.
-        let tiles: Option<Vec<Vec<Pixel>>> = (0..columns * rows)
+        let tiles: Option<Vec<TileOutcome>> = (0..columns * rows)
             .into_par_iter()
             .map(|tile| {
                 if cancel.is_cancelled() {
@@ -129,7 +177,20 @@ impl<'a> Renderer<'a> {
                 let corners = pinhole.tile_corners((x0, x1), (y0, y1), w, h);
                 let candidates =
                     TileCandidates::gather(self.program, pinhole.origin(), corners, span);
+                let listed: Vec<u32> = candidates.primitives().collect();
                 let mut pixels = Vec::with_capacity((x1 - x0) * (y1 - y0));
+                if let Some(earlier) = earlier
+                    && earlier.tile_primitives[tile] == listed
+                    && !listed.iter().any(|&i| earlier.changed[i as usize])
+                {
+                    let f = earlier.frame;
+                    for y in y0..y1 {
+                        for i in y * w + x0..y * w + x1 {
+                            pixels.push((f.colour[i], f.depth[i], f.steps[i]));
+                        }
+                    }
+                    return Some((pixels, listed, true));
+                }
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let ray = pinhole.ray(x, y, w, h);
@@ -148,26 +209,31 @@ impl<'a> Renderer<'a> {
                         pixels.push((colour.as_vec3().to_array(), depth, steps));
                     }
                 }
-                Some(pixels)
+                Some((pixels, listed, false))
             })
             .collect();
         let tiles = tiles?;
         let mut colour = vec![[0.0; 3]; w * h];
         let mut depth = vec![f64::INFINITY; w * h];
         let mut steps = vec![0; w * h];
-        for (tile, pixels) in tiles.iter().enumerate() {
+        for (tile, (pixels, _, _)) in tiles.iter().enumerate() {
             let ((x0, x1), (y0, _)) = tile_pixels(tile);
             for (k, pixel) in pixels.iter().enumerate() {
                 let i = (y0 + k / (x1 - x0)) * w + x0 + k % (x1 - x0);
                 (colour[i], depth[i], steps[i]) = *pixel;
             }
         }
-        Some(Frame {
-            width: w,
-            height: h,
-            colour,
-            depth,
-            steps,
+        let reused_tiles = tiles.iter().filter(|(_, _, reused)| *reused).count();
+        Some(TracedFrame {
+            frame: Frame {
+                width: w,
+                height: h,
+                colour,
+                depth,
+                steps,
+            },
+            tile_primitives: tiles.into_iter().map(|(_, listed, _)| listed).collect(),
+            reused_tiles,
         })
     }
 

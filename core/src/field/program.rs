@@ -604,6 +604,52 @@ impl FieldProgram {
     pub(crate) fn lookup_parts(&self) -> (&Bvh, &[u32]) {
         (&self.bvh, &self.unbounded)
     }
+
+    /// Which primitives of `self` differ from those of `before`, an earlier compilation of an
+    /// edited scene (one flag per primitive), when nothing else does: as many primitives, in
+    /// the same groups, with the same isovalue, kernels, blend tree, HRBF cuts and unbounded
+    /// primitives, and the same support bounds (which scale the trace settings, the rays'
+    /// reach and the tiles' padding). `None` where anything else changed, or an unbounded
+    /// primitive (every ray has those among its candidates): then any ray may trace
+    /// differently. The BVH is left out: a ray's candidates are compared where they are
+    /// gathered (`cpu/renderer.rs`).
+    #[must_use]
+    pub fn primitives_changed_since(&self, before: &FieldProgram) -> Option<Vec<bool>> {
+        // Every field named, so that a new one must be placed here.
+        let FieldProgram {
+            isovalue,
+            primitives,
+            groups_of,
+            kernels,
+            kernel_specs,
+            blend,
+            blend_is_total_sum,
+            bvh: _,
+            unbounded,
+            clamped,
+            cut_boxes,
+        } = self;
+        let same_elsewhere = primitives.len() == before.primitives.len()
+            && *isovalue == before.isovalue
+            && *groups_of == before.groups_of
+            && *kernels == before.kernels
+            && *kernel_specs == before.kernel_specs
+            && *blend == before.blend
+            && *blend_is_total_sum == before.blend_is_total_sum
+            && *unbounded == before.unbounded
+            && *clamped == before.clamped
+            && *cut_boxes == before.cut_boxes
+            && self.support_bounds() == before.support_bounds();
+        if !same_elsewhere {
+            return None;
+        }
+        let changed: Vec<bool> = primitives
+            .iter()
+            .zip(&before.primitives)
+            .map(|(now, then)| now != then)
+            .collect();
+        (!unbounded.iter().any(|&i| changed[i as usize])).then_some(changed)
+    }
 }
 
 /// Where a point query finds the primitives that may be non-zero at `p`: the program's BVH, or

@@ -219,6 +219,11 @@ impl TileBall {
 }
 
 impl TileCandidates {
+    /// The primitives of the list, in its order.
+    pub fn primitives(&self) -> impl Iterator<Item = u32> + '_ {
+        self.items.iter().map(|item| item.primitive)
+    }
+
     /// The candidates of the rays from `origin` whose directions lie in the cone over the
     /// quadrilateral `corners` (in order around it; for a tile, the directions through its
     /// outer pixel corners, half a pixel outside the pixel centres), on `span`.

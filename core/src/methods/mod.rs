@@ -195,6 +195,17 @@ pub trait Method: Sync {
         Ok(())
     }
 
+    /// What a ray's trace takes from the scene beyond the primitives among its candidates,
+    /// the program's globals (isovalue, kernels, blend, groups, bounds) and the settings:
+    /// `Some` of those numbers (none for a method whose march is local), or `None` where the
+    /// method may look at anything. The CPU backend traces again only the screen tiles of an
+    /// edited scene whose candidates changed when these numbers are the same before and after
+    /// the edit (`cpu_backend.rs`); `None` traces every tile again.
+    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
+        let _ = program;
+        None
+    }
+
     /// Prepares per-scene data (global Lipschitz constants and the like).
     fn prepare<'a>(
         &self,

@@ -24,6 +24,10 @@ impl Method for SphereTracing {
         true
     }
 
+    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
+        Some(vec![program.global_lipschitz()])
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,

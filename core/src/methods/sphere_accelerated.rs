@@ -46,6 +46,10 @@ impl Method for AcceleratedSphereTracing {
         true
     }
 
+    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
+        Some(vec![program.global_lipschitz()])
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,

@@ -31,6 +31,10 @@ impl Method for EnhancedSphereTracing {
         true
     }
 
+    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
+        Some(vec![program.global_lipschitz()])
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,

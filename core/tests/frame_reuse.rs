@@ -1,0 +1,212 @@
+//! The CPU backend's tile reuse (`cpu_backend.rs`, issue 18's edit loop): after an edit, a
+//! frame that copies the earlier frame's unchanged tiles is the frame a full trace gives, bit
+//! for bit, for every method that declares what it reads of the scene, on generated scenes
+//! and random edits the code was not written against; and it does copy tiles.
+
+mod common;
+
+use skeletrace_core::backend::{Cancel, FrameBackend, FrameRequest};
+use skeletrace_core::compile::{Compiled, compile};
+use skeletrace_core::cpu::cpu_backend::CpuBackend;
+use skeletrace_core::cpu::renderer::{EarlierFrame, RenderOptions, Renderer};
+use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::frame::{FieldShading, Frame, View};
+use skeletrace_core::methods::MethodId;
+use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::model::rng::SplitMix64;
+use skeletrace_core::model::scene::Scene;
+
+const SIZE: (usize, usize) = (40, 32);
+
+/// A frame's pixels as bits.
+fn bits(frame: &Frame) -> Vec<(u32, u32, u32, u64, u32)> {
+    (0..frame.width * frame.height)
+        .map(|i| {
+            let [r, g, b] = frame.colour[i].map(f32::to_bits);
+            (r, g, b, frame.depth[i].to_bits(), frame.steps[i])
+        })
+        .collect()
+}
+
+fn request(scene: &Scene, compiled: &Compiled, methods: &[MethodId], view: View) -> FrameRequest {
+    FrameRequest {
+        camera: scene.camera,
+        width: SIZE.0,
+        height: SIZE.1,
+        methods: methods.to_vec(),
+        view,
+        shadows: false,
+        settings: compiled.settings,
+        cancel: Cancel::new(),
+    }
+}
+
+/// The methods that declare what they read of `compiled`'s scene and trace it.
+fn reusable_methods(compiled: &Compiled) -> Vec<MethodId> {
+    MethodId::ALL
+        .into_iter()
+        .filter(|id| {
+            let m = id.method();
+            m.supports(&compiled.program).is_ok() && m.scene_inputs(&compiled.program).is_some()
+        })
+        .collect()
+}
+
+/// A random edit of `scene`: a vertex or a blob moved a little, a radius changed, or (one
+/// time in five) a kernel scale, which every ray sees.
+fn edit(scene: &mut Scene, rng: &mut SplitMix64) -> &'static str {
+    let nudge = |rng: &mut SplitMix64, p: &mut [f64; 3], by: f64| {
+        for c in p.iter_mut() {
+            *c += rng.range(-by, by);
+        }
+    };
+    let g = rng.below(scene.groups.len());
+    let group = &mut scene.groups[g];
+    if rng.below(5) == 0
+        && let Kernel::CompactPolynomial { scale, .. } | Kernel::Cauchy { scale, .. } =
+            &mut group.kernel
+    {
+        *scale *= 1.05;
+        return "kernel scale";
+    }
+    if let Some(skeleton) = group.skeletons.first_mut() {
+        let v = rng.below(skeleton.vertices.len());
+        let vertex = &mut skeleton.vertices[v];
+        if rng.below(2) == 0 {
+            vertex.radius *= 1.1;
+            return "vertex radius";
+        }
+        let by = 0.2 * vertex.radius;
+        nudge(rng, &mut vertex.position, by);
+        return "vertex moved";
+    }
+    if !group.blobs.is_empty() {
+        let b = rng.below(group.blobs.len());
+        let blob = &mut group.blobs[b];
+        let by = 0.2 * blob.radius;
+        nudge(rng, &mut blob.center, by);
+        return "blob moved";
+    }
+    "nothing"
+}
+
+#[test]
+fn frames_reusing_tiles_are_the_frames_traced_in_full() {
+    let kinds = [
+        (GeneratorKind::Tree, 3),
+        (GeneratorKind::RandomSkeleton, 24),
+        (GeneratorKind::Blobs, 60),
+        (GeneratorKind::Truss, 2),
+    ];
+    let generated = kinds.into_iter().enumerate().map(|(case, (kind, size))| {
+        let options = GenerateOptions {
+            seed: 4401 + case as u64,
+            size: Some(size),
+            ..GenerateOptions::default()
+        };
+        let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+        (format!("{kind:?}"), scene)
+    });
+    // And hand-made scenes: a plane and groups under a max (creature), shapes and every
+    // operator (operators), an HRBF set (hrbf).
+    let assets =
+        ["creature", "operators", "hrbf"].map(|name| (name.to_owned(), common::asset(name)));
+    let mut rng = SplitMix64::new(4401);
+    let (mut compared, mut reused) = (0, 0);
+    for (kind, mut scene) in generated.chain(assets) {
+        let mut compiled = compile(&scene);
+        let methods = reusable_methods(&compiled);
+        assert!(
+            methods.contains(&MethodId::QuadraticTaylor),
+            "{kind}: {methods:?}"
+        );
+        for view in [
+            View::Shaded(FieldShading::default()),
+            View::Steps { steps_max: 64 },
+        ] {
+            let mut backend = CpuBackend::reusing_tiles();
+            let _ = backend
+                .render(&compiled, &request(&scene, &compiled, &methods, view))
+                .unwrap_or_else(|e| panic!("{e}"));
+            for step in 0..4 {
+                let what = edit(&mut scene, &mut rng);
+                scene.validate().unwrap_or_else(|e| panic!("{e}"));
+                compiled = compile(&scene);
+                let asked = request(&scene, &compiled, &methods, view);
+                let got = backend
+                    .render(&compiled, &asked)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                let want = CpuBackend::new()
+                    .render(&compiled, &asked)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                for ((id, got), want) in methods.iter().zip(&got).zip(&want) {
+                    assert!(
+                        bits(got) == bits(want),
+                        "{kind} step {step} ({what}), {view:?}: {} differs from a full trace",
+                        id.name()
+                    );
+                    compared += 1;
+                }
+                reused += backend.tiles_reused();
+            }
+        }
+    }
+    eprintln!("compared {compared} frames, {reused} tiles reused");
+    assert!(compared > 100, "{compared}");
+    assert!(reused > 0, "no edit reused a tile");
+}
+
+/// An edit far from most of the screen copies most tiles: a blob of a generated scene moved,
+/// quadratic Taylor, through the scene's camera; the frame is the full trace's.
+#[test]
+fn an_edit_traces_again_only_the_tiles_it_reaches() {
+    let options = GenerateOptions {
+        seed: 77,
+        size: Some(80),
+        ..GenerateOptions::default()
+    };
+    let mut scene = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+    let before = compile(&scene);
+    scene.groups[0].blobs[0].center[0] += 0.1 * scene.groups[0].blobs[0].radius;
+    let after = compile(&scene);
+    let changed = after
+        .program
+        .primitives_changed_since(&before.program)
+        .unwrap_or_else(|| panic!("a blob moved inside the scene changes nothing else"));
+    assert_eq!(changed.iter().filter(|c| **c).count(), 1);
+    let render_options = RenderOptions {
+        width: 96,
+        height: 72,
+        shadows: false,
+        shading: FieldShading::default(),
+    };
+    let method = MethodId::QuadraticTaylor.method();
+    let trace = |compiled: &Compiled, earlier: Option<&EarlierFrame<'_>>| {
+        let tracer = method.prepare(&compiled.program, compiled.settings);
+        Renderer::new(compiled, tracer.as_ref(), compiled.settings)
+            .render_reusing(&scene.camera, render_options, &Cancel::new(), earlier)
+            .unwrap_or_else(|| panic!("not cancelled"))
+    };
+    let first = trace(&before, None);
+    let again = trace(
+        &after,
+        Some(&EarlierFrame {
+            frame: &first.frame,
+            tile_primitives: &first.tile_primitives,
+            changed: &changed,
+        }),
+    );
+    let full = trace(&after, None);
+    assert!(
+        bits(&first.frame) != bits(&full.frame),
+        "the edit must show, or copying a tile it reached would go unseen"
+    );
+    assert!(bits(&again.frame) == bits(&full.frame));
+    assert_eq!(full.reused_tiles, 0);
+    let tiles = full.tile_primitives.len();
+    assert!(
+        again.reused_tiles * 2 > tiles && again.reused_tiles < tiles,
+        "{} of {tiles} tiles reused",
+        again.reused_tiles
+    );
+}
