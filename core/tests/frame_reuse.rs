@@ -97,6 +97,7 @@ fn frames_reusing_tiles_are_the_frames_traced_in_full() {
         (GeneratorKind::RandomSkeleton, 24),
         (GeneratorKind::Blobs, 60),
         (GeneratorKind::Truss, 2),
+        (GeneratorKind::Molecule, 40),
     ];
     let generated = kinds.into_iter().enumerate().map(|(case, (kind, size))| {
         let options = GenerateOptions {

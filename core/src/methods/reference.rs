@@ -35,6 +35,11 @@ impl Method for Reference {
         true
     }
 
+    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+        // Its resolution follows the support bounds, a global the caller compares.
+        Some(Vec::new())
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,

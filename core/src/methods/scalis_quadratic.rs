@@ -62,6 +62,11 @@ impl Method for ScalisQuadratic {
         scalis_kernel(program, self.name()).map(|_| ())
     }
 
+    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+        // The normalising kernel is the groups' common one; the Hermite data are the ray's own.
+        Some(Vec::new())
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,

@@ -44,6 +44,11 @@ impl Method for SegmentOriginal {
         false
     }
 
+    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+        // The march's bounds come from the ray's own field.
+        Some(Vec::new())
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,

@@ -60,6 +60,11 @@ impl Method for Sherstyuk {
         }
     }
 
+    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+        // The Hermite pieces are the ray's own primitives'.
+        Some(Vec::new())
+    }
+
     fn prepare<'a>(
         &self,
         program: &'a FieldProgram,
