@@ -180,7 +180,7 @@ impl FrameBackend for CpuBackend {
                 .map_err(|why| BackendError::Unsupported(format!("{id}: {why}")))?;
             let tracer = method.prepare(&compiled.program, request.settings);
             let renderer = Renderer::new(compiled, tracer.as_ref(), request.settings);
-            let inputs = method.scene_inputs(&compiled.program).filter(|_| reuse);
+            let inputs = reuse.then(|| method.scene_inputs(&compiled.program));
             let earlier = inputs
                 .as_deref()
                 .and_then(|inputs| self.earlier(compiled, &view, method.as_ref(), inputs));

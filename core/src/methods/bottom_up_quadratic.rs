@@ -21,9 +21,9 @@ impl Method for BottomUpQuadratic {
         true
     }
 
-    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+    fn scene_inputs(&self, _: &FieldProgram) -> Vec<f64> {
         // The march's bounds come from the ray's own field.
-        Some(Vec::new())
+        Vec::new()
     }
 
     fn prepare<'a>(

@@ -82,9 +82,9 @@ impl Method for FieldInversion {
         gaussian_blobs(program).map(|_| ())
     }
 
-    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
+    fn scene_inputs(&self, program: &FieldProgram) -> Vec<f64> {
         let (sigma, radius, norm) = gaussian_blobs(program).unwrap_or((1.0, 1.0, 1.0));
-        Some(vec![sigma, radius, norm])
+        vec![sigma, radius, norm]
     }
 
     fn prepare<'a>(

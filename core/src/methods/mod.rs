@@ -196,15 +196,13 @@ pub trait Method: Sync {
     }
 
     /// What a ray's trace takes from the scene beyond the primitives among its candidates,
-    /// the program's globals (isovalue, kernels, blend, groups, bounds) and the settings:
-    /// `Some` of those numbers (none for a method whose march is local), or `None` where the
-    /// method may look at anything. The CPU backend traces again only the screen tiles of an
-    /// edited scene whose candidates changed when these numbers are the same before and after
-    /// the edit (`cpu_backend.rs`); `None` traces every tile again.
-    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
-        let _ = program;
-        None
-    }
+    /// the program's globals (isovalue, kernels, blend, groups, bounds) and the settings (none
+    /// for a method whose march is the ray's own). The CPU backend traces again only the
+    /// screen tiles of an edited scene whose candidates changed when these numbers are the
+    /// same before and after the edit (`cpu_backend.rs`); a method must list here whatever
+    /// else of the scene it reads, or reused tiles would be stale (`frame_reuse.rs` holds
+    /// every method to a full trace).
+    fn scene_inputs(&self, program: &FieldProgram) -> Vec<f64>;
 
     /// Prepares per-scene data (global Lipschitz constants and the like).
     fn prepare<'a>(

@@ -35,9 +35,9 @@ impl Method for Reference {
         true
     }
 
-    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+    fn scene_inputs(&self, _: &FieldProgram) -> Vec<f64> {
         // Its resolution follows the support bounds, a global the caller compares.
-        Some(Vec::new())
+        Vec::new()
     }
 
     fn prepare<'a>(

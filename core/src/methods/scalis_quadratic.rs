@@ -62,9 +62,9 @@ impl Method for ScalisQuadratic {
         scalis_kernel(program, self.name()).map(|_| ())
     }
 
-    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+    fn scene_inputs(&self, _: &FieldProgram) -> Vec<f64> {
         // The normalising kernel is the groups' common one; the Hermite data are the ray's own.
-        Some(Vec::new())
+        Vec::new()
     }
 
     fn prepare<'a>(

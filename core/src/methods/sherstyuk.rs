@@ -60,9 +60,9 @@ impl Method for Sherstyuk {
         }
     }
 
-    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+    fn scene_inputs(&self, _: &FieldProgram) -> Vec<f64> {
         // The Hermite pieces are the ray's own primitives'.
-        Some(Vec::new())
+        Vec::new()
     }
 
     fn prepare<'a>(

@@ -46,8 +46,8 @@ impl Method for AcceleratedSphereTracing {
         true
     }
 
-    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
-        Some(vec![program.global_lipschitz()])
+    fn scene_inputs(&self, program: &FieldProgram) -> Vec<f64> {
+        vec![program.global_lipschitz()]
     }
 
     fn prepare<'a>(

@@ -31,8 +31,8 @@ impl Method for EnhancedSphereTracing {
         true
     }
 
-    fn scene_inputs(&self, program: &FieldProgram) -> Option<Vec<f64>> {
-        Some(vec![program.global_lipschitz()])
+    fn scene_inputs(&self, program: &FieldProgram) -> Vec<f64> {
+        vec![program.global_lipschitz()]
     }
 
     fn prepare<'a>(

@@ -34,9 +34,9 @@ impl Method for NormalizedSphereTracing {
         scalis_kernel(program, self.name()).map(|_| ())
     }
 
-    fn scene_inputs(&self, _: &FieldProgram) -> Option<Vec<f64>> {
+    fn scene_inputs(&self, _: &FieldProgram) -> Vec<f64> {
         // The normalising kernel is the groups' common one; the thinnest radius is the ray's own.
-        Some(Vec::new())
+        Vec::new()
     }
 
     fn prepare<'a>(
