@@ -20,9 +20,9 @@ use crate::frame::{FieldShading, Frame, View, heat_colour};
 use crate::methods::{Method, MethodId, TraceSettings};
 use crate::model::scene::Camera;
 
-/// Frames of how many sizes are kept: a full frame's and those of the previews at the
-/// resolutions the editor moves between while the user drags.
-const KEPT_SIZES: usize = 3;
+/// Frames of how many recent sizes are kept besides the largest (the full frame's): those of
+/// the previews at the resolutions the editor moves between while the user drags.
+const KEPT_PREVIEW_SIZES: usize = 2;
 
 /// The CPU tracer as a frame backend.
 #[derive(Default)]
@@ -103,23 +103,35 @@ impl CpuBackend {
         })
     }
 
-    /// Keeps `traced`, dropping a frame of the same method and view, and the frames of sizes
-    /// older than the last [`KEPT_SIZES`].
+    /// Keeps `frame`, dropping a frame of the same method and view, and the frames of sizes
+    /// other than the largest (the full frame, which a drag's previews must not push out)
+    /// and the [`KEPT_PREVIEW_SIZES`] most recent.
     fn keep(&mut self, frame: KeptFrame) {
         self.kept
             .retain(|k| !(k.method == frame.method && k.view == frame.view));
         self.kept.push(frame);
-        let mut sizes: Vec<(usize, usize)> = Vec::new();
-        for k in self.kept.iter().rev() {
-            let size = (k.view.width, k.view.height);
-            if !sizes.contains(&size) {
-                sizes.push(size);
-            }
-        }
-        sizes.truncate(KEPT_SIZES);
-        self.kept
-            .retain(|k| sizes.contains(&(k.view.width, k.view.height)));
+        let size_of = |k: &KeptFrame| (k.view.width, k.view.height);
+        let sizes = sizes_to_keep(self.kept.iter().rev().map(size_of));
+        self.kept.retain(|k| sizes.contains(&size_of(k)));
     }
+}
+
+/// The frame sizes to keep, given the kept frames' sizes, latest first: the largest and the
+/// [`KEPT_PREVIEW_SIZES`] latest.
+fn sizes_to_keep(latest_first: impl Iterator<Item = (usize, usize)>) -> Vec<(usize, usize)> {
+    let mut recent: Vec<(usize, usize)> = Vec::new();
+    let mut largest = None;
+    for size in latest_first {
+        if !recent.contains(&size) {
+            recent.push(size);
+        }
+        if largest.is_none_or(|(w, h)| size.0 * size.1 > w * h) {
+            largest = Some(size);
+        }
+    }
+    recent.truncate(KEPT_PREVIEW_SIZES);
+    recent.extend(largest.filter(|l| !recent.contains(l)));
+    recent
 }
 
 /// Whether every ray of a frame stays within its tile's candidates: no shadow rays, no field
@@ -221,5 +233,24 @@ impl FrameBackend for CpuBackend {
             }
         }
         Ok(frames)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A drag's previews at several resolutions do not push the full frame out.
+    #[test]
+    fn the_full_frame_and_the_latest_previews_are_kept() {
+        let full = (800, 600);
+        let previews = [(160, 120), (200, 150), (266, 200)];
+        // Latest first: the full frame was traced before the drag's three previews.
+        let kept = sizes_to_keep([previews[2], previews[1], previews[0], full].into_iter());
+        assert_eq!(kept, vec![previews[2], previews[1], full]);
+        // The full frame traced last, after two previews: those stay too.
+        let kept = sizes_to_keep([full, previews[1], previews[0]].into_iter());
+        assert_eq!(kept, vec![full, previews[1]]);
+        assert_eq!(sizes_to_keep([full, full].into_iter()), vec![full]);
     }
 }
