@@ -688,6 +688,37 @@ impl KernelProfile {
     }
 }
 
+/// A kernel of every family and of several compact degrees, for the tests that hold the
+/// kernels' fixed-family code to the profile's.
+#[cfg(test)]
+pub(crate) const EVERY_FAMILY: [Kernel; 7] = [
+    Kernel::CompactPolynomial {
+        degree: 2,
+        scale: 2.0,
+    },
+    Kernel::CompactPolynomial {
+        degree: 4,
+        scale: 1.5,
+    },
+    Kernel::CompactPolynomial {
+        degree: 6,
+        scale: 2.0,
+    },
+    Kernel::CompactPolynomial {
+        degree: 8,
+        scale: 3.0,
+    },
+    Kernel::Cauchy {
+        degree: 1,
+        scale: 1.0,
+    },
+    Kernel::Cauchy {
+        degree: 4,
+        scale: 0.5,
+    },
+    Kernel::Gaussian { scale: 1.0 },
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -737,30 +768,7 @@ mod tests {
     #[test]
     fn kernels_with_their_family_fixed_are_the_profiles() {
         let mut rng = crate::model::rng::SplitMix64::new(41);
-        let kernels = [
-            Kernel::CompactPolynomial {
-                degree: 2,
-                scale: 2.0,
-            },
-            Kernel::CompactPolynomial {
-                degree: 4,
-                scale: 1.5,
-            },
-            Kernel::CompactPolynomial {
-                degree: 6,
-                scale: 2.0,
-            },
-            Kernel::CompactPolynomial {
-                degree: 8,
-                scale: 3.0,
-            },
-            Kernel::Cauchy {
-                degree: 4,
-                scale: 1.0,
-            },
-            Kernel::Gaussian { scale: 1.0 },
-        ];
-        for kernel in kernels {
+        for kernel in EVERY_FAMILY {
             let profile = KernelProfile::new(kernel);
             let s2 = profile.support_sq();
             let mut xs: Vec<f64> = (0..2000).map(|_| rng.range(-0.1, 1.2) * s2).collect();

@@ -692,7 +692,7 @@ const ARC_LENGTH_RATIO: f64 = 1.05;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::kernel::Kernel;
+    use crate::field::kernel::{EVERY_FAMILY, Kernel};
     use crate::model::rng::SplitMix64;
 
     /// [`ScalisSegment::pieces_within_reach`] leaves out only pieces that [`ScalisSegment::ray_jet`]'s
@@ -771,32 +771,9 @@ mod tests {
     #[test]
     fn scalis_piece_products_are_the_general_ones() {
         let mut rng = SplitMix64::new(2218);
-        let kernels = [
-            Kernel::CompactPolynomial {
-                degree: 2,
-                scale: 1.5,
-            },
-            Kernel::CompactPolynomial {
-                degree: 6,
-                scale: 2.0,
-            },
-            Kernel::CompactPolynomial {
-                degree: 8,
-                scale: 3.0,
-            },
-            Kernel::Cauchy {
-                degree: 1,
-                scale: 1.0,
-            },
-            Kernel::Cauchy {
-                degree: 4,
-                scale: 0.5,
-            },
-            Kernel::Gaussian { scale: 1.0 },
-        ];
         let bits = |v: Interval| (v.lo.to_bits(), v.hi.to_bits());
         for case in 0..60_000 {
-            let k = KernelProfile::new(kernels[case % kernels.len()]);
+            let k = KernelProfile::new(EVERY_FAMILY[case % EVERY_FAMILY.len()]);
             let s2 = k.support_sq();
             let x0 = rng.range(-0.1, 1.1) * s2;
             let x = Interval::new(x0, x0 + rng.range(0.0, 0.5).powi(2) * s2);
