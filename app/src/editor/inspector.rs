@@ -740,8 +740,14 @@ impl Editor {
             } else if let Some(shown) = &self.frames.shown {
                 for f in &shown.frames {
                     let backend = if f.on_gpu { "GPU" } else { "CPU" };
+                    let copied = f.tiles_copied.filter(|share| *share > 0.0).map_or(
+                        String::new(),
+                        |share| {
+                            format!(", {:.0} % of tiles kept from the last frame", 100.0 * share)
+                        },
+                    );
                     ui.monospace(format!(
-                        "{} {:.0} ms ({backend}, {}x{})",
+                        "{} {:.0} ms ({backend}, {}x{}{copied})",
                         f.method, f.ms, f.frame.width, f.frame.height
                     ));
                 }

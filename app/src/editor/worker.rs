@@ -56,6 +56,9 @@ pub struct Traced {
     pub on_gpu: bool,
     /// Milliseconds spent tracing it.
     pub ms: f64,
+    /// On the CPU, the share of its screen tiles copied from an earlier frame instead of
+    /// traced (after an edit that left them alone, `CpuBackend::reusing_tiles`).
+    pub tiles_copied: Option<f64>,
 }
 
 /// The answer to a request.
@@ -194,6 +197,8 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
                 .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
             Ok((frame, on_gpu))
         };
+        // 8×8 tiles, as the CPU renderer traces them.
+        let tiles = (request.size.0.div_ceil(8) * request.size.1.div_ceil(8)).max(1);
         let traced = match attempt(backends, request.backend) {
             Err(BackendError::DeviceFailed(why)) => {
                 // Say so, drop the GPU, and trace this and every later frame on the CPU.
@@ -211,6 +216,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
                 frame,
                 on_gpu,
                 ms: start.elapsed().as_secs_f64() * 1e3,
+                tiles_copied: (!on_gpu).then(|| backends.cpu.tiles_reused() as f64 / tiles as f64),
             }),
             Err(e) => skipped.push(format!("{method}: {e}")),
         }
