@@ -58,7 +58,6 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
     let mut backend = CpuBackend::reusing_tiles();
     let compiled = compile(&scene);
     backend.render(&compiled, request).map_err(fail)?;
-    let tiles = (request.width.div_ceil(8) * request.height.div_ceil(8)) as f64;
     let vertices: Vec<(usize, usize, usize)> = scene
         .groups
         .iter()
@@ -82,7 +81,7 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
         let start = Instant::now();
         backend.render(&compiled, request).map_err(fail)?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
-        reused.push(backend.tiles_reused() as f64 / tiles);
+        reused.push(backend.share_of_tiles_reused());
     }
     Ok(Row {
         name: method.name(),

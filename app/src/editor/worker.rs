@@ -15,12 +15,12 @@ use std::time::Instant;
 
 use skeletrace_core::Compiled;
 use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, DeviceKind, FrameRequest};
+use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::frame::{FieldShading, Frame, View};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
 
 use crate::backends::Backends;
-use skeletrace_core::cpu::cpu_backend::CpuBackend;
 
 /// One render: the compiled scene of a revision, a camera, methods and a size.
 #[derive(Clone)]
@@ -197,8 +197,6 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
                 .ok_or_else(|| BackendError::DeviceFailed("no frame came back".to_owned()))?;
             Ok((frame, on_gpu))
         };
-        // 8×8 tiles, as the CPU renderer traces them.
-        let tiles = (request.size.0.div_ceil(8) * request.size.1.div_ceil(8)).max(1);
         let traced = match attempt(backends, request.backend) {
             Err(BackendError::DeviceFailed(why)) => {
                 // Say so, drop the GPU, and trace this and every later frame on the CPU.
@@ -216,7 +214,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
                 frame,
                 on_gpu,
                 ms: start.elapsed().as_secs_f64() * 1e3,
-                tiles_copied: (!on_gpu).then(|| backends.cpu.tiles_reused() as f64 / tiles as f64),
+                tiles_copied: (!on_gpu).then(|| backends.cpu.share_of_tiles_reused()),
             }),
             Err(e) => skipped.push(format!("{method}: {e}")),
         }

@@ -31,8 +31,9 @@ pub struct CpuBackend {
     reuse: bool,
     /// The kept frames, oldest first.
     kept: Vec<KeptFrame>,
-    /// Tiles the last request's frames copied, all methods together.
-    reused: usize,
+    /// The last request's screen tiles, all methods together: how many were copied from
+    /// earlier frames, and how many there were.
+    reused: (usize, usize),
 }
 
 /// One method's frame, kept with what decides whether a later one may reuse its tiles.
@@ -71,11 +72,16 @@ impl CpuBackend {
         }
     }
 
-    /// How many screen tiles the last request's frames copied from earlier ones instead of
-    /// tracing, all its methods together.
+    /// The share of the last request's screen tiles (all its methods together) copied from
+    /// earlier frames instead of traced: 0 when none was.
     #[must_use]
-    pub fn tiles_reused(&self) -> usize {
-        self.reused
+    pub fn share_of_tiles_reused(&self) -> f64 {
+        let (copied, tiles) = self.reused;
+        if tiles == 0 {
+            0.0
+        } else {
+            copied as f64 / tiles as f64
+        }
     }
 
     /// The frame kept for `method` through `view` whose tiles a frame of `compiled` may reuse,
@@ -183,7 +189,7 @@ impl FrameBackend for CpuBackend {
             settings: request.settings,
         };
         let reuse = self.reuse && rays_stay_in_their_tiles(compiled, &options);
-        self.reused = 0;
+        self.reused = (0, 0);
         let mut frames = Vec::with_capacity(request.methods.len());
         for &id in &request.methods {
             let method = id.method();
@@ -211,7 +217,8 @@ impl FrameBackend for CpuBackend {
                         .as_ref(),
                 )
                 .ok_or(BackendError::Cancelled)?;
-            self.reused += traced.reused_tiles;
+            self.reused.0 += traced.reused_tiles;
+            self.reused.1 += traced.tile_primitives.len();
             if let View::Steps { steps_max } = request.view {
                 let top = f64::from(steps_max.max(1));
                 for (colour, &steps) in traced.frame.colour.iter_mut().zip(&traced.frame.steps) {
