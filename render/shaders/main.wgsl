@@ -412,8 +412,55 @@ struct StatsRay {
 
 @group(0) @binding(11) var<storage, read> stats_rays: array<StatsRay>;
 
+// The statistics ray this invocation traces (trace_rays), whose slots a transparent trace
+// fills.
+var<private> stats_ray: u32;
+
+// A march found a crossing at `t`; returns whether the march ends there. It does in frames
+// and in opaque statistics (globals.stats_crossings = 0), with the crossing in `trace`.
+// Transparent statistics (core TraceMode::Transparent, forward-inclusion 2023 Tables 3–4)
+// go on to the ray's end: the crossing goes to the ray's slots — out_steps[4k..4k + 4]: steps,
+// steps to the last crossing, crossings found, bit i set where crossing i enters;
+// out_depth[k·slots + i]: crossing i's t — and `trace` is left without a hit. Crossings past
+// the slots are counted, not kept (the host refuses such a ray's statistics).
+fn crossing_ends_march(trace: ptr<function, Trace>, t: f32, entering: bool) -> bool {
+    let slots = globals.stats_crossings;
+    if slots == 0u {
+        (*trace).t = t;
+        (*trace).hit = true;
+        (*trace).entering = entering;
+        return true;
+    }
+    let words = 4u * stats_ray;
+    let found = out_steps[words + 2u];
+    if found < slots {
+        out_depth[stats_ray * slots + found] = t;
+        out_steps[words + 3u] |= select(0u, 1u << found, entering);
+    }
+    out_steps[words + 1u] = (*trace).steps;
+    out_steps[words + 2u] = found + 1u;
+    return false;
+}
+
+// Whether a transparent trace's last crossing entered as one `entering` would (a jump at an
+// HRBF cut repeats the crossing that ended the part before; core methods/mod.rs
+// trace_supports). Never in frames and opaque statistics, which stop at their first crossing.
+fn repeats_last_crossing(entering: bool) -> bool {
+    let slots = globals.stats_crossings;
+    if slots == 0u {
+        return false;
+    }
+    let found = out_steps[4u * stats_ray + 2u];
+    if found == 0u || found > slots {
+        return false;
+    }
+    return ((out_steps[4u * stats_ray + 3u] >> (found - 1u)) & 1u) == select(0u, 1u, entering);
+}
+
 // One thread per ray of the batch (globals.width rays), in rows of STATS_ROW workgroups;
-// writes steps and depth (the first crossing's t) at the ray's index.
+// writes steps and depth (the first crossing's t) at the ray's index, or in transparent
+// statistics the ray's total steps at out_steps[4k] after the slots of each crossing
+// (`crossing_ends_march`).
 @compute @workgroup_size(64, 1, 1)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = id.y * STATS_ROW * 64u + id.x;
@@ -424,6 +471,7 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     steps_left = globals.steps_per_dispatch;
+    stats_ray = k;
     let r = stats_rays[k];
     let ray = Ray(r.origin, r.dir);
     var supports: RaySupports;
@@ -431,6 +479,10 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     gather_list(sp, ray, r.list, r.far);
     var trace: Trace;
     if !march_resumed(k, sp, ray, &trace) {
+        return;
+    }
+    if globals.stats_crossings != 0u {
+        out_steps[4u * k] = trace.steps;
         return;
     }
     out_steps[k] = trace.steps;

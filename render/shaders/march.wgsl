@@ -70,10 +70,10 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
                     hi = mid;
                 }
             }
-            (*trace).t = hi;
-            (*trace).hit = true;
-            (*trace).entering = inside;
-            return;
+            if crossing_ends_march(trace, hi, inside) {
+                return;
+            }
+            h = globals.initial_interval;
         }
         has_previous = true;
         previous_t = t;
@@ -90,10 +90,13 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
                 h = min_step;
                 continue;
             }
-            (*trace).t = t + s;
-            (*trace).hit = true;
-            (*trace).entering = !inside;
-            return;
+            if crossing_ends_march(trace, t + s, !inside) {
+                return;
+            }
+            // Transparent statistics go on past the crossing, as core's march does.
+            t = beyond;
+            h = globals.initial_interval;
+            has_previous = false;
         } else if s >= 0.0 {
             t = march_advance(t, s, part.y);
             h = globals.growth * s;

@@ -1,6 +1,7 @@
 // The per-ray driver of the marching methods (core: methods/mod.rs trace_supports): the
 // method file's `march_part` on each part of the ray inside the supports, in order, until a
-// crossing or the step budget.
+// crossing or the step budget (in transparent statistics, until the ray's end or the budget:
+// main.wgsl `crossing_ends_march`).
 //
 // A dispatch marches at most `steps_left` steps (globals.steps_per_dispatch at its start; main.wgsl). Lavapipe stops an invocation's
 // loops once they reach 65 535 iterations in all, and each step loops over the support window,
@@ -53,10 +54,8 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
                 let inset = 5.0e-7 * (1.0 + abs(end));
                 let before = along_ray(sp, ray, end - inset).x >= globals.isovalue;
                 let after = along_ray(sp, ray, end + inset).x >= globals.isovalue;
-                if before != after {
-                    trace.t = end;
-                    trace.hit = true;
-                    trace.entering = after;
+                if before != after && !repeats_last_crossing(after)
+                    && crossing_ends_march(&trace, end, after) {
                     break;
                 }
             }

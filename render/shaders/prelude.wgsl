@@ -39,7 +39,7 @@ struct Globals {
     shading_scale: f32,
     steps_per_dispatch: u32,    // of a marching method (parts.wgsl)
     secondary: u32,             // SECONDARY_*: the frame's secondary rays (main.wgsl trace_path)
-    pad1: u32,
+    stats_crossings: u32,       // transparent statistics: crossing slots per ray (main.wgsl trace_rays); 0 elsewhere
     pad2: u32,
     pad3: u32,
 };

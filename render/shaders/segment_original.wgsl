@@ -24,10 +24,7 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
         (*trace).steps += 1u;
         let f = along_ray(sp, ray, t).x;
         let inside = f >= c;
-        if has_side && side != inside {
-            (*trace).t = t;
-            (*trace).hit = true;
-            (*trace).entering = inside;
+        if has_side && side != inside && crossing_ends_march(trace, t, inside) {
             return;
         }
         has_side = true;

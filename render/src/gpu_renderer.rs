@@ -22,7 +22,7 @@ use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
-use crate::gpu_stats::{GpuStatsRay, RayLists, STATS_ROW, UploadedRayLists};
+use crate::gpu_stats::{GpuStatsRay, RayCrossings, RayLists, STATS_ROW, UploadedRayLists};
 use crate::shaders::GpuMethod;
 use crate::shared::secondary;
 use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
@@ -121,8 +121,10 @@ pub struct GpuGlobals {
     pub steps_per_dispatch: u32,
     /// Secondary rays of the frame ([`crate::shared::secondary`]).
     pub secondary: u32,
+    /// Transparent statistics: crossing slots per ray (0 in frames and opaque statistics).
+    pub stats_crossings: u32,
     /// Padding to 16 bytes.
-    pub pad: [u32; 3],
+    pub pad: [u32; 2],
 }
 
 /// The uploaded scene.
@@ -178,7 +180,8 @@ impl SceneBuffers {
             shading_scale: 1.0,
             steps_per_dispatch,
             secondary: 0,
-            pad: [0; 3],
+            stats_crossings: 0,
+            pad: [0; 2],
         }
     }
 }
@@ -707,6 +710,68 @@ impl GpuRenderer {
         lists: &UploadedRayLists,
         settings: &TraceSettings,
     ) -> Result<Vec<(u32, f64)>, BackendError> {
+        let (steps, depth) = self.dispatch_rays(method, rays, lists, settings, 0)?;
+        Ok(steps
+            .into_iter()
+            .zip(depth)
+            .take(rays.len())
+            .map(|(s, t)| {
+                let t = if t >= 3.0e38 {
+                    f64::INFINITY
+                } else {
+                    f64::from(t)
+                };
+                (s, t)
+            })
+            .collect())
+    }
+
+    /// [`GpuRenderer::trace_rays`] in transparent mode: every crossing of each ray, up to
+    /// `slots` of them (`method` must [`GpuMethod::traces_every_crossing`]).
+    ///
+    /// # Errors
+    /// As [`GpuRenderer::render`].
+    pub fn trace_rays_through(
+        &mut self,
+        method: GpuMethod,
+        rays: &[GpuStatsRay],
+        lists: &UploadedRayLists,
+        (settings, slots): (&TraceSettings, u32),
+    ) -> Result<Vec<RayCrossings>, BackendError> {
+        debug_assert!(method.traces_every_crossing() && (1..=32).contains(&slots));
+        let (words, depth) = self.dispatch_rays(method, rays, lists, settings, slots)?;
+        Ok(words
+            .chunks_exact(4)
+            .zip(depth.chunks_exact(slots as usize))
+            .take(rays.len())
+            .map(|(w, t)| {
+                let found = w[2];
+                RayCrossings {
+                    steps: w[0],
+                    steps_to_last: w[1],
+                    found,
+                    kept: t
+                        .iter()
+                        .take(found.min(slots) as usize)
+                        .enumerate()
+                        .map(|(i, &t)| (f64::from(t), (w[3] >> i) & 1 == 1))
+                        .collect(),
+                }
+            })
+            .collect())
+    }
+
+    /// Dispatches `trace_rays` until every ray's budget is spent; returns the steps and depth
+    /// buffers (one word and one depth per ray, or with `slots` crossing slots per ray the
+    /// layout of main.wgsl `crossing_ends_march`).
+    fn dispatch_rays(
+        &mut self,
+        method: GpuMethod,
+        rays: &[GpuStatsRay],
+        lists: &UploadedRayLists,
+        settings: &TraceSettings,
+        slots: u32,
+    ) -> Result<(Vec<u32>, Vec<f32>), BackendError> {
         self.ready_for(&[method], View::Steps { steps_max: 1 }, settings)?;
         let device = self.device.clone();
         let d = &device;
@@ -728,6 +793,7 @@ impl GpuRenderer {
         let n = rays.len() as u32;
         let globals = GpuGlobals {
             width: n,
+            stats_crossings: slots,
             ..scene.globals(settings, self.steps_per_dispatch)
         };
         let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -736,20 +802,24 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let ray_buffer = storage(d, "statistics rays", bytemuck::cast_slice(rays));
-        let output = |label: &str, usage: wgpu::BufferUsages| {
+        let output = |label: &str, per_ray: u32, usage: wgpu::BufferUsages| {
             d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: u64::from(n.max(1)) * 4,
+                size: u64::from(n.max(1)) * u64::from(per_ray) * 4,
                 usage,
                 mapped_at_creation: false,
             })
         };
         let written = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         let read = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
-        let (depth, steps) = (output("ray depth", written), output("ray steps", written));
+        let (step_words, depth_slots) = if slots == 0 { (1, 1) } else { (4, slots) };
+        let (depth, steps) = (
+            output("ray depth", depth_slots, written),
+            output("ray steps", step_words, written),
+        );
         let (depth_read, steps_read) = (
-            output("ray depth readback", read),
-            output("ray steps readback", read),
+            output("ray depth readback", depth_slots, read),
+            output("ray steps readback", step_words, read),
         );
         let suspensions = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("suspended rays"),
@@ -797,19 +867,7 @@ impl GpuRenderer {
         let depth: Vec<f32> = read_back(d, &depth_read).map_err(BackendError::DeviceFailed)?;
         let steps: Vec<u32> = read_back(d, &steps_read).map_err(BackendError::DeviceFailed)?;
         self.check().map_err(BackendError::DeviceFailed)?;
-        Ok(steps
-            .into_iter()
-            .zip(depth)
-            .take(rays.len())
-            .map(|(s, t)| {
-                let t = if t >= 3.0e38 {
-                    f64::INFINITY
-                } else {
-                    f64::from(t)
-                };
-                (s, t)
-            })
-            .collect())
+        Ok((steps, depth))
     }
 
     /// Renders `methods` side by side (`width × height` each) through `camera` on the uploaded

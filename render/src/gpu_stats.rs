@@ -6,8 +6,10 @@
 //! the box (the primitives whose support's bounding sphere, seen along that axis, covers the
 //! cell), other rays in one list of every primitive. The reference tracer runs on the CPU, on
 //! the first rays of the same sequence, and every method is compared with it there; steps are
-//! counted over every ray. Opaque rays only (the GPU traces to the first crossing); the GPU
-//! counts no evaluations.
+//! counted over every ray. Transparent statistics (forward-inclusion 2023, Tables 3–4: every
+//! crossing of each ray, steps counted to the last one) run on the GPU for the methods whose
+//! marches go on past a crossing ([`GpuMethod::traces_every_crossing`]), each ray keeping up to
+//! [`CROSSING_SLOTS`] crossings. The GPU counts no evaluations.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -32,6 +34,25 @@ use crate::shaders::GpuMethod;
 pub const STATS_ROW: u32 = 1024;
 /// Rays per GPU batch.
 const BATCH: usize = 1 << 20;
+/// Crossings kept per ray in transparent statistics; a ray that crosses the surface more often
+/// fails the run (its crossings could not all be compared).
+pub const CROSSING_SLOTS: u32 = 32;
+/// Rays per GPU batch in transparent statistics, whose rays carry [`CROSSING_SLOTS`] depths.
+const TRANSPARENT_BATCH: usize = 1 << 17;
+
+/// One ray of a transparent batch ([`GpuRenderer::trace_rays_through`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RayCrossings {
+    /// Steps of the whole march.
+    pub steps: u32,
+    /// Steps up to the last crossing (as core's `Trace::steps_to_last_crossing`).
+    pub steps_to_last: u32,
+    /// Crossings the march found.
+    pub found: u32,
+    /// The first [`CROSSING_SLOTS`] of them: parameter from the ray's start, and whether it
+    /// enters the volume.
+    pub kept: Vec<(f64, bool)>,
+}
 /// Cells along each side of an axis's grid.
 const GRID: usize = 64;
 
@@ -157,8 +178,9 @@ impl RayLists {
 /// with the method's name and the fraction done.
 ///
 /// # Errors
-/// [`BackendError::Unsupported`] for transparent rays or a method the GPU does not run on the
-/// scene; a device failure.
+/// [`BackendError::Unsupported`] for a method the GPU does not run on the scene, or in
+/// transparent mode a method whose GPU march stops at its first crossing or a ray with more
+/// than [`CROSSING_SLOTS`] crossings; a device failure.
 pub fn run(
     renderer: &mut GpuRenderer,
     compiled: &Arc<Compiled>,
@@ -167,11 +189,13 @@ pub fn run(
     (setup, compared): (StatsSetup, usize),
     progress: &dyn Fn(&str, f64),
 ) -> Result<SceneStats, BackendError> {
-    if setup.mode == TraceMode::Transparent {
-        return Err(BackendError::Unsupported(
-            "transparent statistics run on the CPU only (the GPU traces the first crossing)"
-                .to_owned(),
-        ));
+    let transparent = setup.mode == TraceMode::Transparent;
+    if transparent && let Some(m) = methods.iter().find(|m| !m.traces_every_crossing()) {
+        return Err(BackendError::Unsupported(format!(
+            "{}'s transparent statistics run on the CPU only (its GPU march stops at the first \
+             crossing)",
+            m.name()
+        )));
     }
     renderer.set_scene(compiled)?;
     let program = &compiled.program;
@@ -183,7 +207,7 @@ pub fn run(
         .take(compared.min(setup.rays))
         .collect();
     progress("reference", 0.0);
-    let reference = reference_crossings(program, settings, &sample, TraceMode::Opaque);
+    let reference = reference_crossings(program, settings, &sample, setup.mode);
     // The first crossing enters the volume unless the ray starts inside it.
     let entering: Vec<bool> = sample
         .iter()
@@ -204,13 +228,44 @@ pub fn run(
         if let Some((ray, span)) = sample.first() {
             renderer.trace_rays(method, &[lists.ray(ray, *span)], &uploaded, &settings)?;
         }
+        let batch_size = if transparent {
+            TRANSPARENT_BATCH
+        } else {
+            BATCH
+        };
         while tally.steps.len() < setup.rays {
             progress(method.name(), tally.steps.len() as f64 / setup.rays as f64);
             let batch: Vec<(Ray, Interval)> = source
                 .by_ref()
-                .take(BATCH.min(setup.rays - tally.steps.len()))
+                .take(batch_size.min(setup.rays - tally.steps.len()))
                 .collect();
             let gpu_rays: Vec<GpuStatsRay> = batch.iter().map(|(r, s)| lists.ray(r, *s)).collect();
+            if transparent {
+                let start = Instant::now();
+                let traced = renderer.trace_rays_through(
+                    method,
+                    &gpu_rays,
+                    &uploaded,
+                    (&settings, CROSSING_SLOTS),
+                )?;
+                tally.nanoseconds += start.elapsed().as_nanos() as f64;
+                for (ray, (_, span)) in traced.into_iter().zip(&batch) {
+                    let i = tally.steps.len();
+                    tally_crossings(&mut tally, &ray, settings.max_steps, i)?;
+                    if i < sample.len() {
+                        found.push(
+                            ray.kept
+                                .iter()
+                                .map(|&(t, entering)| Crossing {
+                                    t: span.lo + t,
+                                    entering,
+                                })
+                                .collect(),
+                        );
+                    }
+                }
+                continue;
+            }
             let start = Instant::now();
             let traced = renderer.trace_rays(method, &gpu_rays, &uploaded, &settings)?;
             tally.nanoseconds += start.elapsed().as_nanos() as f64;
@@ -255,6 +310,40 @@ pub fn run(
         mode: setup.mode,
         methods: out,
     })
+}
+
+/// Counts transparent ray `index` into `tally` as core's `stats::run` does: steps to its last
+/// crossing when it has one, a hit when it has any, out of steps when it spent the budget.
+///
+/// # Errors
+/// [`BackendError::Unsupported`] when the ray crossed the surface more often than its slots
+/// hold.
+fn tally_crossings(
+    tally: &mut MethodTally,
+    ray: &RayCrossings,
+    max_steps: u32,
+    index: usize,
+) -> Result<(), BackendError> {
+    if ray.found > CROSSING_SLOTS {
+        return Err(BackendError::Unsupported(format!(
+            "ray {index} crosses the surface {} times, more than the GPU keeps per ray \
+             ({CROSSING_SLOTS}); trace these statistics on the CPU",
+            ray.found
+        )));
+    }
+    tally.steps.push(if ray.found > 0 {
+        ray.steps_to_last
+    } else {
+        ray.steps
+    });
+    tally.hits += usize::from(ray.found > 0);
+    tally.out_of_steps += usize::from(ran_out_of_steps(
+        TraceMode::Transparent,
+        ray.steps,
+        max_steps,
+        ray.found as usize,
+    ));
+    Ok(())
 }
 
 #[cfg(test)]

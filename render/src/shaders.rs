@@ -234,6 +234,23 @@ impl GpuMethod {
         ))
     }
 
+    /// Whether the method's GPU march can go on past a crossing, as transparent statistics
+    /// need (main.wgsl `crossing_ends_march`): the marches of march.wgsl (sphere tracing, the
+    /// forward inclusions) and segment_original.wgsl, which follow core's
+    /// `marching::march` and `segment_original.rs` there. The others stop at their first
+    /// crossing; their transparent statistics run on the CPU.
+    #[must_use]
+    pub fn traces_every_crossing(self) -> bool {
+        !matches!(
+            self,
+            Self::SphereEnhanced
+                | Self::SphereAccelerated
+                | Self::ScalisQuadratic
+                | Self::Sherstyuk
+                | Self::FieldInversion
+        )
+    }
+
     /// Whether the method marches through parts.wgsl, which suspends a ray after a dispatch's
     /// allowance of steps and resumes it in the next dispatch; the others trace in one.
     #[must_use]
@@ -383,7 +400,7 @@ mod tests {
                 max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
                 gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
                 output_width, heat_max, heat_view, shading_flags, shading_scale,
-                steps_per_dispatch, secondary),
+                steps_per_dispatch, secondary, stats_crossings),
         );
         check_twin(
             &binning,

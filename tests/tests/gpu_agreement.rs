@@ -903,12 +903,15 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
 
 /// Issue 22: `stats --backend gpu` against the CPU's statistics on the same rays: the tree and
 /// a generated blob scene, the six-axis protocol and the random rays around the box of
-/// `paper-2023`. Every ray is compared with the CPU reference; hits agree to 0.5 % of the rays,
-/// average steps to 1 %, and no method misses a reference crossing or finds a spurious one.
+/// `paper-2023`; and transparent statistics (every crossing, forward-inclusion 2023 Table 4's
+/// protocol) on its summed blobs and on the generated blobs, with the table's methods. Every
+/// ray is compared with the CPU reference, every crossing in transparent mode; hits agree to
+/// 0.5 % of the rays, average steps (to the last crossing, in transparent mode) to 1 %, and
+/// no method misses a reference crossing or finds a spurious one.
 #[test]
 fn gpu_statistics_agree_with_the_cpus() {
     use skeletrace_core::cpu::stats::{self, StatsSetup};
-    use skeletrace_core::methods::{MethodId, Protocol};
+    use skeletrace_core::methods::{MethodId, Protocol, TraceMode};
     let Some(mut gpu) = gpu_or_skip("gpu_statistics_agree_with_the_cpus") else {
         return;
     };
@@ -921,16 +924,55 @@ fn gpu_statistics_agree_with_the_cpus() {
         },
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    let methods = [MethodId::Segment, MethodId::QuadraticTaylor];
+    let opaque = [MethodId::Segment, MethodId::QuadraticTaylor];
+    // Table 4's baseline and the two bottom-up and Taylor rows.
+    let transparent = [
+        MethodId::SegmentOriginal,
+        MethodId::BottomUpQuadratic,
+        MethodId::QuadraticTaylor,
+    ];
     let mut failures = Vec::new();
-    for (name, scene, protocol) in [
-        ("tree", load("tree"), Protocol::Default),
-        ("generated blobs", generated.clone(), Protocol::Default),
-        ("generated blobs", generated, Protocol::Paper2023),
+    for (name, scene, protocol, mode, methods) in [
+        (
+            "tree",
+            load("tree"),
+            Protocol::Default,
+            TraceMode::Opaque,
+            &opaque[..],
+        ),
+        (
+            "generated blobs",
+            generated.clone(),
+            Protocol::Default,
+            TraceMode::Opaque,
+            &opaque,
+        ),
+        (
+            "generated blobs",
+            generated.clone(),
+            Protocol::Paper2023,
+            TraceMode::Opaque,
+            &opaque,
+        ),
+        (
+            "summed-blobs",
+            load("summed-blobs"),
+            Protocol::Paper2023,
+            TraceMode::Transparent,
+            &transparent,
+        ),
+        (
+            "generated blobs",
+            generated,
+            Protocol::Paper2023,
+            TraceMode::Transparent,
+            &transparent,
+        ),
     ] {
         let compiled = std::sync::Arc::new(compile(&scene));
         let setup = StatsSetup {
             protocol,
+            mode,
             ..StatsSetup::opaque(3000, 5)
         };
         let chosen: Vec<_> = methods.iter().map(|m| m.method()).collect();
@@ -950,8 +992,8 @@ fn gpu_statistics_agree_with_the_cpus() {
         .unwrap_or_else(|e| panic!("{name}: {e}"));
         for (c, g) in cpu.methods.iter().zip(&on_gpu.methods) {
             eprintln!(
-                "{name} ({protocol}) {}: hits {} / {}, avg steps {:.3} / {:.3} (CPU / GPU), \
-                 GPU missed {} spurious {} of {} compared, depth error {:.1e}",
+                "{name} ({protocol}, {mode:?}) {}: hits {} / {}, avg steps {:.3} / {:.3} \
+                 (CPU / GPU), GPU missed {} spurious {} of {} compared, depth error {:.1e}",
                 c.name,
                 c.hits,
                 g.hits,
@@ -965,7 +1007,7 @@ fn gpu_statistics_agree_with_the_cpus() {
             let hits = c.hits.abs_diff(g.hits) as f64 / c.rays as f64;
             let steps = (g.avg_steps / c.avg_steps - 1.0).abs();
             if g.compared != c.rays || hits > 0.005 || steps > 0.01 || g.missed + g.spurious > 0 {
-                failures.push(format!("{name} ({protocol}) {}", c.name));
+                failures.push(format!("{name} ({protocol}, {mode:?}) {}", c.name));
             }
         }
     }

@@ -68,6 +68,11 @@ pub(crate) fn march(
             if mode == TraceMode::Opaque {
                 return;
             }
+            // Past any crossing the march starts its intervals afresh, as after a confirmed
+            // one below. (Where a step lands on the surface, rounding puts it on either side:
+            // just short, the crossing is confirmed; just past, it is this sign change. In
+            // f32 on the GPU the second is as frequent as the first.)
+            h = settings.initial_interval;
         }
         previous = Some((t, inside));
         let h_now = h.max(settings.min_step).min(part.hi - t);
