@@ -40,10 +40,14 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
                 f = along_ray(sp, ray, t).x;
                 continue;
             }
-            (*trace).t = t;
-            (*trace).hit = true;
-            (*trace).entering = !inside;
-            return;
+            if crossing_ends_march(trace, t, !inside) {
+                return;
+            }
+            // Transparent statistics go on past the crossing.
+            t += radius + globals.min_step;
+            has_history = false;
+            f = along_ray(sp, ray, t).x;
+            continue;
         }
         var step = radius;
         if has_history {

@@ -41,10 +41,16 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
                 previous_radius = radius;
                 continue;
             }
-            (*trace).t = t;
-            (*trace).hit = true;
-            (*trace).entering = !inside;
-            return;
+            if crossing_ends_march(trace, t, !inside) {
+                return;
+            }
+            // Transparent statistics go on past the crossing, over-relaxed again.
+            t += radius + globals.min_step;
+            omega = 1.6;
+            previous_radius = 0.0;
+            step = 0.0;
+            has_side = false;
+            continue;
         }
         step = omega * radius;
         previous_radius = radius;

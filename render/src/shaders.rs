@@ -235,19 +235,16 @@ impl GpuMethod {
     }
 
     /// Whether the method's GPU march can go on past a crossing, as transparent statistics
-    /// need (main.wgsl `crossing_ends_march`): the marches of march.wgsl (sphere tracing, the
-    /// forward inclusions) and segment_original.wgsl, which follow core's
-    /// `marching::march` and `segment_original.rs` there. The others stop at their first
-    /// crossing; their transparent statistics run on the CPU.
+    /// need (main.wgsl `crossing_ends_march`): those of parts.wgsl but sherstyuk (march.wgsl:
+    /// sphere tracing and the forward inclusions; segment-original, sphere-enhanced,
+    /// sphere-accelerated), each going on as its core method does. Sherstyuk, scalis-quadratic
+    /// and field-inversion stop at their first crossing; their transparent statistics run on
+    /// the CPU.
     #[must_use]
     pub fn traces_every_crossing(self) -> bool {
         !matches!(
             self,
-            Self::SphereEnhanced
-                | Self::SphereAccelerated
-                | Self::ScalisQuadratic
-                | Self::Sherstyuk
-                | Self::FieldInversion
+            Self::ScalisQuadratic | Self::Sherstyuk | Self::FieldInversion
         )
     }
 
