@@ -402,7 +402,8 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 // A ray of `stats --backend gpu` (gpu_stats.rs): traced over [0, far] among the primitives of
-// tile list `list`, which the host built for rays of its kind (StatsRay in gpu_stats.rs).
+// tile list `list`, which the host built for rays of its kind (StatsRay in gpu_stats.rs), or
+// with EVERY_PRIMITIVE among those the scene's hierarchy finds on it.
 struct StatsRay {
     origin: vec3<f32>,
     far: f32,
@@ -476,7 +477,11 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = Ray(r.origin, r.dir);
     var supports: RaySupports;
     let sp = &supports;
-    gather_list(sp, ray, r.list, r.far);
+    if r.list == EVERY_PRIMITIVE {
+        gather_every(sp, ray, r.far);
+    } else {
+        gather_list(sp, ray, r.list, r.far);
+    }
     var trace: Trace;
     if !march_resumed(k, sp, ray, &trace) {
         return;

@@ -40,8 +40,8 @@ struct Globals {
     steps_per_dispatch: u32,    // of a marching method (parts.wgsl)
     secondary: u32,             // SECONDARY_*: the frame's secondary rays (main.wgsl trace_path)
     stats_crossings: u32,       // transparent statistics: crossing slots per ray (main.wgsl trace_rays); 0 elsewhere
-    pad2: u32,
-    pad3: u32,
+    bvh_unbounded: u32,         // bvh_items[bvh_unbounded..bvh_items]: the unbounded primitives
+    bvh_items: u32,
 };
 
 // Twin of `GpuPrimitive`. kind: KIND_*.
@@ -113,6 +113,20 @@ struct Light {
 @group(0) @binding(10) var<storage, read_write> suspensions: array<Suspension>;
 // The HRBF sets' boxes, three per set: local y axis, local minimum and maximum corners.
 @group(0) @binding(12) var<storage, read> boxes: array<vec4<f32>>;
+
+// Twin of `GpuBvhNode` (ray_bvh.rs): a box, the index past its subtree, and for a leaf
+// `first << 3 | count` (its items bvh_items[first..first + count]), 0 for an inner node.
+struct BvhNode {
+    min: vec3<f32>,
+    skip: u32,
+    max: vec3<f32>,
+    leaf: u32,
+};
+
+// The hierarchy over the supports, nodes in depth-first order, for rays that leave the screen
+// tiles (gather_every).
+@group(0) @binding(15) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(16) var<storage, read> bvh_items: array<u32>;
 
 const INF: f32 = 3.0e38;
 
@@ -581,43 +595,75 @@ fn pixel_ray(px: u32, py: u32) -> Ray {
     return Ray(globals.origin, dir);
 }
 
-// Fills the window with the supports of the tile that the ray leaves after `floor`.
+// Fills the window with the supports of the ray's list (a tile's, or with gather_every the
+// primitives the hierarchy finds on the ray) that the ray leaves after `floor`.
 fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     (*sp).count = 0u;
     (*sp).horizon = INF;
     (*sp).floor = floor;
-    for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
-        var i = j;
-        if (*sp).listed {
-            i = tile_items[j];
+    if (*sp).listed {
+        for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
+            window_take(sp, ray, tile_items[j]);
         }
-        var span = support_interval(ray, i);
-        span = vec2<f32>(max(span.x, 0.0), min(span.y, (*sp).far));
-        if span.x > span.y || span.y <= floor {
+        return;
+    }
+    // A node whose box the ray's line misses, or meets only before the floor or past the
+    // ray's end, holds no support the window takes: skipped whole.
+    let node_count = arrayLength(&bvh_nodes);
+    var node = 0u;
+    while node < node_count {
+        let n = bvh_nodes[node];
+        let span = box_interval(ray.origin, ray.dir, n.min, n.max);
+        if span.x > span.y || span.y < max(floor, 0.0) || span.x > (*sp).far {
+            node = n.skip;
             continue;
         }
-        var k = (*sp).count;
-        if k == RAY_SUPPORTS {
-            // Full: the later entry of the newcomer and the last kept one bounds the window.
-            let last = (*sp).spans[k - 1u].x;
-            if span.x >= last {
-                (*sp).horizon = min((*sp).horizon, span.x);
-                continue;
-            }
-            (*sp).horizon = min((*sp).horizon, last);
-            k -= 1u;
-        } else {
-            (*sp).count += 1u;
+        let count = n.leaf & 7u;
+        if count == 0u {
+            node += 1u;
+            continue;
         }
-        // Insertion by entry.
-        while k > 0u && (*sp).spans[k - 1u].x > span.x {
-            (*sp).spans[k] = (*sp).spans[k - 1u];
-            (*sp).ids[k] = (*sp).ids[k - 1u];
-            k -= 1u;
+        let first = n.leaf >> 3u;
+        for (var j = first; j < first + count; j++) {
+            window_take(sp, ray, bvh_items[j]);
         }
-        (*sp).spans[k] = span;
-        (*sp).ids[k] = i;
+        node = n.skip;
     }
+    for (var j = globals.bvh_unbounded; j < globals.bvh_items; j++) {
+        window_take(sp, ray, bvh_items[j]);
+    }
+}
+
+// Takes primitive `i` into the window if the ray leaves its support after the window's
+// floor: the window keeps the RAY_SUPPORTS earliest entries, sorted, and its horizon is the
+// earliest entry it could not keep.
+fn window_take(sp: ptr<function, RaySupports>, ray: Ray, i: u32) {
+    var span = support_interval(ray, i);
+    span = vec2<f32>(max(span.x, 0.0), min(span.y, (*sp).far));
+    if span.x > span.y || span.y <= (*sp).floor {
+        return;
+    }
+    var k = (*sp).count;
+    if k == RAY_SUPPORTS {
+        // Full: the later entry of the newcomer and the last kept one bounds the window.
+        let last = (*sp).spans[k - 1u].x;
+        if span.x >= last {
+            (*sp).horizon = min((*sp).horizon, span.x);
+            return;
+        }
+        (*sp).horizon = min((*sp).horizon, last);
+        k -= 1u;
+    } else {
+        (*sp).count += 1u;
+    }
+    // Insertion by entry.
+    while k > 0u && (*sp).spans[k - 1u].x > span.x {
+        (*sp).spans[k] = (*sp).spans[k - 1u];
+        (*sp).ids[k] = (*sp).ids[k - 1u];
+        k -= 1u;
+    }
+    (*sp).spans[k] = span;
+    (*sp).ids[k] = i;
 }
 
 fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
@@ -639,11 +685,10 @@ fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32) {
 }
 
 // The supports along `ray` over [0, far] among every primitive: a secondary ray (main.wgsl
-// trace_path) leaves the screen tiles, and is traced against the whole scene as on the CPU.
+// trace_path) or a statistics ray off the axes leaves the screen tiles, and is traced against
+// the whole scene as on the CPU, whose primitives the hierarchy (bvh_nodes) finds.
 fn gather_every(sp: ptr<function, RaySupports>, ray: Ray, far: f32) {
     (*sp).far = far;
-    (*sp).tile_start = 0u;
-    (*sp).tile_end = globals.primitive_count;
     (*sp).listed = false;
     fill_window(sp, ray, 0.0);
 }

@@ -6,6 +6,7 @@
 //! blend tree (compiled to WGSL: [`BlendWgsl`]). Scenes with more groups are refused with a
 //! message, and the caller falls back to the CPU tracer.
 
+use crate::ray_bvh::RayBvh;
 use bytemuck::{Pod, Zeroable};
 use skeletrace_core::FieldProgram;
 use skeletrace_core::compile::Compiled;
@@ -120,6 +121,8 @@ pub struct PackedScene {
     pub kinds: KindSet,
     /// The boxes of the HRBF sets, three `vec4`s each ([`GpuPrimitive::extra`]).
     pub boxes: Vec<[f32; 4]>,
+    /// The hierarchy over the supports, for rays that leave the screen tiles.
+    pub bvh: RayBvh,
 }
 
 fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
@@ -390,6 +393,7 @@ impl PackedScene {
             });
         }
         Ok(Self {
+            bvh: RayBvh::new(program),
             kinds: kinds.covering(),
             primitives,
             kernels: (0..groups)

@@ -123,8 +123,10 @@ pub struct GpuGlobals {
     pub secondary: u32,
     /// Transparent statistics: crossing slots per ray (0 in frames and opaque statistics).
     pub stats_crossings: u32,
-    /// Padding to 16 bytes.
-    pub pad: [u32; 2],
+    /// Where the unbounded primitives start in the hierarchy's items ([`RayBvh::unbounded`]).
+    pub bvh_unbounded: u32,
+    /// The hierarchy's items.
+    pub bvh_items: u32,
 }
 
 /// The uploaded scene.
@@ -137,6 +139,8 @@ struct SceneBuffers {
     materials: wgpu::Buffer,
     lights: wgpu::Buffer,
     boxes: wgpu::Buffer,
+    bvh_nodes: wgpu::Buffer,
+    bvh_items: wgpu::Buffer,
     /// Per-method constants of the scene.
     method: MethodConstants,
     isovalue: f32,
@@ -181,7 +185,8 @@ impl SceneBuffers {
             steps_per_dispatch,
             secondary: 0,
             stats_crossings: 0,
-            pad: [0; 2],
+            bvh_unbounded: self.packed.bvh.unbounded,
+            bvh_items: self.packed.bvh.items.len() as u32,
         }
     }
 }
@@ -645,6 +650,8 @@ impl GpuRenderer {
             && old.packed.materials.len() == packed.materials.len()
             && old.packed.lights.len() == packed.lights.len()
             && old.packed.boxes.len() == packed.boxes.len()
+            && old.packed.bvh.nodes.len() == packed.bvh.nodes.len()
+            && old.packed.bvh.items.len() == packed.bvh.items.len()
         {
             let changed: Vec<usize> = (0..packed.primitives.len())
                 .filter(|&i| old.packed.primitives[i] != packed.primitives[i])
@@ -663,6 +670,13 @@ impl GpuRenderer {
                 .write_buffer(&old.lights, 0, bytemuck::cast_slice(&packed.lights));
             self.queue
                 .write_buffer(&old.boxes, 0, bytemuck::cast_slice(&packed.boxes));
+            if old.packed.bvh != packed.bvh {
+                let (nodes, items) = (&packed.bvh.nodes, &packed.bvh.items);
+                self.queue
+                    .write_buffer(&old.bvh_nodes, 0, bytemuck::cast_slice(nodes));
+                self.queue
+                    .write_buffer(&old.bvh_items, 0, bytemuck::cast_slice(items));
+            }
             old.packed = packed;
             old.method = method;
             old.isovalue = isovalue;
@@ -678,6 +692,8 @@ impl GpuRenderer {
             materials: storage(d, "materials", bytemuck::cast_slice(&packed.materials)),
             lights: storage(d, "lights", bytemuck::cast_slice(&packed.lights)),
             boxes: storage(d, "HRBF boxes", bytemuck::cast_slice(&packed.boxes)),
+            bvh_nodes: storage(d, "BVH nodes", bytemuck::cast_slice(&packed.bvh.nodes)),
+            bvh_items: storage(d, "BVH items", bytemuck::cast_slice(&packed.bvh.items)),
             compiled: Arc::clone(compiled),
             packed,
             method,
@@ -841,6 +857,8 @@ impl GpuRenderer {
                 entry(10, &suspensions),
                 entry(11, &ray_buffer),
                 entry(12, &scene.boxes),
+                entry(15, &scene.bvh_nodes),
+                entry(16, &scene.bvh_items),
             ],
         });
         let dispatches = if method.resumable() {
@@ -1205,6 +1223,8 @@ impl GpuRenderer {
                     entry(12, &scene.boxes),
                     entry(13, &outputs.paths),
                     entry(14, &outputs.unfinished[0]),
+                    entry(15, &scene.bvh_nodes),
+                    entry(16, &scene.bvh_items),
                 ],
             });
             // A marching method goes on from where each ray stopped until every budget is spent;

@@ -4,7 +4,8 @@
 //! screen tiles of a frame do not apply to these rays; [`RayLists`] gives each ray its
 //! candidate primitives instead: rays along an axis look theirs up in a grid of cells across
 //! the box (the primitives whose support's bounding sphere, seen along that axis, covers the
-//! cell), other rays in one list of every primitive. The reference tracer runs on the CPU, on
+//! cell); other rays take [`EVERY_PRIMITIVE`], and the shader finds theirs in the scene's
+//! hierarchy ([`crate::ray_bvh`]). The reference tracer runs on the CPU, on
 //! the first rays of the same sequence, and every method is compared with it there; steps are
 //! counted over every ray. Transparent statistics (forward-inclusion 2023, Tables 3–4: every
 //! crossing of each ray, steps counted to the last one) run on the GPU for the methods whose
@@ -67,12 +68,16 @@ pub struct GpuStatsRay {
     pub far: f32,
     /// Unit direction.
     pub dir: [f32; 3],
-    /// Candidate list ([`RayLists`]).
+    /// Candidate list ([`RayLists`]), or [`EVERY_PRIMITIVE`].
     pub list: u32,
 }
 
-/// Candidate primitives of statistics rays: for each axis a [`GRID`]² grid of cells across
-/// the box, lists `axis · GRID² + cell`; then one list of every primitive.
+/// The list of a statistics ray off the axes: every primitive, which the shader walks the
+/// scene's hierarchy for (main.wgsl `trace_rays`, prelude.wgsl `gather_every`).
+pub const EVERY_PRIMITIVE: u32 = u32::MAX;
+
+/// Candidate primitives of statistics rays along the axes: for each axis a [`GRID`]² grid of
+/// cells across the box, lists `axis · GRID² + cell`.
 pub struct RayLists {
     /// Per list, its range in `items`.
     pub ranges: Vec<[u32; 2]>,
@@ -95,11 +100,9 @@ impl RayLists {
         let cell = ((max - min) / GRID as f64).max(DVec3::splat(1e-12));
         // Bounding spheres are stored in f32: a margin keeps every covered cell.
         let margin = 1e-5 * (max - min).length();
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 3 * GRID * GRID + 1];
-        let every = 3 * GRID * GRID;
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 3 * GRID * GRID];
         for (i, p) in primitives.iter().enumerate() {
             let i = i as u32;
-            lists[every].push(i);
             let [x, y, z, r] = p.bound.map(f64::from);
             for axis in 0..3 {
                 let base = axis * GRID * GRID;
@@ -144,7 +147,7 @@ impl RayLists {
     }
 
     /// The GPU ray of `ray` over `span`: started at the span's beginning, its list the cell it
-    /// runs through when it follows an axis, else every primitive.
+    /// runs through when it follows an axis, else [`EVERY_PRIMITIVE`].
     #[must_use]
     pub fn ray(&self, ray: &Ray, span: Interval) -> GpuStatsRay {
         let d = ray.direction;
@@ -162,7 +165,7 @@ impl RayLists {
                 };
                 (a * GRID * GRID + cell(u) * GRID + cell(v)) as u32
             }
-            None => (3 * GRID * GRID) as u32,
+            None => EVERY_PRIMITIVE,
         };
         GpuStatsRay {
             origin: start.as_vec3().to_array(),
@@ -399,7 +402,6 @@ mod tests {
             direction: DVec3::ONE.normalize(),
         };
         let gpu = lists.ray(&slanted, Interval::new(0.0, 1.0));
-        let [a, b] = lists.ranges[gpu.list as usize];
-        assert_eq!((b - a) as usize, spheres.len());
+        assert_eq!(gpu.list, EVERY_PRIMITIVE);
     }
 }

@@ -12,6 +12,7 @@ pub mod buffers;
 pub mod gpu_backend;
 pub mod gpu_renderer;
 pub mod gpu_stats;
+pub mod ray_bvh;
 pub mod shaders;
 pub mod shared;
 pub mod step_statistics;

@@ -397,7 +397,7 @@ mod tests {
                 max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
                 gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
                 output_width, heat_max, heat_view, shading_flags, shading_scale,
-                steps_per_dispatch, secondary, stats_crossings),
+                steps_per_dispatch, secondary, stats_crossings, bvh_unbounded, bvh_items),
         );
         check_twin(
             &binning,
@@ -420,6 +420,11 @@ mod tests {
         );
         check_twin(&trace, "Light", rust_layout!(GpuLight: vector, colour));
         check_twin(&trace, "Material", rust_layout!(GpuMaterial: colour, ior));
+        check_twin(
+            &trace,
+            "BvhNode",
+            rust_layout!(crate::ray_bvh::GpuBvhNode: min, skip, max, leaf),
+        );
         check_twin(
             &trace,
             "StatsRay",

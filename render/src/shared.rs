@@ -248,6 +248,11 @@ pub fn wgsl_constants() -> String {
     u32_const(&mut out, "STATS_ROW", crate::gpu_stats::STATS_ROW);
     u32_const(
         &mut out,
+        "EVERY_PRIMITIVE",
+        crate::gpu_stats::EVERY_PRIMITIVE,
+    );
+    u32_const(
+        &mut out,
         "RAY_SUPPORTS",
         crate::shaders::RAY_SUPPORTS as u32,
     );
