@@ -275,69 +275,99 @@ impl ShapePrimitive {
     }
 
     fn distance_sq_jet(&self, ray: &Ray, span: Interval) -> Jet {
-        // A plane needs neither the local frame nor the distance to its axis: computed only for
-        // the solids that use them.
-        if let Solid::Plane { normal, offset } = self.solid {
-            return Jet::affine(
+        // A plane needs neither the local frame nor the distance to its axis: the other solids
+        // build them (`LocalRay`).
+        let local = || LocalRay::new(self, ray, span);
+        match self.solid {
+            Solid::Plane { normal, offset } => Jet::affine(
                 normal.dot(ray.origin) - offset,
                 normal.dot(ray.direction),
                 span,
             )
-            .square();
-        }
-        let o = self.frame.transpose() * (ray.origin - self.center);
-        let u = self.frame.transpose() * ray.direction;
-        let coord = |i: usize| Jet::affine(o[i], u[i], span);
-        let slab_excess_sq = |i: usize, e: f64| {
-            (coord(i) - Jet::constant(e)).positive_part_squared()
-                + (Jet::constant(-e) - coord(i)).positive_part_squared()
-        };
-        // Distance to the local y axis: 1-Lipschitz along any line (|ρ′| ≤ |u_xz|) and convex
-        // (ρ″ ≥ 0), which keeps its jet finite where the ray passes through the axis.
-        let radial_sq = || {
-            Jet::quadratic(
-                u.x * u.x + u.z * u.z,
-                2.0 * (o.x * u.x + o.z * u.z),
-                o.x * o.x + o.z * o.z,
-                span,
-            )
-        };
-        let radial = || {
-            let lateral = u.x.hypot(u.z);
-            let mut rho = radial_sq().sqrt();
-            rho.d1 = rho
-                .d1
-                .intersect(Interval::new(-lateral, lateral))
-                .unwrap_or(Interval::new(-lateral, lateral));
-            rho.d2.lo = rho.d2.lo.max(0.0);
-            rho
-        };
-        match self.solid {
-            Solid::Plane { .. } => unreachable!("planes return above"),
-            Solid::Box { half_extents } => (0..3)
-                .map(|i| slab_excess_sq(i, half_extents[i]))
-                .fold(Jet::ZERO, |a, b| a + b),
+            .square(),
+            Solid::Box { half_extents } => {
+                let l = local();
+                (0..3)
+                    .map(|i| l.slab_excess_sq(i, half_extents[i]))
+                    .fold(Jet::ZERO, |a, b| a + b)
+            }
             Solid::RoundedBox {
                 half_extents,
                 rounding,
             } => {
+                let l = local();
                 let inner = (0..3)
-                    .map(|i| slab_excess_sq(i, half_extents[i] - rounding))
+                    .map(|i| l.slab_excess_sq(i, half_extents[i] - rounding))
                     .fold(Jet::ZERO, |a, b| a + b);
                 (inner.sqrt_above(rounding) - Jet::constant(rounding)).positive_part_squared()
             }
             Solid::Torus { major, minor } => {
-                let a = radial() - Jet::constant(major);
-                let tube = (a.square() + coord(1).square()).sqrt_above(minor);
+                let l = local();
+                let a = l.radial() - Jet::constant(major);
+                let tube = (a.square() + l.coord(1).square()).sqrt_above(minor);
                 (tube - Jet::constant(minor)).positive_part_squared()
             }
             Solid::Cylinder {
                 radius,
                 half_height,
             } => {
-                (radial_sq().sqrt_above(radius) - Jet::constant(radius)).positive_part_squared()
-                    + slab_excess_sq(1, half_height)
+                let l = local();
+                (l.radial_sq().sqrt_above(radius) - Jet::constant(radius)).positive_part_squared()
+                    + l.slab_excess_sq(1, half_height)
             }
         }
+    }
+}
+
+/// A ray over `span` in a solid's local frame (origin `o`, direction `u`), with the jets of
+/// the local coordinates and distances along it that [`ShapePrimitive::distance_sq_jet`] takes.
+struct LocalRay {
+    o: DVec3,
+    u: DVec3,
+    span: Interval,
+}
+
+impl LocalRay {
+    fn new(shape: &ShapePrimitive, ray: &Ray, span: Interval) -> Self {
+        Self {
+            o: shape.frame.transpose() * (ray.origin - shape.center),
+            u: shape.frame.transpose() * ray.direction,
+            span,
+        }
+    }
+
+    /// Local coordinate `i`.
+    fn coord(&self, i: usize) -> Jet {
+        Jet::affine(self.o[i], self.u[i], self.span)
+    }
+
+    /// Squared distance to the slab `|x_i| ≤ e`.
+    fn slab_excess_sq(&self, i: usize, e: f64) -> Jet {
+        (self.coord(i) - Jet::constant(e)).positive_part_squared()
+            + (Jet::constant(-e) - self.coord(i)).positive_part_squared()
+    }
+
+    /// Squared distance to the local y axis.
+    fn radial_sq(&self) -> Jet {
+        let (o, u) = (self.o, self.u);
+        Jet::quadratic(
+            u.x * u.x + u.z * u.z,
+            2.0 * (o.x * u.x + o.z * u.z),
+            o.x * o.x + o.z * o.z,
+            self.span,
+        )
+    }
+
+    /// Distance to the local y axis: 1-Lipschitz along any line (|ρ′| ≤ |u_xz|) and convex
+    /// (ρ″ ≥ 0), which keeps its jet finite where the ray passes through the axis.
+    fn radial(&self) -> Jet {
+        let lateral = self.u.x.hypot(self.u.z);
+        let mut rho = self.radial_sq().sqrt();
+        rho.d1 = rho
+            .d1
+            .intersect(Interval::new(-lateral, lateral))
+            .unwrap_or(Interval::new(-lateral, lateral));
+        rho.d2.lo = rho.d2.lo.max(0.0);
+        rho
     }
 }
