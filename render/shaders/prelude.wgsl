@@ -596,41 +596,68 @@ fn pixel_ray(px: u32, py: u32) -> Ray {
 }
 
 // Fills the window with the supports of the ray's list (a tile's, or with gather_every the
-// primitives the hierarchy finds on the ray) that the ray leaves after `floor`.
+// primitives the hierarchy finds on the ray, then the unbounded ones) that the ray leaves after
+// `floor`. Each candidate goes to one call of `window_take`, which the shader compilers inline
+// with `support_interval`, the largest function a pipeline holds; the walk finds the next
+// candidate in a loop of its own, so that a SIMD row's rays take theirs together.
 fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     (*sp).count = 0u;
     (*sp).horizon = INF;
     (*sp).floor = floor;
-    if (*sp).listed {
-        for (var j = (*sp).tile_start; j < (*sp).tile_end; j++) {
-            window_take(sp, ray, tile_items[j]);
-        }
-        return;
+    let listed = (*sp).listed;
+    var j = (*sp).tile_start;
+    var end = (*sp).tile_end;
+    if !listed {
+        j = 0u;
+        end = 0u;
     }
-    // A node whose box the ray's line misses, or meets only before the floor or past the
-    // ray's end, holds no support the window takes: skipped whole.
-    let node_count = arrayLength(&bvh_nodes);
+    let node_count = select(arrayLength(&bvh_nodes), 0u, listed);
     var node = 0u;
-    while node < node_count {
-        let n = bvh_nodes[node];
-        let span = box_interval(ray.origin, ray.dir, n.min, n.max);
-        if span.x > span.y || span.y < max(floor, 0.0) || span.x > (*sp).far {
-            node = n.skip;
-            continue;
+    var unbounded = !listed;
+    loop {
+        var i = 0u;
+        var found = false;
+        loop {
+            if j < end {
+                if listed {
+                    i = tile_items[j];
+                } else {
+                    i = bvh_items[j];
+                }
+                j += 1u;
+                found = true;
+                break;
+            }
+            if node < node_count {
+                // A node whose box the ray's line misses, or meets only before the floor or
+                // past the ray's end, holds no support the window takes: skipped whole. A
+                // leaf's items are the next candidates.
+                let n = bvh_nodes[node];
+                let span = box_interval(ray.origin, ray.dir, n.min, n.max);
+                let count = n.leaf & 7u;
+                if span.x > span.y || span.y < max(floor, 0.0) || span.x > (*sp).far {
+                    node = n.skip;
+                } else if count == 0u {
+                    node += 1u;
+                } else {
+                    j = n.leaf >> 3u;
+                    end = j + count;
+                    node = n.skip;
+                }
+                continue;
+            }
+            if unbounded {
+                unbounded = false;
+                j = globals.bvh_unbounded;
+                end = globals.bvh_items;
+                continue;
+            }
+            break;
         }
-        let count = n.leaf & 7u;
-        if count == 0u {
-            node += 1u;
-            continue;
+        if !found {
+            break;
         }
-        let first = n.leaf >> 3u;
-        for (var j = first; j < first + count; j++) {
-            window_take(sp, ray, bvh_items[j]);
-        }
-        node = n.skip;
-    }
-    for (var j = globals.bvh_unbounded; j < globals.bvh_items; j++) {
-        window_take(sp, ray, bvh_items[j]);
+        window_take(sp, ray, i);
     }
 }
 
