@@ -211,11 +211,16 @@ pub fn run(
         .collect();
     progress("reference", 0.0);
     let reference = reference_crossings(program, settings, &sample, setup.mode);
-    // The first crossing enters the volume unless the ray starts inside it.
-    let entering: Vec<bool> = sample
-        .iter()
-        .map(|(ray, span)| program.value(ray.at(span.lo)) < program.isovalue())
-        .collect();
+    // An opaque ray's first crossing enters the volume unless the ray starts inside it
+    // (transparent rays bring each crossing's direction from the GPU).
+    let entering: Vec<bool> = if transparent {
+        Vec::new()
+    } else {
+        sample
+            .iter()
+            .map(|(ray, span)| program.value(ray.at(span.lo)) < program.isovalue())
+            .collect()
+    };
     let mut out = Vec::with_capacity(methods.len());
     for &method in methods {
         let mut tally = MethodTally {
