@@ -4,15 +4,57 @@
 // core::frame::heat_colour, coefficients TURBO_* emitted by shared.rs).
 //
 // Soft shadows and ambient occlusion (core: cpu/shading.rs, 2014 notes §12.4) sample the field at
-// points off the pixel's ray, so they visit every primitive whose bounding sphere holds the point
-// rather than the tile list; the renderer refuses scenes where that would be too many visits.
+// points off the pixel's ray, so they find the primitives whose support holds the point in the
+// scene's hierarchy (bvh_nodes, ray_bvh.rs) rather than the tile list; the renderer refuses scenes
+// where a pixel's walks together could pass lavapipe's loop limit (`RayBvh::point_walk_bound`).
 
 // The shading constants (SOFT_SHADOW_STEPS, AO_*, ...) are core's, emitted by shared.rs.
 
-// Blended value and gradient at any point.
+// Blended value and gradient at any point: a walk entering the nodes whose boxes hold `p`, each
+// item of their leaves and each unbounded primitive tested against its bounding sphere. The
+// walk finds the next candidate in a loop of its own, so that `add_primitive` has one call site.
 fn field_anywhere(p: vec3<f32>) -> vec4<f32> {
     var values: array<vec4<f32>, MAX_GROUPS>;
-    for (var i = 0u; i < globals.primitive_count; i++) {
+    let node_count = arrayLength(&bvh_nodes);
+    var node = 0u;
+    var j = 0u;
+    var end = 0u;
+    var unbounded = true;
+    loop {
+        var i = 0u;
+        var found = false;
+        loop {
+            if j < end {
+                i = bvh_items[j];
+                j += 1u;
+                found = true;
+                break;
+            }
+            if node < node_count {
+                let n = bvh_nodes[node];
+                let count = n.leaf & 7u;
+                if any(p < n.min) || any(p > n.max) {
+                    node = n.skip;
+                } else if count == 0u {
+                    node += 1u;
+                } else {
+                    j = n.leaf >> 3u;
+                    end = j + count;
+                    node = n.skip;
+                }
+                continue;
+            }
+            if unbounded {
+                unbounded = false;
+                j = globals.bvh_unbounded;
+                end = globals.bvh_items;
+                continue;
+            }
+            break;
+        }
+        if !found {
+            break;
+        }
         let b = primitives[i].bound;
         let d = p - b.xyz;
         if b.w < 0.0 || dot(d, d) <= b.w * b.w {

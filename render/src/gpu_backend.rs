@@ -11,7 +11,7 @@ use skeletrace_core::frame::{Frame, View};
 use skeletrace_core::methods::MethodId;
 
 use crate::buffers::PackedScene;
-use crate::gpu_renderer::{GpuRenderer, check_shading_budget};
+use crate::gpu_renderer::GpuRenderer;
 use crate::shaders::GpuMethod;
 
 /// The GPU as a frame backend.
@@ -66,7 +66,7 @@ impl FrameBackend for GpuBackend {
         gpu_method.supports(&compiled.program)?;
         PackedScene::check(&compiled.program)?;
         if let View::Shaded(shading) = request.view {
-            check_shading_budget(compiled, shading)?;
+            self.renderer.check_shading_budget(compiled, shading)?;
         }
         Ok(())
     }

@@ -5,7 +5,7 @@
 //! lost device are reported as `Err`, never as a panic; callers fall back to the CPU tracer.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
@@ -23,6 +23,7 @@ use wgpu::util::DeviceExt;
 
 use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
 use crate::gpu_stats::{GpuStatsRay, RayCrossings, RayLists, STATS_ROW, UploadedRayLists};
+use crate::ray_bvh::RayBvh;
 use crate::shaders::GpuMethod;
 use crate::shared::secondary;
 use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
@@ -46,9 +47,10 @@ pub const STEPS_PER_DISPATCH: u32 = 256;
 /// limit, where 8 stay far below it.
 pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
 
-/// Most primitive visits the field shading terms may make per pixel (every soft-shadow and
-/// ambient-occlusion sample visits every primitive): lavapipe stops a shader invocation's loops
-/// after 65 535 iterations in all, and the march needs its share.
+/// Most loop iterations the field shading terms may take per pixel (every soft-shadow and
+/// ambient-occlusion sample walks the scene's hierarchy, `RayBvh::point_walk_bound`): lavapipe
+/// stops a shader invocation's loops after 65 535 iterations in all, and the march needs its
+/// share.
 pub const MAX_SHADING_VISITS: usize = 40_000;
 
 /// Twin of `Globals` in prelude.wgsl (a layout test checks every field's offset).
@@ -141,6 +143,9 @@ struct SceneBuffers {
     boxes: wgpu::Buffer,
     bvh_nodes: wgpu::Buffer,
     bvh_items: wgpu::Buffer,
+    /// [`RayBvh::point_walk_bound`] of `packed.bvh`, computed when a frame's field shading
+    /// first needs it.
+    point_walk_bound: OnceLock<usize>,
     /// Per-method constants of the scene.
     method: MethodConstants,
     isovalue: f32,
@@ -565,6 +570,34 @@ impl GpuRenderer {
             .map_or(&[], |s| s.packed.primitives.as_slice())
     }
 
+    /// On a software adapter, `Err` when `shading` on `compiled` could take more loop
+    /// iterations at a pixel than [`MAX_SHADING_VISITS`] (lavapipe's limit): with the uploaded
+    /// scene's hierarchy when `compiled` is the scene uploaded (its bound computed once), else
+    /// with one built for `compiled`. A hardware GPU has no such limit: always `Ok`.
+    ///
+    /// # Errors
+    /// The counts, and the advice to use the CPU.
+    pub fn check_shading_budget(
+        &self,
+        compiled: &Compiled,
+        shading: FieldShading,
+    ) -> Result<(), String> {
+        if self.device_kind == DeviceKind::HardwareGpu {
+            return Ok(());
+        }
+        match &self.scene {
+            Some(s) if std::ptr::eq(Arc::as_ptr(&s.compiled), compiled) => {
+                check_shading_walks(compiled, shading, || {
+                    *s.point_walk_bound
+                        .get_or_init(|| s.packed.bvh.point_walk_bound())
+                })
+            }
+            _ => check_shading_walks(compiled, shading, || {
+                RayBvh::new(&compiled.program).point_walk_bound()
+            }),
+        }
+    }
+
     /// The compiled scene uploaded last, if any.
     #[must_use]
     pub fn scene(&self) -> Option<&Arc<Compiled>> {
@@ -671,6 +704,7 @@ impl GpuRenderer {
             self.queue
                 .write_buffer(&old.boxes, 0, bytemuck::cast_slice(&packed.boxes));
             if old.packed.bvh != packed.bvh {
+                old.point_walk_bound = OnceLock::new();
                 let (nodes, items) = (&packed.bvh.nodes, &packed.bvh.items);
                 self.queue
                     .write_buffer(&old.bvh_nodes, 0, bytemuck::cast_slice(nodes));
@@ -694,6 +728,7 @@ impl GpuRenderer {
             boxes: storage(d, "HRBF boxes", bytemuck::cast_slice(&packed.boxes)),
             bvh_nodes: storage(d, "BVH nodes", bytemuck::cast_slice(&packed.bvh.nodes)),
             bvh_items: storage(d, "BVH items", bytemuck::cast_slice(&packed.bvh.items)),
+            point_walk_bound: OnceLock::new(),
             compiled: Arc::clone(compiled),
             packed,
             method,
@@ -1002,7 +1037,8 @@ impl GpuRenderer {
             m.supports(program).map_err(BackendError::Unsupported)?;
         }
         if let View::Shaded(shading) = view {
-            check_shading_budget(&compiled, shading).map_err(BackendError::Unsupported)?;
+            self.check_shading_budget(&compiled, shading)
+                .map_err(BackendError::Unsupported)?;
         }
         if let Some(scene) = &self.scene {
             for &m in methods {
@@ -1289,12 +1325,17 @@ impl GpuRenderer {
     }
 }
 
-/// `Err` when the field shading terms would visit more than [`MAX_SHADING_VISITS`] primitives
-/// per pixel: every soft-shadow and ambient-occlusion sample visits every primitive.
+/// `Err` when the field shading terms could take more than [`MAX_SHADING_VISITS`] loop
+/// iterations at a pixel (on a software adapter): each soft-shadow and ambient-occlusion sample walks the scene's
+/// hierarchy, `point_walk_bound()` iterations at most.
 ///
 /// # Errors
 /// The counts, and the advice to use the CPU.
-pub fn check_shading_budget(compiled: &Compiled, shading: FieldShading) -> Result<(), String> {
+fn check_shading_walks(
+    compiled: &Compiled,
+    shading: FieldShading,
+    point_walk_bound: impl FnOnce() -> usize,
+) -> Result<(), String> {
     let samples = if shading.soft_shadows {
         SOFT_SHADOW_STEPS as usize * compiled.lights.len()
     } else {
@@ -1304,12 +1345,16 @@ pub fn check_shading_budget(compiled: &Compiled, shading: FieldShading) -> Resul
     } else {
         0
     };
-    let primitives = compiled.program.primitives().len();
-    if samples * primitives > MAX_SHADING_VISITS {
+    if samples == 0 {
+        return Ok(());
+    }
+    let walk = point_walk_bound();
+    if samples * walk > MAX_SHADING_VISITS {
         return Err(format!(
-            "soft shadows and ambient occlusion on the GPU visit every primitive at each \
-             sample: {primitives} primitives × {samples} samples is over the \
-             {MAX_SHADING_VISITS} visits a pixel may make; use the CPU backend for this scene"
+            "soft shadows and ambient occlusion on the GPU walk the scene's primitives at each \
+             sample: up to {walk} loop iterations × {samples} samples is over the \
+             {MAX_SHADING_VISITS} a pixel may take on a software adapter (lavapipe's loop \
+             limit); use the CPU backend for this scene"
         ));
     }
     Ok(())

@@ -10,6 +10,11 @@
 //! the supports' f64 boxes widened outwards by a relative margin before rounding to f32, so a
 //! primitive whose support the f32 ray meets is never skipped. Unbounded primitives (planes)
 //! are listed after the tree's items and visited on every walk.
+//!
+//! The field shading terms (main.wgsl `field_anywhere`: soft shadows and ambient occlusion)
+//! walk the same hierarchy for points, entering the nodes whose boxes hold the point.
+//! [`RayBvh::point_walk_bound`] bounds the loop iterations such a walk takes anywhere, which
+//! the renderer holds under lavapipe's per-invocation limit on software adapters.
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -112,6 +117,77 @@ impl RayBvh {
     }
 }
 
+/// Calls [`RayBvh::point_walk_bound`] may spend on overlapping siblings before it settles for
+/// the walk through every node.
+const BOUND_CALLS: usize = 1 << 20;
+
+/// A box as `[min, max]`.
+type Corners = [[f32; 3]; 2];
+
+fn intersection(a: Corners, b: Corners) -> Option<Corners> {
+    let lo = [0, 1, 2].map(|k| a[0][k].max(b[0][k]));
+    let hi = [0, 1, 2].map(|k| a[1][k].min(b[1][k]));
+    (0..3).all(|k| lo[k] <= hi[k]).then_some([lo, hi])
+}
+
+impl RayBvh {
+    /// Loop iterations of a point walk (main.wgsl `field_anywhere`), at most, wherever the
+    /// point: each node visited takes one, each item of an entered leaf two (the iteration that
+    /// finds it and the one that adds it), the unbounded primitives two each, and two more to
+    /// turn to them and to end.
+    ///
+    /// A node is visited when its parent holds the point, so a walk's cost is a sum over the
+    /// boxes holding the point. The bound follows the tree: where two siblings' boxes are
+    /// disjoint the point is in one of them at most, where they overlap it may be in both, in
+    /// their intersection (narrowed further at each level). Where overlaps multiply past
+    /// [`BOUND_CALLS`], it is the walk through every node and item.
+    #[must_use]
+    pub fn point_walk_bound(&self) -> usize {
+        let fixed = 2 * (self.items.len() - self.unbounded as usize) + 2;
+        if self.nodes.is_empty() {
+            return fixed;
+        }
+        let every = [[f32::NEG_INFINITY; 3], [f32::INFINITY; 3]];
+        let mut calls = 0;
+        let tree = self
+            .subtree_bound(0, every, &mut calls)
+            .unwrap_or(self.nodes.len() + 2 * self.unbounded as usize);
+        tree + fixed
+    }
+
+    /// Iterations within the subtree of `node` (visited) for points in `region`; `None` past
+    /// [`BOUND_CALLS`].
+    fn subtree_bound(&self, node: usize, region: Corners, calls: &mut usize) -> Option<usize> {
+        *calls += 1;
+        if *calls > BOUND_CALLS {
+            return None;
+        }
+        let n = self.nodes[node];
+        let Some(inside) = intersection(region, [n.min, n.max]) else {
+            return Some(1);
+        };
+        let count = (n.leaf & 7) as usize;
+        if count > 0 {
+            return Some(1 + 2 * count);
+        }
+        // The first child follows its parent; the second follows the first's subtree.
+        let (first, second) = (node + 1, self.nodes[node + 1].skip as usize);
+        let boxes = |i: usize| [self.nodes[i].min, self.nodes[i].max];
+        // In the first child's box only, in the second's only, or in both.
+        let mut most = (self.subtree_bound(first, inside, calls)? + 1)
+            .max(1 + self.subtree_bound(second, inside, calls)?);
+        if let Some(both) =
+            intersection(inside, boxes(first)).and_then(|r| intersection(r, boxes(second)))
+        {
+            most = most.max(
+                self.subtree_bound(first, both, calls)?
+                    + self.subtree_bound(second, both, calls)?,
+            );
+        }
+        Some(1 + most)
+    }
+}
+
 /// `b` widened by [`RELATIVE_MARGIN`] of its size and of its distance from the origin, then
 /// rounded outwards to f32.
 fn widened(b: Aabb) -> [[f32; 3]; 2] {
@@ -166,19 +242,19 @@ mod tests {
         out
     }
 
-    /// On generated scenes of several kinds, seeds and sizes and on the assets with shapes,
-    /// HRBF terms and a plane: every primitive is listed once; skip pointers and leaves are well
-    /// formed; and a walk visits every primitive whose support the ray's line meets (random rays
-    /// through the scene, half of them aimed at a primitive).
-    #[test]
-    fn a_walk_visits_every_support_the_ray_meets() {
-        let mut state = 99_u64;
-        let mut unit = || {
+    fn random_units(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
             state = state
                 .wrapping_mul(6_364_136_223_846_793_005)
                 .wrapping_add(1_442_695_040_888_963_407);
             (state >> 11) as f64 / (1_u64 << 53) as f64
-        };
+        }
+    }
+
+    /// Generated scenes of several kinds, seeds and sizes, and the assets with shapes, HRBF
+    /// terms and a plane, and the 3 000 overlapping atoms of `molecule`.
+    fn scenes() -> Vec<(String, Scene)> {
         let mut scenes: Vec<(String, Scene)> = [
             (GeneratorKind::Blobs, 3, 300),
             (GeneratorKind::RandomSkeleton, 8, 40),
@@ -197,7 +273,7 @@ mod tests {
             (format!("{kind:?} {seed}"), scene)
         })
         .collect();
-        for asset in ["operators", "hrbf", "creature"] {
+        for asset in ["operators", "hrbf", "creature", "molecule"] {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join(format!("../assets/scenes/{asset}.ron"));
             scenes.push((
@@ -205,7 +281,16 @@ mod tests {
                 Scene::load(&path).unwrap_or_else(|e| panic!("{e}")),
             ));
         }
-        for (kind, scene) in scenes {
+        scenes
+    }
+
+    /// On [`scenes`]: every primitive is listed once; skip pointers and leaves are well
+    /// formed; and a walk visits every primitive whose support the ray's line meets (random rays
+    /// through the scene, half of them aimed at a primitive).
+    #[test]
+    fn a_walk_visits_every_support_the_ray_meets() {
+        let mut unit = random_units(99);
+        for (kind, scene) in scenes() {
             let program = FieldProgram::new(&scene);
             let bvh = RayBvh::new(&program);
             let mut listed = bvh.items.clone();
@@ -246,6 +331,78 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// Loop iterations of main.wgsl `field_anywhere` at `p`, counted as
+    /// [`RayBvh::point_walk_bound`] counts them (f32 comparisons, as the shader's).
+    fn point_walk_iterations(bvh: &RayBvh, p: [f32; 3]) -> usize {
+        let mut iterations = 2 * (bvh.items.len() - bvh.unbounded as usize) + 2;
+        let mut node = 0;
+        while node < bvh.nodes.len() {
+            iterations += 1;
+            let n = bvh.nodes[node];
+            let inside = (0..3).all(|k| n.min[k] <= p[k] && p[k] <= n.max[k]);
+            let count = (n.leaf & 7) as usize;
+            if !inside {
+                node = n.skip as usize;
+            } else if count == 0 {
+                node += 1;
+            } else {
+                iterations += 2 * count;
+                node = n.skip as usize;
+            }
+        }
+        iterations
+    }
+
+    /// On [`scenes`], no point walk takes more iterations than the bound: at random points of
+    /// the scene, at primitives' centres and at the corners and centres of where two nodes'
+    /// boxes overlap (where walks are longest). The bound is never above a walk through every
+    /// node and item.
+    #[test]
+    fn the_point_walk_bound_holds_wherever_the_point() {
+        let mut unit = random_units(17);
+        for (kind, scene) in scenes() {
+            let program = FieldProgram::new(&scene);
+            let bvh = RayBvh::new(&program);
+            let bound = bvh.point_walk_bound();
+            let bounds = program.support_bounds();
+            let mut points: Vec<[f32; 3]> = Vec::new();
+            for _ in 0..2000 {
+                let p = bounds.min + (bounds.max - bounds.min) * DVec3::new(unit(), unit(), unit());
+                points.push(p.as_vec3().to_array());
+            }
+            for (i, p) in program.primitives().iter().enumerate() {
+                if let Some(b) = p.support_aabb(program.kernel_of(i as u32)) {
+                    points.push(b.center().as_vec3().to_array());
+                }
+            }
+            let n = bvh.nodes.len();
+            for _ in 0..4000.min(n * n) {
+                let pick = |u: f64| bvh.nodes[((u * n as f64) as usize).min(n - 1)];
+                let (a, b) = (pick(unit()), pick(unit()));
+                if let Some([lo, hi]) = intersection([a.min, a.max], [b.min, b.max]) {
+                    points.push([0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k])));
+                    for corner in 0..8 {
+                        points.push(
+                            [0, 1, 2].map(|k| if corner >> k & 1 == 0 { lo[k] } else { hi[k] }),
+                        );
+                    }
+                }
+            }
+            let longest = points
+                .iter()
+                .map(|&p| point_walk_iterations(&bvh, p))
+                .max()
+                .unwrap_or(0);
+            let every = n + 2 * bvh.items.len() + 2;
+            eprintln!("{kind}: longest walk sampled {longest}, bound {bound}, every node {every}");
+            assert!(
+                longest <= bound,
+                "{kind}: a walk of {longest} iterations, bound {bound}"
+            );
+            assert!(bound <= every, "{kind}: bound {bound} against {every}");
         }
     }
 }

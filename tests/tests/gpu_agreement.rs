@@ -690,81 +690,104 @@ fn colour_difference(a: [f32; 3], b: [f32; 3]) -> f32 {
 }
 
 /// Soft shadows and ambient occlusion from the field (2014 notes §12.4) shade the same on both
-/// backends, on a scene whose groups are moved by a transform and repeated (the operators are
-/// baked into the primitives, so the GPU sees them too).
+/// backends: on a scene whose groups are moved by a transform and repeated (the operators are
+/// baked into the primitives, so the GPU sees them too), and ambient occlusion on the 3 000-atom
+/// `molecule`, whose samples the GPU finds in the scene's hierarchy (main.wgsl
+/// `field_anywhere`). Its soft shadows stay over lavapipe's loop limit by the walk's bound
+/// (`RayBvh::point_walk_bound`), and the renderer refuses them on a software adapter.
 #[test]
 fn field_shading_and_group_operators_agree_with_the_cpu() {
     let Some(mut gpu) = gpu_or_skip("field_shading_and_group_operators_agree_with_the_cpu") else {
         return;
     };
-    let mut scene = load("blobs");
-    scene.groups[0].transform = skeletrace_core::model::scene::Transform {
+    let mut moved = load("blobs");
+    moved.groups[0].transform = skeletrace_core::model::scene::Transform {
         translate: [0.3, -0.2, 0.1],
         rotate: [10.0, 35.0, -20.0],
         scale: 0.9,
     };
-    scene.groups[3].repeat = Some(skeletrace_core::model::scene::Repeat {
+    moved.groups[3].repeat = Some(skeletrace_core::model::scene::Repeat {
         count: [2, 1, 1],
         spacing: [0.6, 0.0, 0.0],
     });
-    let compiled = compile(&scene);
-    let program = &compiled.program;
-    let settings = compiled.settings;
-    gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
-    let method = GpuMethod::QuadraticTaylor;
-    let tracer = method.id().method().prepare(program, settings);
-    let shading = skeletrace_core::frame::FieldShading {
+    let every_term = skeletrace_core::frame::FieldShading {
         soft_shadows: true,
         ambient_occlusion: true,
     };
-    let cpu = |shading| {
-        Renderer::new(&compiled, tracer.as_ref(), settings).render(
-            &scene.camera,
-            RenderOptions {
-                width: SIZE,
-                height: SIZE,
-                shadows: false,
-                shading,
-            },
-        )
+    let occlusion = skeletrace_core::frame::FieldShading {
+        soft_shadows: false,
+        ambient_occlusion: true,
     };
-    let (shaded, plain) = (cpu(shading), cpu(Default::default()));
-    let gpu_frame = gpu
-        .render(
-            &[method],
-            &scene.camera,
-            &settings,
-            (SIZE as u32, SIZE as u32),
-            (View::Shaded(shading), false),
-        )
-        .unwrap_or_else(|e| panic!("{e}"))
-        .remove(0);
-    let both: Vec<usize> = (0..SIZE * SIZE)
-        .filter(|&i| shaded.is_hit(i) && gpu_frame.is_hit(i))
-        .collect();
-    assert!(
-        both.len() > SIZE * SIZE / 10,
-        "too few hit pixels: {}",
-        both.len()
-    );
-    let close = both
-        .iter()
-        .filter(|&&i| colour_difference(shaded.colour[i], gpu_frame.colour[i]) <= 0.02)
-        .count();
-    let darkened = both
-        .iter()
-        .filter(|&&i| (0..3).any(|c| plain.colour[i][c] - shaded.colour[i][c] > 0.02))
-        .count();
-    eprintln!(
-        "field shading: {close}/{} hit pixels within 0.02 of the CPU colour; {darkened} darkened by \
-         soft shadows or occlusion",
-        both.len()
-    );
-    assert!(close * 100 >= both.len() * 99, "GPU and CPU shading differ");
-    assert!(
-        darkened * 20 >= both.len(),
-        "the shading terms hardly change the image"
-    );
+    for (name, scene, shading) in [
+        ("moved blobs", moved, every_term),
+        ("molecule", load("molecule"), occlusion),
+    ] {
+        let compiled = compile(&scene);
+        let program = &compiled.program;
+        let settings = compiled.settings;
+        gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+        let method = GpuMethod::QuadraticTaylor;
+        let tracer = method.id().method().prepare(program, settings);
+        let cpu = |shading| {
+            Renderer::new(&compiled, tracer.as_ref(), settings).render(
+                &scene.camera,
+                RenderOptions {
+                    width: SIZE,
+                    height: SIZE,
+                    shadows: false,
+                    shading,
+                },
+            )
+        };
+        let (shaded, plain) = (cpu(shading), cpu(Default::default()));
+        let gpu_frame = gpu
+            .render(
+                &[method],
+                &scene.camera,
+                &settings,
+                (SIZE as u32, SIZE as u32),
+                (View::Shaded(shading), false),
+            )
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+            .remove(0);
+        let both: Vec<usize> = (0..SIZE * SIZE)
+            .filter(|&i| shaded.is_hit(i) && gpu_frame.is_hit(i))
+            .collect();
+        assert!(
+            both.len() > SIZE * SIZE / 10,
+            "{name}: too few hit pixels: {}",
+            both.len()
+        );
+        let close = both
+            .iter()
+            .filter(|&&i| colour_difference(shaded.colour[i], gpu_frame.colour[i]) <= 0.02)
+            .count();
+        let darkened = both
+            .iter()
+            .filter(|&&i| (0..3).any(|c| plain.colour[i][c] - shaded.colour[i][c] > 0.02))
+            .count();
+        eprintln!(
+            "field shading, {name}: {close}/{} hit pixels within 0.02 of the CPU colour; \
+             {darkened} darkened by soft shadows or occlusion",
+            both.len()
+        );
+        assert!(
+            close * 100 >= both.len() * 99,
+            "{name}: GPU and CPU shading differ"
+        );
+        assert!(
+            darkened * 20 >= both.len(),
+            "{name}: the shading terms hardly change the image"
+        );
+    }
+    if gpu.device_kind() == skeletrace_core::backend::DeviceKind::SoftwareGpu {
+        let molecule = compile(&load("molecule"));
+        let refused = gpu.check_shading_budget(&molecule, every_term);
+        assert!(
+            refused.is_err(),
+            "the molecule's soft shadows pass lavapipe's loop budget: {refused:?}"
+        );
+    }
 }
 
 /// A marching method's rays are suspended when a dispatch's allowance of steps runs out and
