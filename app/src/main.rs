@@ -171,7 +171,7 @@ fn gpu_methods(
     list: &str,
     chosen: &[Box<dyn Method>],
     program: &FieldProgram,
-    (protocol, mode): (Protocol, TraceMode),
+    protocol: Protocol,
 ) -> Result<Vec<GpuMethod>, String> {
     let mut out = Vec::new();
     for method in chosen {
@@ -179,18 +179,7 @@ fn gpu_methods(
         let gpu = GpuMethod::from_id(id)
             .ok_or_else(|| "no GPU implementation".to_owned())
             .and_then(|g| g.supports(program).map(|()| g))
-            .and_then(|g| g.follows(protocol).map(|()| g))
-            .and_then(|g| {
-                if mode == TraceMode::Transparent && !g.traces_every_crossing() {
-                    Err(
-                        "its GPU march stops at the first crossing; transparent statistics \
-                         trace it on the CPU"
-                            .to_owned(),
-                    )
-                } else {
-                    Ok(g)
-                }
-            });
+            .and_then(|g| g.follows(protocol).map(|()| g));
         match gpu {
             Ok(g) => out.push(g),
             Err(why) if list == "all" => eprintln!("skeletrace: skipping {id} on the GPU: {why}"),
@@ -235,12 +224,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let stats = match on_gpu {
         None => stats::run(program, &name, &chosen, setup, &progress),
         Some(mut gpu) => {
-            let methods = gpu_methods(
-                &args.methods,
-                &chosen,
-                program,
-                (setup.protocol, setup.mode),
-            )?;
+            let methods = gpu_methods(&args.methods, &chosen, program, setup.protocol)?;
             eprintln!(
                 "skeletrace: {} rays per method on {}; the first {} compared with the reference on the CPU",
                 setup.rays,

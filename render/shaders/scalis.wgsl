@@ -4,7 +4,8 @@
 // a sign change), Algorithm 1 with one backtracking step, 32 iterations per piece. At a support
 // limit the data are known without an evaluation (F = σ² − 1, flat), and the oracle gives a
 // flat end the slope of the quadratic through both values and the other end's slope, as the
-// CPU's default protocol does. Opaque only.
+// CPU's default protocol does. In transparent statistics a piece's march goes on `min_step` past
+// each crossing, as the CPU's does.
 
 struct Hermite {
     t: f32,
@@ -181,8 +182,15 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             let t = homothetic_argmin(ray, item.id);
             if t > part.x && t < part.y && count < MAX_BREAKPOINTS - 1u {
                 var k = count;
-                while k > 1u && points[k - 1u] > t {
-                    points[k] = points[k - 1u];
+                loop {
+                    if k <= 1u {
+                        break;
+                    }
+                    let before = points[k - 1u];
+                    if before <= t {
+                        break;
+                    }
+                    points[k] = before;
                     k -= 1u;
                 }
                 points[k] = t;
@@ -220,9 +228,14 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             } else {
                 e = hermite(sp, ray, points[j]);
             }
-            let sign = select(-1.0, 1.0, b.v >= 0.0);
-            let r = find_root(sp, ray, flip(b, sign), flip(e, sign), sign);
-            if r.t > -INF {
+            // The piece's crossings (core: scalis_quadratic.rs trace_piece): a frame's ray ends
+            // at the first; transparent statistics go on `min_step` past each.
+            loop {
+                let sign = select(-1.0, 1.0, b.v >= 0.0);
+                let r = find_root(sp, ray, flip(b, sign), flip(e, sign), sign);
+                if r.t == -INF {
+                    break;
+                }
                 var t = r.t;
                 if r.d != 0.0 {
                     let newton = r.t - r.v / r.d;
@@ -230,11 +243,15 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
                         t = newton;
                     }
                 }
-                trace.t = t;
-                trace.hit = true;
-                trace.entering = sign > 0.0;
                 trace.steps = scalis_steps;
-                return trace;
+                if crossing_ends_march(&trace, t, sign > 0.0) {
+                    return trace;
+                }
+                let next = t + gap;
+                if next >= e.t || scalis_steps >= globals.max_steps {
+                    break;
+                }
+                b = hermite(sp, ray, next);
             }
             b = e;
         }

@@ -44,9 +44,10 @@ fn cubic_minus(m: vec4<f32>, c: f32, s: f32) -> f32 {
     return m.x - c + s * (m.y + s * (m.z + s * m.w));
 }
 
-// The first crossing of c by the cubic `m` on s ∈ [0, 1], on its monotone parts, by 50
-// bisections (Piece::crossings): (s, entering), s < 0 when there is none.
-fn hermite_first_crossing(m: vec4<f32>, c: f32) -> vec2<f32> {
+// The first crossing of c by the cubic `m` on s ∈ [0, 1] in or after its monotone part
+// `first_part`, by 50 bisections (Piece::crossings): (s, entering, the part), s < 0 when there
+// is none.
+fn hermite_crossing(m: vec4<f32>, c: f32, first_part: u32) -> vec3<f32> {
     let roots = quadratic_roots(3.0 * m.w, 2.0 * m.z, m.y);
     var cuts = array<f32, 4>(0.0, 1.0, 1.0, 1.0);
     var count = 1u;
@@ -60,7 +61,7 @@ fn hermite_first_crossing(m: vec4<f32>, c: f32) -> vec2<f32> {
         }
     }
     cuts[count] = 1.0;
-    for (var w = 0u; w < count; w++) {
+    for (var w = first_part; w < count; w++) {
         var lo = cuts[w];
         var hi = cuts[w + 1u];
         let below_lo = cubic_minus(m, c, lo) < 0.0;
@@ -75,9 +76,9 @@ fn hermite_first_crossing(m: vec4<f32>, c: f32) -> vec2<f32> {
                 hi = mid;
             }
         }
-        return vec2<f32>(0.5 * (lo + hi), select(0.0, 1.0, below_lo));
+        return vec3<f32>(0.5 * (lo + hi), select(0.0, 1.0, below_lo), f32(w));
     }
-    return vec2<f32>(-1.0, 0.0);
+    return vec3<f32>(-1.0, 0.0, 0.0);
 }
 
 // State carried between dispatches (parts.wgsl): t, the start of the next elementary interval.
@@ -133,12 +134,19 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             at_next += hermite_at(m, a, b - a, next);
         }
         let l = next - t;
-        let crossing = hermite_first_crossing(hermite_monomial(at_t, at_next, l), c);
-        if crossing.x >= 0.0 {
-            (*trace).t = t + crossing.x * l;
-            (*trace).hit = true;
-            (*trace).entering = crossing.y > 0.5;
-            return;
+        let m = hermite_monomial(at_t, at_next, l);
+        // The interval's crossings, one per monotone part of its cubic: a frame's ray ends at
+        // the first, transparent statistics take them all, as the CPU does.
+        var first_part = 0u;
+        loop {
+            let crossing = hermite_crossing(m, c, first_part);
+            if crossing.x < 0.0 {
+                break;
+            }
+            if crossing_ends_march(trace, t + crossing.x * l, crossing.y > 0.5) {
+                return;
+            }
+            first_part = u32(crossing.z) + 1u;
         }
         t = next;
     }

@@ -778,7 +778,7 @@ impl GpuRenderer {
     }
 
     /// [`GpuRenderer::trace_rays`] in transparent mode: every crossing of each ray, up to
-    /// `slots` of them (`method` must [`GpuMethod::traces_every_crossing`]).
+    /// `slots` of them.
     ///
     /// # Errors
     /// As [`GpuRenderer::render`].
@@ -789,7 +789,7 @@ impl GpuRenderer {
         lists: &UploadedRayLists,
         (settings, slots): (&TraceSettings, u32),
     ) -> Result<Vec<RayCrossings>, BackendError> {
-        debug_assert!(method.traces_every_crossing() && (1..=32).contains(&slots));
+        debug_assert!((1..=32).contains(&slots));
         let (words, depth) = self.dispatch_rays(method, rays, lists, settings, slots)?;
         Ok(words
             .chunks_exact(4)

@@ -8,9 +8,9 @@
 //! hierarchy ([`crate::ray_bvh`]). The reference tracer runs on the CPU, on
 //! the first rays of the same sequence, and every method is compared with it there; steps are
 //! counted over every ray. Transparent statistics (forward-inclusion 2023, Tables 3–4: every
-//! crossing of each ray, steps counted to the last one) run on the GPU for the methods whose
-//! marches go on past a crossing ([`GpuMethod::traces_every_crossing`]), each ray keeping up to
-//! [`CROSSING_SLOTS`] crossings. The GPU counts no evaluations.
+//! crossing of each ray, steps counted to the last one) run on the GPU for every method, each
+//! march going on past a crossing as its core method does (main.wgsl `crossing_ends_march`),
+//! each ray keeping up to [`CROSSING_SLOTS`] crossings. The GPU counts no evaluations.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -182,7 +182,7 @@ impl RayLists {
 ///
 /// # Errors
 /// [`BackendError::Unsupported`] for a method the GPU does not run on the scene, or in
-/// transparent mode a method whose GPU march stops at its first crossing or a ray with more
+/// transparent mode a ray with more
 /// than [`CROSSING_SLOTS`] crossings; a device failure.
 pub fn run(
     renderer: &mut GpuRenderer,
@@ -193,13 +193,6 @@ pub fn run(
     progress: &dyn Fn(&str, f64),
 ) -> Result<SceneStats, BackendError> {
     let transparent = setup.mode == TraceMode::Transparent;
-    if transparent && let Some(m) = methods.iter().find(|m| !m.traces_every_crossing()) {
-        return Err(BackendError::Unsupported(format!(
-            "{}'s transparent statistics run on the CPU only (its GPU march stops at the first \
-             crossing)",
-            m.name()
-        )));
-    }
     renderer.set_scene(compiled)?;
     let program = &compiled.program;
     let settings = TraceSettings::for_protocol(program, setup.protocol);

@@ -234,20 +234,6 @@ impl GpuMethod {
         ))
     }
 
-    /// Whether the method's GPU march can go on past a crossing, as transparent statistics
-    /// need (main.wgsl `crossing_ends_march`): those of parts.wgsl but sherstyuk (march.wgsl:
-    /// sphere tracing and the forward inclusions; segment-original, sphere-enhanced,
-    /// sphere-accelerated), each going on as its core method does. Sherstyuk, scalis-quadratic
-    /// and field-inversion stop at their first crossing; their transparent statistics run on
-    /// the CPU.
-    #[must_use]
-    pub fn traces_every_crossing(self) -> bool {
-        !matches!(
-            self,
-            Self::ScalisQuadratic | Self::Sherstyuk | Self::FieldInversion
-        )
-    }
-
     /// Whether the method marches through parts.wgsl, which suspends a ray after a dispatch's
     /// allowance of steps and resumes it in the next dispatch; the others trace in one.
     #[must_use]

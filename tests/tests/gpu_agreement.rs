@@ -927,10 +927,14 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
 /// Issue 22: `stats --backend gpu` against the CPU's statistics on the same rays: the tree and
 /// a generated blob scene, the six-axis protocol and the random rays around the box of
 /// `paper-2023`; and transparent statistics (every crossing, forward-inclusion 2023 Table 4's
-/// protocol) on its summed blobs and on the generated blobs, with the table's methods. Every
-/// ray is compared with the CPU reference, every crossing in transparent mode; hits agree to
-/// 0.5 % of the rays, average steps (to the last crossing, in transparent mode) to 1 %, and
-/// no method misses a reference crossing or finds a spurious one.
+/// protocol) on its summed blobs and on the generated blobs, with the table's methods (and
+/// sherstyuk on the summed blobs), and those of the two methods traced in one dispatch:
+/// scalis-quadratic on the tree, field inversion on a generated molecule of Gaussian atoms.
+/// Every ray is compared with the CPU reference, every crossing in transparent mode; hits agree
+/// to 0.5 % of the rays, average steps (to the last crossing, in transparent mode) to 1 %, and
+/// no conservative method misses a reference crossing or finds a spurious one (sherstyuk,
+/// scalis-quadratic and field inversion miss some on the CPU too: the GPU may not miss or add
+/// more than 0.5 % of the rays beyond the CPU's).
 #[test]
 fn gpu_statistics_agree_with_the_cpus() {
     use skeletrace_core::cpu::stats::{self, StatsSetup};
@@ -943,6 +947,16 @@ fn gpu_statistics_agree_with_the_cpus() {
         &skeletrace_core::model::generate::GenerateOptions {
             seed: 23,
             size: Some(60),
+            ..Default::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    // Gaussian atoms, as field inversion needs.
+    let molecule = skeletrace_core::model::generate::generate(
+        skeletrace_core::model::generate::GeneratorKind::Molecule,
+        &skeletrace_core::model::generate::GenerateOptions {
+            seed: 29,
+            size: Some(150),
             ..Default::default()
         },
     )
@@ -991,6 +1005,29 @@ fn gpu_statistics_agree_with_the_cpus() {
             TraceMode::Transparent,
             &transparent,
         ),
+        // Every root of an interval's cubic (summed blobs: its polynomials add).
+        (
+            "summed-blobs",
+            load("summed-blobs"),
+            Protocol::Paper2023,
+            TraceMode::Transparent,
+            &[MethodId::Sherstyuk],
+        ),
+        // The two methods that trace one dispatch per ray, past every crossing too.
+        (
+            "tree",
+            load("tree"),
+            Protocol::Default,
+            TraceMode::Transparent,
+            &[MethodId::ScalisQuadratic],
+        ),
+        (
+            "generated molecule",
+            molecule,
+            Protocol::Default,
+            TraceMode::Transparent,
+            &[MethodId::FieldInversion],
+        ),
     ] {
         let compiled = std::sync::Arc::new(compile(&scene));
         let setup = StatsSetup {
@@ -1015,21 +1052,29 @@ fn gpu_statistics_agree_with_the_cpus() {
         .unwrap_or_else(|e| panic!("{name}: {e}"));
         for (c, g) in cpu.methods.iter().zip(&on_gpu.methods) {
             eprintln!(
-                "{name} ({protocol}, {mode:?}) {}: hits {} / {}, avg steps {:.3} / {:.3} \
-                 (CPU / GPU), GPU missed {} spurious {} of {} compared, depth error {:.1e}",
+                "{name} ({protocol}, {mode:?}) {}: hits {} / {}, avg steps {:.3} / {:.3}, \
+                 missed {} / {}, spurious {} / {} of {} compared (CPU / GPU), GPU depth error \
+                 {:.1e}",
                 c.name,
                 c.hits,
                 g.hits,
                 c.avg_steps,
                 g.avg_steps,
+                c.missed,
                 g.missed,
+                c.spurious,
                 g.spurious,
                 g.compared,
                 g.max_depth_error
             );
             let hits = c.hits.abs_diff(g.hits) as f64 / c.rays as f64;
             let steps = (g.avg_steps / c.avg_steps - 1.0).abs();
-            if g.compared != c.rays || hits > 0.005 || steps > 0.01 || g.missed + g.spurious > 0 {
+            // Field inversion is not conservative: it misses every exit and crossings past
+            // its distance threshold on the CPU too. The GPU may not miss more.
+            let errors = |m: &stats::MethodStats| m.missed + m.spurious;
+            let more_errors = errors(g) as f64 - errors(c) as f64 > 0.005 * c.rays as f64
+                || (errors(c) == 0 && errors(g) > 0);
+            if g.compared != c.rays || hits > 0.005 || steps > 0.01 || more_errors {
                 failures.push(format!("{name} ({protocol}, {mode:?}) {}", c.name));
             }
         }
