@@ -173,7 +173,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
         var count = 1u;
         points[0] = part.x;
         let items = support_count(sp);
-    for (var j = 0u; j < items; j++) {
+        for (var j = 0u; j < items; j++) {
             let item = support_item(sp, ray, j);
             let s = item.span;
             if s.x > s.y || s.y < part.x || s.x > part.y {

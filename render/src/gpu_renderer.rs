@@ -212,6 +212,7 @@ pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     adapter: String,
+    graphics_api: wgpu::Backend,
     device_kind: DeviceKind,
     errors: Arc<Mutex<Vec<String>>>,
     binning: TileBinning,
@@ -465,8 +466,25 @@ impl GpuRenderer {
     /// # Errors
     /// No adapter, or no device.
     pub fn new() -> Result<Self, BackendError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        Self::on_instance(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+    }
+
+    /// Opens the first adapter of wgpu's OpenGL backend (Mesa's llvmpipe through EGL on a
+    /// machine without a GPU): what wgpu falls back to where there is no Vulkan loader, and a
+    /// second shader compiler (naga's GLSL, then the driver's) that the tests hold to the CPU
+    /// too — it once dropped a store that Vulkan kept (docs/gpu.md).
+    ///
+    /// # Errors
+    /// No OpenGL adapter, or no device.
+    pub fn new_on_opengl() -> Result<Self, BackendError> {
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
+        descriptor.backends = wgpu::Backends::GL;
+        Self::on_instance(descriptor)
+    }
+
+    /// Opens the first adapter of an instance made with `descriptor`.
+    fn on_instance(descriptor: wgpu::InstanceDescriptor) -> Result<Self, BackendError> {
+        let instance = wgpu::Instance::new(descriptor);
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,
@@ -523,6 +541,7 @@ impl GpuRenderer {
             device,
             queue,
             adapter: format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type),
+            graphics_api: info.backend,
             device_kind: if cpu_adapter {
                 DeviceKind::SoftwareGpu
             } else {
@@ -552,6 +571,12 @@ impl GpuRenderer {
     #[must_use]
     pub fn adapter_name(&self) -> &str {
         &self.adapter
+    }
+
+    /// The graphics API the adapter runs on (Vulkan, OpenGL, Metal, DirectX 12).
+    #[must_use]
+    pub fn graphics_api(&self) -> wgpu::Backend {
+        self.graphics_api
     }
 
     /// Whether the adapter is a hardware GPU or a software rasteriser (from the adapter's own

@@ -22,3 +22,5 @@ pub mod viewport;
 pub use gpu_backend::GpuBackend;
 pub use gpu_renderer::GpuRenderer;
 pub use shaders::GpuMethod;
+/// The wgpu the renderer is built on, for naming its types (the adapter's graphics API).
+pub use wgpu;

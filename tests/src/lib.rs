@@ -96,3 +96,29 @@ pub fn gpu_or_skip(name: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
 }
+
+/// A renderer on wgpu's OpenGL backend (Mesa's llvmpipe through EGL here and in CI) for test
+/// `name`, or `None` (after printing why) when it must be skipped: where the GPU is required,
+/// a machine without an OpenGL adapter fails the test.
+///
+/// # Panics
+/// Without an OpenGL adapter when [`gpu_required`].
+#[must_use]
+pub fn opengl_or_skip(name: &str) -> Option<GpuRenderer> {
+    let why = match GpuRenderer::new_on_opengl() {
+        Ok(renderer) if renderer.graphics_api() == skeletrace_render::wgpu::Backend::Gl => {
+            return Some(renderer);
+        }
+        Ok(renderer) => format!("the adapter '{}' is not OpenGL", renderer.adapter_name()),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        !gpu_required(),
+        "{name}: SKELETRACE_REQUIRE_GPU=1 but there is no OpenGL adapter: {why} \
+         (install libegl1 and libgl1-mesa-dri for llvmpipe)"
+    );
+    eprintln!(
+        "SKIPPED {name}: no OpenGL adapter ({why}); set SKELETRACE_REQUIRE_GPU=1 to make this a failure"
+    );
+    None
+}

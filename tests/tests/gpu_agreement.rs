@@ -937,30 +937,14 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
 /// more than 0.5 % of the rays beyond the CPU's).
 #[test]
 fn gpu_statistics_agree_with_the_cpus() {
-    use skeletrace_core::cpu::stats::{self, StatsSetup};
     use skeletrace_core::methods::{MethodId, Protocol, TraceMode};
+    use skeletrace_core::model::generate::GeneratorKind;
     let Some(mut gpu) = gpu_or_skip("gpu_statistics_agree_with_the_cpus") else {
         return;
     };
-    let generated = skeletrace_core::model::generate::generate(
-        skeletrace_core::model::generate::GeneratorKind::Blobs,
-        &skeletrace_core::model::generate::GenerateOptions {
-            seed: 23,
-            size: Some(60),
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let blobs = generated(GeneratorKind::Blobs, 23, 60);
     // Gaussian atoms, as field inversion needs.
-    let molecule = skeletrace_core::model::generate::generate(
-        skeletrace_core::model::generate::GeneratorKind::Molecule,
-        &skeletrace_core::model::generate::GenerateOptions {
-            seed: 29,
-            size: Some(150),
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let molecule = generated(GeneratorKind::Molecule, 29, 150);
     let opaque = [MethodId::Segment, MethodId::QuadraticTaylor];
     // Table 4's baseline and the two bottom-up and Taylor rows.
     let transparent = [
@@ -979,14 +963,14 @@ fn gpu_statistics_agree_with_the_cpus() {
         ),
         (
             "generated blobs",
-            generated.clone(),
+            blobs.clone(),
             Protocol::Default,
             TraceMode::Opaque,
             &opaque,
         ),
         (
             "generated blobs",
-            generated.clone(),
+            blobs.clone(),
             Protocol::Paper2023,
             TraceMode::Opaque,
             &opaque,
@@ -1000,7 +984,7 @@ fn gpu_statistics_agree_with_the_cpus() {
         ),
         (
             "generated blobs",
-            generated,
+            blobs,
             Protocol::Paper2023,
             TraceMode::Transparent,
             &transparent,
@@ -1029,57 +1013,131 @@ fn gpu_statistics_agree_with_the_cpus() {
             &[MethodId::FieldInversion],
         ),
     ] {
-        let compiled = std::sync::Arc::new(compile(&scene));
-        let setup = StatsSetup {
-            protocol,
-            mode,
-            ..StatsSetup::opaque(3000, 5)
-        };
-        let chosen: Vec<_> = methods.iter().map(|m| m.method()).collect();
-        let cpu = stats::run(&compiled.program, name, &chosen, setup, &|_, _| {});
-        let gpu_methods: Vec<GpuMethod> = methods
-            .iter()
-            .map(|&m| GpuMethod::from_id(m).unwrap_or_else(|| panic!("{m}")))
-            .collect();
-        let on_gpu = skeletrace_render::gpu_stats::run(
+        failures.extend(statistics_disagreements(
             &mut gpu,
-            &compiled,
             name,
-            &gpu_methods,
-            (setup, setup.rays),
-            &|_, _| {},
-        )
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-        for (c, g) in cpu.methods.iter().zip(&on_gpu.methods) {
-            eprintln!(
-                "{name} ({protocol}, {mode:?}) {}: hits {} / {}, avg steps {:.3} / {:.3}, \
-                 missed {} / {}, spurious {} / {} of {} compared (CPU / GPU), GPU depth error \
-                 {:.1e}",
-                c.name,
-                c.hits,
-                g.hits,
-                c.avg_steps,
-                g.avg_steps,
-                c.missed,
-                g.missed,
-                c.spurious,
-                g.spurious,
-                g.compared,
-                g.max_depth_error
-            );
-            let hits = c.hits.abs_diff(g.hits) as f64 / c.rays as f64;
-            let steps = (g.avg_steps / c.avg_steps - 1.0).abs();
-            // Field inversion is not conservative: it misses every exit and crossings past
-            // its distance threshold on the CPU too. The GPU may not miss more.
-            let errors = |m: &stats::MethodStats| m.missed + m.spurious;
-            let more_errors = errors(g) as f64 - errors(c) as f64 > 0.005 * c.rays as f64
-                || (errors(c) == 0 && errors(g) > 0);
-            if g.compared != c.rays || hits > 0.005 || steps > 0.01 || more_errors {
-                failures.push(format!("{name} ({protocol}, {mode:?}) {}", c.name));
-            }
-        }
+            &scene,
+            (protocol, mode),
+            methods,
+        ));
     }
     assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// wgpu's OpenGL backend (Mesa's llvmpipe through EGL here and in CI), which wgpu falls back to
+/// on a machine without a Vulkan loader: its shaders go through naga's GLSL and the driver's
+/// GLSL compiler, which once dropped a store in the SCALIS tracer's breakpoint sort that
+/// Vulkan kept (48 of the tree's 3 000 statistics rays; docs/gpu.md). Held to the CPU as on
+/// Vulkan: that statistics case (scalis-quadratic through the tree, every crossing), and the
+/// frames of every GPU method on the tree (SCALIS segments) and on `blobs` (point blobs), at
+/// their scene cameras.
+#[test]
+fn the_opengl_backend_agrees_with_the_cpu() {
+    use skeletrace_core::methods::{MethodId, Protocol, TraceMode};
+    let Some(mut gpu) = skeletrace_tests::opengl_or_skip("the_opengl_backend_agrees_with_the_cpu")
+    else {
+        return;
+    };
+    eprintln!("adapter: {}", gpu.adapter_name());
+    let mut failures = statistics_disagreements(
+        &mut gpu,
+        "tree (OpenGL)",
+        &load("tree"),
+        (Protocol::Default, TraceMode::Transparent),
+        &[MethodId::ScalisQuadratic],
+    );
+    for asset in ["tree", "blobs"] {
+        let scene = load(asset);
+        check_agreement(
+            &mut gpu,
+            &format!("{asset} (OpenGL)"),
+            &scene,
+            &[scene.camera],
+            &mut failures,
+        );
+    }
+    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// The scene the generator makes of `kind` from `seed` with `size` items.
+fn generated(
+    kind: skeletrace_core::model::generate::GeneratorKind,
+    seed: u64,
+    size: usize,
+) -> Scene {
+    let options = skeletrace_core::model::generate::GenerateOptions {
+        seed,
+        size: Some(size),
+        ..Default::default()
+    };
+    skeletrace_core::model::generate::generate(kind, &options).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Traces the statistics protocol's first 3 000 rays (seed 5) on `scene` with `methods` on the
+/// CPU and on `gpu`, prints both, and names the methods that miss the thresholds of
+/// [`gpu_statistics_agree_with_the_cpus`].
+fn statistics_disagreements(
+    gpu: &mut GpuRenderer,
+    name: &str,
+    scene: &Scene,
+    (protocol, mode): (
+        skeletrace_core::methods::Protocol,
+        skeletrace_core::methods::TraceMode,
+    ),
+    methods: &[skeletrace_core::methods::MethodId],
+) -> Vec<String> {
+    use skeletrace_core::cpu::stats::{self, StatsSetup};
+    let mut failures = Vec::new();
+    let compiled = std::sync::Arc::new(compile(scene));
+    let setup = StatsSetup {
+        protocol,
+        mode,
+        ..StatsSetup::opaque(3000, 5)
+    };
+    let chosen: Vec<_> = methods.iter().map(|m| m.method()).collect();
+    let cpu = stats::run(&compiled.program, name, &chosen, setup, &|_, _| {});
+    let gpu_methods: Vec<GpuMethod> = methods
+        .iter()
+        .map(|&m| GpuMethod::from_id(m).unwrap_or_else(|| panic!("{m}")))
+        .collect();
+    let on_gpu = skeletrace_render::gpu_stats::run(
+        gpu,
+        &compiled,
+        name,
+        &gpu_methods,
+        (setup, setup.rays),
+        &|_, _| {},
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    for (c, g) in cpu.methods.iter().zip(&on_gpu.methods) {
+        eprintln!(
+            "{name} ({protocol}, {mode:?}) {}: hits {} / {}, avg steps {:.3} / {:.3}, \
+             missed {} / {}, spurious {} / {} of {} compared (CPU / GPU), GPU depth error \
+             {:.1e}",
+            c.name,
+            c.hits,
+            g.hits,
+            c.avg_steps,
+            g.avg_steps,
+            c.missed,
+            g.missed,
+            c.spurious,
+            g.spurious,
+            g.compared,
+            g.max_depth_error
+        );
+        let hits = c.hits.abs_diff(g.hits) as f64 / c.rays as f64;
+        let steps = (g.avg_steps / c.avg_steps - 1.0).abs();
+        // Field inversion is not conservative: it misses every exit and crossings past
+        // its distance threshold on the CPU too. The GPU may not miss more.
+        let errors = |m: &stats::MethodStats| m.missed + m.spurious;
+        let more_errors = errors(g) as f64 - errors(c) as f64 > 0.005 * c.rays as f64
+            || (errors(c) == 0 && errors(g) > 0);
+        if g.compared != c.rays || hits > 0.005 || steps > 0.01 || more_errors {
+            failures.push(format!("{name} ({protocol}, {mode:?}) {}", c.name));
+        }
+    }
+    failures
 }
 
 /// Secondary rays (main.wgsl `trace_path`; cpu/renderer.rs): exact shadow rays towards every
