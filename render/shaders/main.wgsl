@@ -247,8 +247,9 @@ struct Path {
 };
 
 @group(0) @binding(13) var<storage, read_write> paths: array<Path>;
-// Paths that a dispatch left unfinished; the renderer clears it before the last dispatch of a
-// batch and reads it after (gpu_renderer.rs), to stop dispatching once every path is done.
+// Non-zero once a dispatch has left a path unfinished (a ray still marching); the renderer
+// clears it before the last dispatch of a batch and reads it after (gpu_renderer.rs
+// `trace_frames`), to stop dispatching once every path is done.
 @group(0) @binding(14) var<storage, read_write> unfinished_paths: atomic<u32>;
 
 fn push_ray(path: ptr<function, Path>, ray: PathRay) {
@@ -426,7 +427,10 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
     }
     if kept {
         paths[pixel] = path;
-        atomicAdd(&unfinished_paths, 1u);
+    }
+    // Another dispatch is needed: one store per dispatch, not one per ray.
+    if atomicLoad(&unfinished_paths) == 0u {
+        atomicStore(&unfinished_paths, 1u);
     }
 }
 

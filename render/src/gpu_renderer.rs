@@ -47,6 +47,10 @@ pub const STEPS_PER_DISPATCH: u32 = 256;
 /// limit, where 8 stay far below it.
 pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
 
+/// Dispatches a frame on a CPU adapter records between two checks of whether any ray is still
+/// marching (`trace_frames`).
+const SOFTWARE_DISPATCH_BATCH: u32 = 8;
+
 /// Most loop iterations the field shading terms may take per pixel (every soft-shadow and
 /// ambient-occlusion sample walks the scene's hierarchy, `RayBvh::point_walk_bound`): lavapipe
 /// stops a shader invocation's loops after 65 535 iterations in all, and the march needs its
@@ -1303,7 +1307,61 @@ impl GpuRenderer {
             };
             encoder.clear_buffer(&outputs.suspensions, 0, None);
             let workgroups = (width.div_ceil(8), height.div_ceil(8));
-            if secondary == 0 || !wait {
+            if secondary == 0
+                && wait
+                && self.device_kind == DeviceKind::SoftwareGpu
+                && dispatches > SOFTWARE_DISPATCH_BATCH
+            {
+                // On a software adapter a dispatch costs milliseconds even where every ray has
+                // finished (lavapipe: about 14 ms at 128 × 128), and a march's budget is many
+                // dispatches (STEPS_PER_DISPATCH_CPU_ADAPTER): batches of dispatches, each read
+                // back for whether its last left a ray marching (main.wgsl
+                // `unfinished_paths`), until none did. The frame is the same: a finished ray's
+                // dispatches return at once. The pass timestamps span the batches.
+                let mut done = 0;
+                while done < dispatches {
+                    let batch = SOFTWARE_DISPATCH_BATCH.min(dispatches - done);
+                    let stamps = |begin: bool, end: bool| {
+                        queries.filter(|_| begin || end).map(|query_set| {
+                            wgpu::ComputePassTimestampWrites {
+                                query_set,
+                                beginning_of_pass_write_index: begin
+                                    .then_some(2 * (2 + panel as u32)),
+                                end_of_pass_write_index: end.then_some(2 * (2 + panel as u32) + 1),
+                            }
+                        })
+                    };
+                    let pass = |encoder: &mut wgpu::CommandEncoder,
+                                count: u32,
+                                timestamp_writes| {
+                        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some(method.name()),
+                            timestamp_writes,
+                        });
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, &group, &[]);
+                        for _ in 0..count {
+                            pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
+                        }
+                    };
+                    if batch > 1 {
+                        pass(encoder, batch - 1, stamps(done == 0, false));
+                    }
+                    encoder.clear_buffer(&outputs.unfinished[0], 0, None);
+                    pass(encoder, 1, stamps(done == 0 && batch == 1, true));
+                    done += batch;
+                    let [flag, read] = &outputs.unfinished;
+                    encoder.copy_buffer_to_buffer(flag, 0, read, 0, 4);
+                    let recorded = std::mem::replace(
+                        encoder,
+                        d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()),
+                    );
+                    self.queue.submit([recorded.finish()]);
+                    if read_back::<u32>(d, read)?.first() == Some(&0) {
+                        break;
+                    }
+                }
+            } else if secondary == 0 || !wait {
                 if secondary != 0 {
                     encoder.clear_buffer(&outputs.paths, 0, None);
                 }
