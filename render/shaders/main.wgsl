@@ -428,7 +428,11 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
     if kept {
         paths[pixel] = path;
     }
-    // Another dispatch is needed: one store per dispatch, not one per ray.
+    note_unfinished();
+}
+
+// Another dispatch is needed: one store per dispatch, not one per ray.
+fn note_unfinished() {
     if atomicLoad(&unfinished_paths) == 0u {
         atomicStore(&unfinished_paths, 1u);
     }
@@ -530,6 +534,7 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var trace: Trace;
     if !march_resumed(k, sp, ray, &trace) {
+        note_unfinished();
         return;
     }
     if globals.stats_crossings != 0u {

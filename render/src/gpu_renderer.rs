@@ -47,9 +47,23 @@ pub const STEPS_PER_DISPATCH: u32 = 256;
 /// limit, where 8 stay far below it.
 pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
 
-/// Dispatches a frame on a CPU adapter records between two checks of whether any ray is still
-/// marching (`trace_frames`).
-const SOFTWARE_DISPATCH_BATCH: u32 = 8;
+/// How a march's dispatches go between two checks of whether a ray is still marching
+/// (`dispatch_marches`): batches of `first` dispatches, or with `doubling`, a first batch of
+/// `first` and each later one twice the one before.
+#[derive(Clone, Copy)]
+struct Batches {
+    first: u32,
+    doubling: bool,
+}
+
+/// A CPU adapter's batches: 8 dispatches, then 16, 32, … Rays that finish early spare the rest
+/// of the budget's dispatches; where some ray marches to the end of its budget (sphere tracing
+/// along grazing rays), the checks are few (5 for the 256 dispatches of 2 048 steps), where one
+/// every 8 dispatches made lavapipe's sphere-traced tree (40 × 40) twice as slow.
+const SOFTWARE_BATCHES: Batches = Batches {
+    first: 8,
+    doubling: true,
+};
 
 /// Most loop iterations the field shading terms may take per pixel (every soft-shadow and
 /// ambient-occlusion sample walks the scene's hierarchy, `RayBvh::point_walk_bound`): lavapipe
@@ -291,17 +305,7 @@ impl OutputBuffers {
             }),
             paths: paths_buffer(device, 1),
             paths_per_pixel: false,
-            unfinished: [
-                buffer_of(
-                    device,
-                    "unfinished paths",
-                    4,
-                    wgpu::BufferUsages::STORAGE
-                        | wgpu::BufferUsages::COPY_SRC
-                        | wgpu::BufferUsages::COPY_DST,
-                ),
-                buffer_of(device, "unfinished paths readback", 4, read),
-            ],
+            unfinished: unfinished_flag(device),
             size: (panel_pixels, panels),
         }
     }
@@ -907,6 +911,7 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let unfinished = unfinished_flag(d);
         let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("statistics rays"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -921,6 +926,7 @@ impl GpuRenderer {
                 entry(10, &suspensions),
                 entry(11, &ray_buffer),
                 entry(12, &scene.boxes),
+                entry(14, &unfinished[0]),
                 entry(15, &scene.bvh_nodes),
                 entry(16, &scene.bvh_items),
             ],
@@ -932,17 +938,18 @@ impl GpuRenderer {
         };
         let groups = n.div_ceil(64).max(1);
         let mut encoder = d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("statistics rays"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            for _ in 0..dispatches {
-                pass.dispatch_workgroups(groups.min(STATS_ROW), groups.div_ceil(STATS_ROW), 1);
-            }
-        }
+        dispatch_marches(
+            (d, &self.queue, &mut encoder),
+            (&pipeline, &group, "statistics rays"),
+            (
+                (groups.min(STATS_ROW), groups.div_ceil(STATS_ROW)),
+                dispatches,
+            ),
+            (self.device_kind == DeviceKind::SoftwareGpu)
+                .then_some((SOFTWARE_BATCHES, &unfinished)),
+            None,
+        )
+        .map_err(BackendError::DeviceFailed)?;
         encoder.copy_buffer_to_buffer(&depth, 0, &depth_read, 0, depth.size());
         encoder.copy_buffer_to_buffer(&steps, 0, &steps_read, 0, steps.size());
         self.queue.submit([encoder.finish()]);
@@ -1307,102 +1314,25 @@ impl GpuRenderer {
             };
             encoder.clear_buffer(&outputs.suspensions, 0, None);
             let workgroups = (width.div_ceil(8), height.div_ceil(8));
-            if secondary == 0
-                && wait
-                && self.device_kind == DeviceKind::SoftwareGpu
-                && dispatches > SOFTWARE_DISPATCH_BATCH
-            {
-                // On a software adapter a dispatch costs milliseconds even where every ray has
-                // finished (lavapipe: about 14 ms at 128 × 128), and a march's budget is many
-                // dispatches (STEPS_PER_DISPATCH_CPU_ADAPTER): batches of dispatches, each read
-                // back for whether its last left a ray marching (main.wgsl
-                // `unfinished_paths`), until none did. The frame is the same: a finished ray's
-                // dispatches return at once. The pass timestamps span the batches.
-                let mut done = 0;
-                while done < dispatches {
-                    let batch = SOFTWARE_DISPATCH_BATCH.min(dispatches - done);
-                    let stamps = |begin: bool, end: bool| {
-                        queries.filter(|_| begin || end).map(|query_set| {
-                            wgpu::ComputePassTimestampWrites {
-                                query_set,
-                                beginning_of_pass_write_index: begin
-                                    .then_some(2 * (2 + panel as u32)),
-                                end_of_pass_write_index: end.then_some(2 * (2 + panel as u32) + 1),
-                            }
-                        })
-                    };
-                    let pass = |encoder: &mut wgpu::CommandEncoder,
-                                count: u32,
-                                timestamp_writes| {
-                        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                            label: Some(method.name()),
-                            timestamp_writes,
-                        });
-                        pass.set_pipeline(pipeline);
-                        pass.set_bind_group(0, &group, &[]);
-                        for _ in 0..count {
-                            pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
-                        }
-                    };
-                    if batch > 1 {
-                        pass(encoder, batch - 1, stamps(done == 0, false));
-                    }
-                    encoder.clear_buffer(&outputs.unfinished[0], 0, None);
-                    pass(encoder, 1, stamps(done == 0 && batch == 1, true));
-                    done += batch;
-                    let [flag, read] = &outputs.unfinished;
-                    encoder.copy_buffer_to_buffer(flag, 0, read, 0, 4);
-                    let recorded = std::mem::replace(
-                        encoder,
-                        d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()),
-                    );
-                    self.queue.submit([recorded.finish()]);
-                    if read_back::<u32>(d, read)?.first() == Some(&0) {
-                        break;
-                    }
-                }
-            } else if secondary == 0 || !wait {
-                if secondary != 0 {
-                    encoder.clear_buffer(&outputs.paths, 0, None);
-                }
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(method.name()),
-                    timestamp_writes: timestamp_writes(queries, 2 + panel as u32),
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                for _ in 0..dispatches {
-                    pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
-                }
+            // Without secondary rays, a software adapter's frames stop dispatching once every
+            // ray has finished; with them, every frame that is waited for stops once every path
+            // has, checked after each ray's dispatches.
+            let batches = if secondary == 0 {
+                (self.device_kind == DeviceKind::SoftwareGpu && wait).then_some(SOFTWARE_BATCHES)
             } else {
                 encoder.clear_buffer(&outputs.paths, 0, None);
-                // Batches of one ray's dispatches, until no path is left unfinished.
-                let batches = dispatches.div_ceil(per_ray + 1);
-                for _ in 0..batches {
-                    let pass = |encoder: &mut wgpu::CommandEncoder, dispatches: u32| {
-                        let mut pass =
-                            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
-                        pass.set_pipeline(pipeline);
-                        pass.set_bind_group(0, &group, &[]);
-                        for _ in 0..dispatches {
-                            pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
-                        }
-                    };
-                    pass(encoder, per_ray);
-                    encoder.clear_buffer(&outputs.unfinished[0], 0, None);
-                    pass(encoder, 1);
-                    let [counted, read] = &outputs.unfinished;
-                    encoder.copy_buffer_to_buffer(counted, 0, read, 0, 4);
-                    let recorded = std::mem::replace(
-                        encoder,
-                        d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()),
-                    );
-                    self.queue.submit([recorded.finish()]);
-                    if read_back::<u32>(d, read)?.first() == Some(&0) {
-                        break;
-                    }
-                }
-            }
+                wait.then_some(Batches {
+                    first: per_ray + 1,
+                    doubling: false,
+                })
+            };
+            dispatch_marches(
+                (d, &self.queue, encoder),
+                (pipeline, &group, method.name()),
+                (workgroups, dispatches),
+                batches.map(|batch| (batch, &outputs.unfinished)),
+                queries.map(|q| (q, 2 + panel as u32)),
+            )?;
         }
         Ok(())
     }
@@ -1453,6 +1383,97 @@ pub(crate) fn timestamp_writes(
         beginning_of_pass_write_index: Some(2 * pass),
         end_of_pass_write_index: Some(2 * pass + 1),
     })
+}
+
+/// The flag a dispatch sets when it leaves a ray marching (main.wgsl `unfinished_paths`) and
+/// its `MAP_READ` copy.
+fn unfinished_flag(device: &wgpu::Device) -> [wgpu::Buffer; 2] {
+    [
+        buffer_of(
+            device,
+            "unfinished paths",
+            4,
+            wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        ),
+        buffer_of(
+            device,
+            "unfinished paths readback",
+            4,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        ),
+    ]
+}
+
+/// Records the `dispatches` dispatches of a march (`workgroups` each) of `pipeline` with
+/// `group` into `encoder`, in one pass with `timestamps` (the query set and the pass's index).
+///
+/// With `batches` (their lengths, and the flag main.wgsl `unfinished_paths` sets with its
+/// readback copy) it stops once every ray has finished: the dispatches go in batches, each
+/// submitted and read back for whether its last dispatch left a ray (or a path of secondary
+/// rays) unfinished, until none did, and the timestamps span the batches. The outputs are the
+/// same: a finished ray's dispatches return at once. A software adapter's frames and
+/// statistics take [`SOFTWARE_BATCHES`], where the host waits for them
+/// anyway: a dispatch costs milliseconds there even once every ray has finished (lavapipe:
+/// about 14 ms at 128 × 128), and a march's budget is many dispatches
+/// ([`STEPS_PER_DISPATCH_CPU_ADAPTER`]).
+///
+/// # Errors
+/// The readback's.
+fn dispatch_marches(
+    (device, queue, encoder): (&wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder),
+    (pipeline, group, label): (&wgpu::ComputePipeline, &wgpu::BindGroup, &str),
+    (workgroups, dispatches): ((u32, u32), u32),
+    batches: Option<(Batches, &[wgpu::Buffer; 2])>,
+    timestamps: Option<(&wgpu::QuerySet, u32)>,
+) -> Result<(), String> {
+    let pass = |encoder: &mut wgpu::CommandEncoder, count: u32, (begin, end): (bool, bool)| {
+        let timestamp_writes = timestamps
+            .filter(|_| begin || end)
+            .map(|(query_set, index)| wgpu::ComputePassTimestampWrites {
+                query_set,
+                beginning_of_pass_write_index: begin.then_some(2 * index),
+                end_of_pass_write_index: end.then_some(2 * index + 1),
+            });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        for _ in 0..count {
+            pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
+        }
+    };
+    let Some((batches, [flag, read])) = batches.filter(|(b, _)| dispatches > b.first) else {
+        pass(encoder, dispatches, (true, true));
+        return Ok(());
+    };
+    let mut done = 0;
+    let mut next = batches.first;
+    while done < dispatches {
+        let batch = next.min(dispatches - done);
+        if batches.doubling {
+            next = next.saturating_mul(2);
+        }
+        if batch > 1 {
+            pass(encoder, batch - 1, (done == 0, false));
+        }
+        encoder.clear_buffer(flag, 0, None);
+        pass(encoder, 1, (done == 0 && batch == 1, true));
+        done += batch;
+        encoder.copy_buffer_to_buffer(flag, 0, read, 0, 4);
+        let recorded = std::mem::replace(
+            encoder,
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()),
+        );
+        queue.submit([recorded.finish()]);
+        if read_back::<u32>(device, read)?.first() == Some(&0) {
+            break;
+        }
+    }
+    Ok(())
 }
 
 pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
