@@ -249,7 +249,7 @@ struct Path {
 @group(0) @binding(13) var<storage, read_write> paths: array<Path>;
 // Non-zero once a dispatch has left a path unfinished (a ray still marching); the renderer
 // clears it before the last dispatch of a batch and reads it after (gpu_renderer.rs
-// `trace_frames`), to stop dispatching once every path is done.
+// `dispatch_marches`), to stop dispatching once every path is done.
 @group(0) @binding(14) var<storage, read_write> unfinished_paths: atomic<u32>;
 
 fn push_ray(path: ptr<function, Path>, ray: PathRay) {

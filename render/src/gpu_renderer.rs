@@ -1378,11 +1378,23 @@ pub(crate) fn timestamp_writes(
     queries: Option<&wgpu::QuerySet>,
     pass: u32,
 ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-    queries.map(|query_set| wgpu::ComputePassTimestampWrites {
-        query_set,
-        beginning_of_pass_write_index: Some(2 * pass),
-        end_of_pass_write_index: Some(2 * pass + 1),
-    })
+    timestamps_at(queries, pass, (true, true))
+}
+
+/// Timestamp writes of pass `pass` at its `begin`, its `end`, or both, where the device has
+/// timestamps (a pass recorded in pieces stamps its first piece's begin and its last's end).
+fn timestamps_at(
+    queries: Option<&wgpu::QuerySet>,
+    pass: u32,
+    (begin, end): (bool, bool),
+) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+    queries
+        .filter(|_| begin || end)
+        .map(|query_set| wgpu::ComputePassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: begin.then_some(2 * pass),
+            end_of_pass_write_index: end.then_some(2 * pass + 1),
+        })
 }
 
 /// The flag a dispatch sets when it leaves a ray marching (main.wgsl `unfinished_paths`) and
@@ -1428,17 +1440,11 @@ fn dispatch_marches(
     batches: Option<(Batches, &[wgpu::Buffer; 2])>,
     timestamps: Option<(&wgpu::QuerySet, u32)>,
 ) -> Result<(), String> {
-    let pass = |encoder: &mut wgpu::CommandEncoder, count: u32, (begin, end): (bool, bool)| {
-        let timestamp_writes = timestamps
-            .filter(|_| begin || end)
-            .map(|(query_set, index)| wgpu::ComputePassTimestampWrites {
-                query_set,
-                beginning_of_pass_write_index: begin.then_some(2 * index),
-                end_of_pass_write_index: end.then_some(2 * index + 1),
-            });
+    let (queries, index) = timestamps.map_or((None, 0), |(q, index)| (Some(q), index));
+    let pass = |encoder: &mut wgpu::CommandEncoder, count: u32, stamps: (bool, bool)| {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(label),
-            timestamp_writes,
+            timestamp_writes: timestamps_at(queries, index, stamps),
         });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group, &[]);
