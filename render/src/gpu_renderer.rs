@@ -671,6 +671,20 @@ impl GpuRenderer {
         self.last_tile_items
     }
 
+    /// Tile edge in pixels of the next frames' binning: 4, doubled for good (up to 64) each
+    /// time a frame's lists do not fit in one storage binding.
+    #[must_use]
+    pub fn tile_edge(&self) -> u32 {
+        self.binning.tile()
+    }
+
+    /// Keeps the tile lists under `bytes` (at most the device's binding limit), as a device
+    /// with less memory would; the tiles start again from 4 pixels (`u64::MAX`: the device's
+    /// limit again).
+    pub fn limit_tile_lists(&mut self, bytes: u64) {
+        self.binning.limit_lists(&self.device, bytes);
+    }
+
     /// Bytes of primitive data uploaded so far.
     #[must_use]
     pub fn uploaded_primitive_bytes(&self) -> u64 {
@@ -1198,7 +1212,7 @@ impl GpuRenderer {
     ) -> Result<(), String> {
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let n_prims = scene.packed.primitives.len() as u32;
-        let (tile_lists, total) = self.binning.encode_lists(
+        let (tile_lists, total, geometry) = self.binning.encode_lists(
             &self.device,
             &self.queue,
             (!wait).then_some(&mut *encoder),
@@ -1224,8 +1238,9 @@ impl GpuRenderer {
             height,
             tiles_x,
             tiles_y,
+            tile,
             camera,
-        } = *geometry;
+        } = geometry;
         let d = &self.device;
         let panels = methods.len() as u32;
         let out_width = width * panels;
@@ -1262,6 +1277,7 @@ impl GpuRenderer {
                 height,
                 tiles_x,
                 tiles_y,
+                tile_size: tile,
                 panel_x: width * panel as u32,
                 output_width: out_width,
                 heat_max,

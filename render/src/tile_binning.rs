@@ -5,7 +5,8 @@
 //! needed; a frame that needs more finds its lists cut short, and the host grows the buffer and
 //! traces again: at once where the frame is read back anyway ([`TileBinning::encode_lists`]
 //! with `wait`), a frame or two later on the editor's GPU viewport, which never waits
-//! ([`TileBinning::poll_overflow`]).
+//! ([`TileBinning::poll_overflow`]). Lists too large for one storage binding are binned again
+//! with wider tiles ([`MAX_TILE`]).
 
 use bytemuck::{Pod, Zeroable};
 use skeletrace_core::frame::PinholeCamera;
@@ -16,8 +17,14 @@ use crate::async_readback::AsyncReadback;
 use crate::gpu_renderer::{entry, f3, pipeline, read_back, timestamp_writes};
 use crate::shaders::binning_source;
 
-/// Tile edge in pixels.
+/// Tile edge in pixels, as long as the lists fit in one storage binding.
 pub const TILE: u32 = 4;
+
+/// The widest tile edge the binning falls back to, doubling from [`TILE`], when a frame's lists
+/// do not fit in one storage binding (a dense scene at a large frame: the 500 000-segment foam
+/// at 2048² needs 2.4 GB with 4-pixel tiles, and wgpu binds at most 2 GB): wider tiles make
+/// fewer (primitive, tile) pairs and longer lists per ray.
+pub const MAX_TILE: u32 = 64;
 
 /// Twin of `Binning` in binning.wgsl (a layout test checks every field's offset).
 #[repr(C)]
@@ -71,6 +78,8 @@ pub struct FrameGeometry {
     pub(crate) height: u32,
     pub(crate) tiles_x: u32,
     pub(crate) tiles_y: u32,
+    /// Tile edge in pixels.
+    pub(crate) tile: u32,
 }
 
 impl FrameGeometry {
@@ -89,8 +98,31 @@ impl FrameGeometry {
             height,
             tiles_x: width.div_ceil(TILE),
             tiles_y: height.div_ceil(TILE),
+            tile: TILE,
         }
     }
+
+    /// The same frame cut into tiles of `tile` pixels.
+    #[must_use]
+    pub fn with_tile(self, tile: u32) -> Self {
+        Self {
+            tiles_x: self.width.div_ceil(tile),
+            tiles_y: self.height.div_ceil(tile),
+            tile,
+            ..self
+        }
+    }
+}
+
+/// What [`TileBinning::hold`] did for a frame's lists.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Room {
+    /// They fitted.
+    Enough,
+    /// The items grew to hold them.
+    Grown,
+    /// They cannot fit in one binding: the tiles widened (the frame must be binned again).
+    Widened,
 }
 
 /// Items the lists of the first frame may hold before the buffer grows: few, for the first
@@ -141,8 +173,11 @@ pub struct TileBinning {
     checked: u64,
     /// The total of frame `.0`, whose lists had room for `.1` items.
     total_readback: AsyncReadback<(u64, u64)>,
-    /// The largest storage binding the device allows, in bytes.
+    /// The largest storage binding the lists may take, in bytes: the device's limit, or less
+    /// ([`TileBinning::limit_lists`]).
     max_binding: u64,
+    /// Tile edge of the next frames: [`TILE`], widened while lists do not fit.
+    tile: u32,
 }
 
 impl TileBinning {
@@ -163,7 +198,23 @@ impl TileBinning {
             checked: 0,
             total_readback: AsyncReadback::new(device, "tile list total readback", 1),
             max_binding: device.limits().max_storage_buffer_binding_size,
+            tile: TILE,
         }
+    }
+
+    /// The tile edge of the next frames, in pixels.
+    pub fn tile(&self) -> u32 {
+        self.tile
+    }
+
+    /// Keeps the lists under `bytes` (at most the device's binding limit), as a device with
+    /// less memory would: frames whose lists need more are binned with wider tiles. The tiles
+    /// start again from [`TILE`] and the items from their first size.
+    pub fn limit_lists(&mut self, device: &wgpu::Device, bytes: u64) {
+        self.max_binding = bytes.min(device.limits().max_storage_buffer_binding_size);
+        self.tile = TILE;
+        self.items = items_buffer(device, INITIAL_ITEMS);
+        self.encoded_capacity = INITIAL_ITEMS;
     }
 
     /// Items the lists can hold now.
@@ -171,36 +222,42 @@ impl TileBinning {
         self.items.size() / 4
     }
 
-    /// Grows the items to hold `total` with room to spare; whether it grew.
+    /// Grows the items to hold `total` with room to spare, or, where no binding can hold
+    /// them, widens the tiles of the next frames.
     ///
     /// # Errors
-    /// When the device cannot bind a buffer that large.
-    fn hold(&mut self, device: &wgpu::Device, total: u64) -> Result<bool, String> {
+    /// When the lists do not fit even with [`MAX_TILE`]-pixel tiles.
+    fn hold(&mut self, device: &wgpu::Device, total: u64) -> Result<Room, String> {
         if total <= self.capacity() {
-            return Ok(false);
+            return Ok(Room::Enough);
         }
         let words = (total + total / 4).min(self.max_binding / 4);
         if words < total {
+            if self.tile < MAX_TILE {
+                self.tile *= 2;
+                return Ok(Room::Widened);
+            }
             return Err(format!(
-                "the tile lists need {} MB; the GPU binds at most {} MB (use a smaller frame \
-                 or the CPU)",
+                "the tile lists need {} MB even with {MAX_TILE}-pixel tiles; the GPU binds at \
+                 most {} MB (use a smaller frame or the CPU)",
                 (total * 4) >> 20,
                 self.max_binding >> 20
             ));
         }
         self.items = items_buffer(device, words);
-        Ok(true)
+        Ok(Room::Grown)
     }
 
     /// Records the passes that bin the `n_prims` primitives' supports into the tiles of
-    /// `geometry` (binning.wgsl: occluding depths, counts, ranges) into `encoder`; the lists
-    /// are filled by [`TileBinning::fill`]. Without an encoder, the passes are submitted on
-    /// their own and the total read back, so that the items hold every list (returns the total
-    /// then); with one, nothing waits, and the total is copied back later and checked by
-    /// [`TileBinning::poll_overflow`].
+    /// `geometry` (binning.wgsl: occluding depths, counts, ranges); the lists are filled by
+    /// [`TileBinning::fill`]. Without an encoder, the passes are submitted on their own and the
+    /// total read back, so that the items hold every list (returns the total then), the tiles
+    /// widening until they fit in one binding; with one, they are recorded into it, nothing
+    /// waits, and the total is copied back later and checked by
+    /// [`TileBinning::poll_overflow`]. Returns the frame cut into the tiles the lists use.
     ///
     /// # Errors
-    /// A failed readback, or lists larger than the device can bind.
+    /// A failed readback, or lists larger than the device can bind with the widest tiles.
     #[allow(clippy::too_many_arguments)]
     pub fn encode_lists(
         &mut self,
@@ -211,7 +268,52 @@ impl TileBinning {
         n_prims: u32,
         geometry: &FrameGeometry,
         queries: Option<&wgpu::QuerySet>,
-    ) -> Result<(TileLists, Option<u64>), String> {
+    ) -> Result<(TileLists, Option<u64>, FrameGeometry), String> {
+        if let Some(encoder) = encoder {
+            let geometry = geometry.with_tile(self.tile);
+            let lists =
+                self.record_counts(device, encoder, primitives, n_prims, &geometry, queries)?;
+            return Ok((lists, None, geometry));
+        }
+        loop {
+            let geometry = geometry.with_tile(self.tile);
+            let mut encoder =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+            let lists = self.record_counts(
+                device,
+                &mut encoder,
+                primitives,
+                n_prims,
+                &geometry,
+                queries,
+            )?;
+            let b = self.buffers.as_ref().ok_or("no binning buffers")?;
+            let total_read = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("tile list total readback"),
+                size: 4,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            encoder.copy_buffer_to_buffer(&b.total, 0, &total_read, 0, 4);
+            queue.submit([encoder.finish()]);
+            let total = u64::from(read_back::<u32>(device, &total_read)?[0]);
+            if self.hold(device, total)? != Room::Widened {
+                self.checked = self.encoded;
+                return Ok((lists, Some(total), geometry));
+            }
+        }
+    }
+
+    /// Records the occluding depths, counts and ranges of `geometry`'s tiles into `encoder`.
+    fn record_counts(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        primitives: &wgpu::Buffer,
+        n_prims: u32,
+        geometry: &FrameGeometry,
+        queries: Option<&wgpu::QuerySet>,
+    ) -> Result<TileLists, String> {
         let d = device;
         let FrameGeometry {
             origin,
@@ -224,6 +326,7 @@ impl TileBinning {
             height,
             tiles_x,
             tiles_y,
+            tile,
             ..
         } = *geometry;
         let tiles = tiles_x * tiles_y;
@@ -244,7 +347,7 @@ impl TileBinning {
                 pad1: 0.0,
                 tiles_x,
                 tiles_y,
-                tile_size: TILE,
+                tile_size: tile,
                 primitive_count: n_prims,
                 width,
                 height,
@@ -284,14 +387,6 @@ impl TileBinning {
         let occlude_group = group(&self.occlude, "occlude tiles", &[0, 1, 6]);
         let count_group = group(&self.count, "count tiles", &[0, 1, 2, 5, 6, 7]);
         let scan_group = group(&self.scan, "scan tiles", &[0, 2, 3, 8]);
-        let wait = encoder.is_none();
-        let mut own = None;
-        let encoder = match encoder {
-            Some(e) => e,
-            None => {
-                own.insert(d.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()))
-            }
-        };
         encoder.clear_buffer(&b.occluded, 0, None);
         encoder.clear_buffer(&b.counts, 0, None);
         {
@@ -312,26 +407,11 @@ impl TileBinning {
         }
         self.encoded += 1;
         self.encoded_capacity = self.capacity();
-        let lists = TileLists {
+        Ok(TileLists {
             binning,
             ranges: b.ranges.clone(),
             workgroups: (columns, slices),
-        };
-        let Some(mut encoder) = own.filter(|_| wait) else {
-            return Ok((lists, None));
-        };
-        let total_read = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tile list total readback"),
-            size: 4,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        encoder.copy_buffer_to_buffer(&b.total, 0, &total_read, 0, 4);
-        queue.submit([encoder.finish()]);
-        let total = u64::from(read_back::<u32>(d, &total_read)?[0]);
-        self.hold(d, total)?;
-        self.checked = self.encoded;
-        Ok((lists, Some(total)))
+        })
     }
 
     /// Records the pass that fills `lists` (timestamps at index 1 of `queries`).
@@ -388,6 +468,7 @@ impl TileBinning {
         if let Some(((frame, capacity), words)) = self.total_readback.poll() {
             let total = u64::from(words[0]);
             if total > capacity {
+                // Grown, or widened for the next frames.
                 self.hold(device, total)?;
                 // Cut short: traced again if it is the latest (a later frame is checked in
                 // its turn).

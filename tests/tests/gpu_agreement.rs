@@ -924,6 +924,59 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
     }
 }
 
+/// Issue 22: a frame whose tile lists do not fit in one storage binding (the 500 000-segment
+/// foam at 2048² on a hardware GPU: 2.4 GB against wgpu's 2 GB) is binned again with wider
+/// tiles instead of failing. Here the lists of the molecule are held to two fifths of what its
+/// 4-pixel tiles need; the frame is binned with wider tiles and keeps its hits and depths.
+#[test]
+fn lists_too_large_for_one_binding_widen_the_tiles() {
+    let Some(mut gpu) = gpu_or_skip("lists_too_large_for_one_binding_widen_the_tiles") else {
+        return;
+    };
+    let scene = load("molecule");
+    let compiled = compile(&scene);
+    let settings = compiled.settings;
+    let diagonal = compiled.program.support_bounds().diagonal();
+    gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+    let methods = [GpuMethod::Segment];
+    let frame = |gpu: &mut GpuRenderer| {
+        let frames = gpu
+            .render(
+                &methods,
+                &scene.camera,
+                &settings,
+                (SIZE as u32, SIZE as u32),
+                (
+                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                    false,
+                ),
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+        (frames, gpu.last_tile_items(), gpu.tile_edge())
+    };
+    let (fine, fine_items, fine_tile) = frame(&mut gpu);
+    gpu.limit_tile_lists(fine_items * 4 * 2 / 5);
+    let (wide, wide_items, wide_tile) = frame(&mut gpu);
+    gpu.limit_tile_lists(u64::MAX);
+    eprintln!(
+        "molecule: {fine_items} (primitive, tile) pairs with {fine_tile}-pixel tiles, \
+         {wide_items} with {wide_tile}-pixel tiles"
+    );
+    assert_eq!(fine_tile, 4);
+    assert!(wide_tile > 4, "the tiles should have widened");
+    assert!(
+        wide_items * 4 <= fine_items * 4 * 2 / 5,
+        "the lists exceed the limit"
+    );
+    let same = compare(&fine[0], &wide[0], settings.max_steps);
+    assert_eq!(same.hit_mask, 1.0, "hit masks differ");
+    assert!(
+        same.worst_depth <= 1e-5 * diagonal,
+        "depths differ by {:.1e} of the diagonal",
+        same.worst_depth / diagonal
+    );
+}
+
 /// Issue 22: `stats --backend gpu` against the CPU's statistics on the same rays: the tree and
 /// a generated blob scene, the six-axis protocol and the random rays around the box of
 /// `paper-2023`; and transparent statistics (every crossing, forward-inclusion 2023 Table 4's
