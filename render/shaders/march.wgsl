@@ -73,7 +73,15 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             if crossing_ends_march(trace, hi, inside) {
                 return;
             }
+            // A step that landed just past the surface resumes min_step past the crossing,
+            // as a confirmed one does (core: marching.rs).
             h = globals.initial_interval;
+            let resume = hi + min_step;
+            if t < resume {
+                t = resume;
+                has_previous = false;
+                continue;
+            }
         }
         has_previous = true;
         previous_t = t;

@@ -69,10 +69,18 @@ pub(crate) fn march(
                 return;
             }
             // Past any crossing the march starts its intervals afresh, as after a confirmed
-            // one below. (Where a step lands on the surface, rounding puts it on either side:
-            // just short, the crossing is confirmed; just past, it is this sign change. In
-            // f32 on the GPU the second is as frequent as the first.)
+            // one below. Where a step lands on the surface, rounding puts it on either side:
+            // just short, the crossing is confirmed and the march resumes `min_step` past it;
+            // just past, it is this sign change, and the march resumes at the same place, so
+            // that which side one ulp of the field falls on does not change the steps that
+            // follow (in f32 on the GPU the second is as frequent as the first).
             h = settings.initial_interval;
+            let resume = at + settings.min_step;
+            if t < resume {
+                t = resume;
+                previous = None;
+                continue;
+            }
         }
         previous = Some((t, inside));
         let h_now = h.max(settings.min_step).min(part.hi - t);
