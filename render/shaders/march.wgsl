@@ -76,10 +76,14 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             // A step that landed just past the surface resumes min_step past the crossing,
             // as a confirmed one does (core: marching.rs).
             h = globals.initial_interval;
+            // The sample stays the previous one: a crossing back before the resumption is
+            // then a sign change there.
             let resume = hi + min_step;
             if t < resume {
+                has_previous = true;
+                previous_t = t;
+                previous_inside = inside;
                 t = resume;
-                has_previous = false;
                 continue;
             }
         }

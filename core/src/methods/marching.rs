@@ -75,10 +75,12 @@ pub(crate) fn march(
             // that which side one ulp of the field falls on does not change the steps that
             // follow (in f32 on the GPU the second is as frequent as the first).
             h = settings.initial_interval;
+            // The sample stays the previous one: a crossing back before `resume` is then a
+            // sign change there.
             let resume = at + settings.min_step;
             if t < resume {
+                previous = Some((t, inside));
                 t = resume;
-                previous = None;
                 continue;
             }
         }
