@@ -96,10 +96,11 @@ impl FrameGeometry {
             aspect: f64::from(width) / f64::from(height.max(1)),
             width,
             height,
-            tiles_x: width.div_ceil(TILE),
-            tiles_y: height.div_ceil(TILE),
-            tile: TILE,
+            tiles_x: 0,
+            tiles_y: 0,
+            tile: 0,
         }
+        .with_tile(TILE)
     }
 
     /// The same frame cut into tiles of `tile` pixels.

@@ -115,6 +115,28 @@ struct Agreement {
     histogram: Vec<(i64, usize)>,
 }
 
+/// The GPU's shaded frames (default field shading, no shadows) of `methods` at `SIZE`², side by
+/// side; a failure panics naming `label`.
+fn shaded_frames(
+    gpu: &mut GpuRenderer,
+    methods: &[GpuMethod],
+    camera: &Camera,
+    settings: &skeletrace_core::methods::TraceSettings,
+    label: &str,
+) -> Vec<Frame> {
+    gpu.render(
+        methods,
+        camera,
+        settings,
+        (SIZE as u32, SIZE as u32),
+        (
+            View::Shaded(skeletrace_core::frame::FieldShading::default()),
+            false,
+        ),
+    )
+    .unwrap_or_else(|e| panic!("{label}: {e}"))
+}
+
 /// Compares two frames of a method whose step budget is `budget`. A march that runs out of
 /// steps has no verdict on its pixel: whether a long march ends just before or just after the
 /// budget depends on the last bits of its steps, so such pixels count in the strictly equal
@@ -250,18 +272,7 @@ fn check_methods_agreement(
         return 0;
     }
     for camera in cameras {
-        let frames = gpu
-            .render(
-                &gpu_methods,
-                camera,
-                &settings,
-                (SIZE as u32, SIZE as u32),
-                (
-                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
-                    false,
-                ),
-            )
-            .unwrap_or_else(|e| panic!("{label}: {e}"));
+        let frames = shaded_frames(gpu, &gpu_methods, camera, &settings, label);
         check_pass_times(gpu, label, gpu_methods.len());
         for (method, gpu_frame) in gpu_methods.iter().zip(&frames) {
             let cpu_method = method.id().method();
@@ -293,18 +304,7 @@ fn check_methods_agreement(
             }
             if a.agreeing_steps < steps_needed {
                 let gpu_render = |camera: &Camera| {
-                    gpu.render(
-                        &[*method],
-                        camera,
-                        &settings,
-                        (SIZE as u32, SIZE as u32),
-                        (
-                            View::Shaded(skeletrace_core::frame::FieldShading::default()),
-                            false,
-                        ),
-                    )
-                    .unwrap_or_else(|e| panic!("{label}: {e}"))
-                    .remove(0)
+                    shaded_frames(gpu, &[*method], camera, &settings, label).remove(0)
                 };
                 let (own, _) = self_agreement("GPU", gpu_frame, gpu_render, camera);
                 // Each march changes on its own sensitive pixels; the two sets add.
@@ -814,17 +814,7 @@ fn resumed_marches_give_the_same_frames() {
             .collect();
         let mut frames = |steps_per_dispatch| {
             gpu.set_steps_per_dispatch(steps_per_dispatch);
-            gpu.render(
-                &marching,
-                &scene.camera,
-                &settings,
-                (SIZE as u32, SIZE as u32),
-                (
-                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
-                    false,
-                ),
-            )
-            .unwrap_or_else(|e| panic!("{asset}: {e}"))
+            shaded_frames(&mut gpu, &marching, &scene.camera, &settings, asset)
         };
         let default = frames(default_allowance);
         let sliced = frames(3);
@@ -876,20 +866,8 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
     let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
     let mut frames = |occluders| {
         gpu.set_occluders(occluders);
-        let frames = gpu
-            .render(
-                &methods,
-                &camera,
-                &settings,
-                (SIZE as u32, SIZE as u32),
-                (
-                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
-                    false,
-                ),
-            )
-            .unwrap_or_else(|e| panic!("{e}"));
         (
-            frames,
+            shaded_frames(&mut gpu, &methods, &camera, &settings, "molecule"),
             gpu.last_tile_items(),
             gpu.last_pass_times().cloned(),
         )
@@ -905,23 +883,28 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
         "occluders should leave out at least half of the molecule's pairs: {occluded_items} of {open_items}"
     );
     for ((method, a), b) in methods.iter().zip(&open).zip(&occluded) {
-        let same = compare(a, b, settings.max_steps);
-        eprintln!(
-            "{}: hit mask {:.4}, depth {:.1e}, equal steps {:.4} {:?}",
-            method.name(),
-            same.hit_mask,
-            same.worst_depth / diagonal,
-            same.equal_steps,
-            same.histogram
-        );
-        assert_eq!(same.hit_mask, 1.0, "{}: hit masks differ", method.name());
-        assert!(
-            same.worst_depth <= 1e-5 * diagonal,
-            "{}: depths differ by {:.1e} of the diagonal",
-            method.name(),
-            same.worst_depth / diagonal
-        );
+        assert_same_surface(method.name(), a, b, settings.max_steps, diagonal);
     }
+}
+
+/// Asserts that two GPU frames of one scene have the same hit mask and depths within 10⁻⁵ of
+/// the `diagonal`, where only the binning differed (their step counts may differ where an
+/// interval reaches past a tile's occluding depth).
+fn assert_same_surface(label: &str, a: &Frame, b: &Frame, budget: u32, diagonal: f64) {
+    let same = compare(a, b, budget);
+    eprintln!(
+        "{label}: hit mask {:.4}, depth {:.1e}, equal steps {:.4} {:?}",
+        same.hit_mask,
+        same.worst_depth / diagonal,
+        same.equal_steps,
+        same.histogram
+    );
+    assert_eq!(same.hit_mask, 1.0, "{label}: hit masks differ");
+    assert!(
+        same.worst_depth <= 1e-5 * diagonal,
+        "{label}: depths differ by {:.1e} of the diagonal",
+        same.worst_depth / diagonal
+    );
 }
 
 /// Issue 22: a frame whose tile lists do not fit in one storage binding (the 500 000-segment
@@ -940,18 +923,7 @@ fn lists_too_large_for_one_binding_widen_the_tiles() {
     gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
     let methods = [GpuMethod::Segment];
     let frame = |gpu: &mut GpuRenderer| {
-        let frames = gpu
-            .render(
-                &methods,
-                &scene.camera,
-                &settings,
-                (SIZE as u32, SIZE as u32),
-                (
-                    View::Shaded(skeletrace_core::frame::FieldShading::default()),
-                    false,
-                ),
-            )
-            .unwrap_or_else(|e| panic!("{e}"));
+        let frames = shaded_frames(gpu, &methods, &scene.camera, &settings, "molecule");
         (frames, gpu.last_tile_items(), gpu.tile_edge())
     };
     let (fine, fine_items, fine_tile) = frame(&mut gpu);
@@ -968,13 +940,7 @@ fn lists_too_large_for_one_binding_widen_the_tiles() {
         wide_items * 4 <= fine_items * 4 * 2 / 5,
         "the lists exceed the limit"
     );
-    let same = compare(&fine[0], &wide[0], settings.max_steps);
-    assert_eq!(same.hit_mask, 1.0, "hit masks differ");
-    assert!(
-        same.worst_depth <= 1e-5 * diagonal,
-        "depths differ by {:.1e} of the diagonal",
-        same.worst_depth / diagonal
-    );
+    assert_same_surface("segment", &fine[0], &wide[0], settings.max_steps, diagonal);
 }
 
 /// Issue 22: `stats --backend gpu` against the CPU's statistics on the same rays: the tree and
