@@ -33,7 +33,11 @@ struct Binning {
     width: u32,
     height: u32,
     occluders: u32,            // 1 on, 0 off
+    band_near: f32,            // depth bands (tile_binning.rs FrameGeometry): the first ends here,
+    band_width: f32,           // the next ones are this deep
     pad2: u32,
+    pad3: u32,
+    pad4: u32,
 };
 
 // Twin of `GpuPrimitive` (only the bounding sphere is read here).
@@ -169,6 +173,19 @@ fn nearest_reach(i: u32) -> f32 {
     return select(-INF, d, d > 0.0);
 }
 
+// The list of primitive i in `tile`: one per depth band (tile_binning.rs DEPTH_BANDS) of each
+// tile, tile-major, so that a tile's lists follow one another and its primitives are listed
+// band by band, nearest first: the first band holds the unbounded supports and those whose
+// bounding sphere comes nearer the eye than band_near, each next band the next band_width.
+fn band_list(tile: u32, reach: f32) -> u32 {
+    var band = 0u;
+    if reach >= binning.band_near {
+        band = u32(min(1.0 + floor((reach - binning.band_near) / binning.band_width),
+                       f32(DEPTH_BANDS - 1u)));
+    }
+    return tile * DEPTH_BANDS + band;
+}
+
 // Both passes share out the work of each 64 primitives evenly: the rectangles' areas are
 // prefix-summed in workgroup memory, and the threads of `num_workgroups.y` workgroups (slices)
 // stride over all of those primitives' (primitive, tile) pairs. One thread per primitive would
@@ -278,8 +295,9 @@ fn count_tiles(
     let total = share_rects(lid, rect);
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
-        if group_reaches[p.x] <= occluding_depth(p.y) {
-            atomicAdd(&tile_counts[p.y], 1u);
+        let reach = group_reaches[p.x];
+        if reach <= occluding_depth(p.y) {
+            atomicAdd(&tile_counts[band_list(p.y, reach)], 1u);
         }
     }
 }
@@ -287,11 +305,11 @@ fn count_tiles(
 const SCAN_GROUP: u32 = 256u;
 var<workgroup> chunk_ends: array<u32, SCAN_GROUP>;
 
-// Third pass, one workgroup: each tile's range from the counts (exclusive prefix sum), each
-// thread over a contiguous chunk of tiles, and the total.
+// Third pass, one workgroup: each list's range from the counts (exclusive prefix sum), each
+// thread over a contiguous chunk of lists, and the total.
 @compute @workgroup_size(256, 1, 1)
 fn scan_tiles(@builtin(local_invocation_index) lid: u32) {
-    let tiles = binning.tiles_x * binning.tiles_y;
+    let tiles = binning.tiles_x * binning.tiles_y * DEPTH_BANDS;
     let chunk = (tiles + SCAN_GROUP - 1u) / SCAN_GROUP;
     let begin = min(lid * chunk, tiles);
     let end = min(begin + chunk, tiles);
@@ -341,11 +359,13 @@ fn fill_tiles(
     let first = id.x - lid;
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
-        if group_reaches[p.x] > occluding_depth(p.y) {
+        let reach = group_reaches[p.x];
+        if reach > occluding_depth(p.y) {
             continue;
         }
-        let slot = atomicAdd(&tile_counts[p.y], 1u);
-        let range = tile_ranges[p.y];
+        let list = band_list(p.y, reach);
+        let slot = atomicAdd(&tile_counts[list], 1u);
+        let range = tile_ranges[list];
         let at = range.x + slot;
         if at < range.y && at < arrayLength(&tile_items) {
             tile_items[at] = first + p.x;

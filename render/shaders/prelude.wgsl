@@ -42,6 +42,10 @@ struct Globals {
     stats_crossings: u32,       // transparent statistics: crossing slots per ray (main.wgsl trace_rays); 0 elsewhere
     bvh_unbounded: u32,         // bvh_items[bvh_unbounded..bvh_items]: the unbounded primitives
     bvh_items: u32,
+    band_near: f32,             // the tile lists' depth bands (binning.wgsl band_list)
+    band_width: f32,
+    list_bands: u32,            // lists per tile in tile_ranges: DEPTH_BANDS, 1 for statistics rays
+    pad0: u32,
 };
 
 // Twin of `GpuPrimitive`. kind: KIND_*.
@@ -575,8 +579,7 @@ fn shape_interval(ray: Ray, prim: Primitive, reach: f32) -> vec2<f32> {
 // per-invocation limit of 65 535.
 struct RaySupports {
     count: u32,
-    tile_start: u32,
-    tile_end: u32,
+    list: u32,     // the first of the ray's lists in tile_ranges (one per depth band)
     horizon: f32,
     floor: f32,    // of the last fill, kept for a suspended march to refill the same window
     far: f32,      // end of the ray's interval
@@ -605,11 +608,13 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
     (*sp).horizon = INF;
     (*sp).floor = floor;
     let listed = (*sp).listed;
-    var j = (*sp).tile_start;
-    var end = (*sp).tile_end;
-    if !listed {
-        j = 0u;
-        end = 0u;
+    var j = 0u;
+    var end = 0u;
+    var band = 0u;
+    if listed {
+        let range = band_range((*sp).list);
+        j = range.x;
+        end = range.y;
     }
     let node_count = select(arrayLength(&bvh_nodes), 0u, listed);
     var node = 0u;
@@ -627,6 +632,22 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
                 j += 1u;
                 found = true;
                 break;
+            }
+            if listed && band + 1u < globals.list_bands {
+                // The next band's supports are at least `nearest` from the eye (binning.wgsl
+                // band_list), less a margin for rounding. Where that is past the ray's end, or
+                // past the horizon of a full window, none of them would be taken, nor move the
+                // horizon (window_take): the window is complete.
+                band += 1u;
+                let lower = globals.band_near + f32(band - 1u) * globals.band_width;
+                let nearest = lower - 1e-3 * (lower + globals.band_width);
+                if nearest > (*sp).far || ((*sp).count == RAY_SUPPORTS && nearest >= (*sp).horizon) {
+                    break;
+                }
+                let range = band_range((*sp).list + band);
+                j = range.x;
+                end = range.y;
+                continue;
             }
             if node < node_count {
                 // A node whose box the ray's line misses, or meets only before the floor or
@@ -698,17 +719,21 @@ fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
     gather_list(sp, ray, (py / ts) * globals.tiles_x + px / ts, globals.far);
 }
 
-// The supports along `ray` over [0, far] among those of list `list`.
+// The supports along `ray` over [0, far] among those of list `list` (a tile's, made of
+// globals.list_bands lists in tile_ranges).
 fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32) {
-    let range = tile_ranges[list];
     (*sp).far = far;
-    // A list past the items' end (the host grows them and traces again, tile_binning.rs) is
-    // read only as far as it was written.
-    let written = arrayLength(&tile_items);
-    (*sp).tile_start = min(range.x, written);
-    (*sp).tile_end = min(range.y, written);
+    (*sp).list = list * globals.list_bands;
     (*sp).listed = true;
     fill_window(sp, ray, 0.0);
+}
+
+// The items of list `list` in tile_items. A list past the items' end (the host grows them and
+// traces again, tile_binning.rs) is read only as far as it was written.
+fn band_range(list: u32) -> vec2<u32> {
+    let range = tile_ranges[list];
+    let written = arrayLength(&tile_items);
+    return vec2<u32>(min(range.x, written), min(range.y, written));
 }
 
 // The supports along `ray` over [0, far] among every primitive: a secondary ray (main.wgsl

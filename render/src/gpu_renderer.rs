@@ -26,7 +26,7 @@ use crate::gpu_stats::{GpuStatsRay, RayCrossings, RayLists, STATS_ROW, UploadedR
 use crate::ray_bvh::RayBvh;
 use crate::shaders::GpuMethod;
 use crate::shared::secondary;
-use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
+use crate::tile_binning::{DEPTH_BANDS, FrameGeometry, TILE, TileBinning};
 
 /// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
 /// method's rays from one dispatch to the next.
@@ -147,6 +147,15 @@ pub struct GpuGlobals {
     pub bvh_unbounded: u32,
     /// The hierarchy's items.
     pub bvh_items: u32,
+    /// Depth bands of the tile lists ([`FrameGeometry::band_near`]).
+    pub band_near: f32,
+    /// Depth of each band past the first.
+    pub band_width: f32,
+    /// Lists per tile in `tile_ranges`: [`DEPTH_BANDS`] in frames, 1 for the statistics
+    /// rays' lists.
+    pub list_bands: u32,
+    /// Padding.
+    pub pad0: u32,
 }
 
 /// The uploaded scene.
@@ -210,6 +219,10 @@ impl SceneBuffers {
             stats_crossings: 0,
             bvh_unbounded: self.packed.bvh.unbounded,
             bvh_items: self.packed.bvh.items.len() as u32,
+            band_near: 0.0,
+            band_width: f32::MAX,
+            list_bands: 1,
+            pad0: 0,
         }
     }
 }
@@ -990,7 +1003,8 @@ impl GpuRenderer {
         (view, shadows): (View, bool),
     ) -> Result<Vec<Frame>, BackendError> {
         let compiled = self.ready_for(methods, view, settings)?;
-        let geometry = FrameGeometry::new(camera, width, height);
+        let geometry = FrameGeometry::new(camera, width, height)
+            .with_depth_bands(&compiled.program.support_bounds());
         self.trace_frames(
             &compiled.program,
             methods,
@@ -1019,7 +1033,8 @@ impl GpuRenderer {
         (view, shadows): (View, bool),
     ) -> Result<(), BackendError> {
         let compiled = self.ready_for(methods, view, settings)?;
-        let geometry = FrameGeometry::new(camera, width, height);
+        let geometry = FrameGeometry::new(camera, width, height)
+            .with_depth_bands(&compiled.program.support_bounds());
         self.encode_trace(
             encoder,
             &compiled.program,
@@ -1240,6 +1255,8 @@ impl GpuRenderer {
             tiles_y,
             tile,
             camera,
+            band_near,
+            band_width,
         } = geometry;
         let d = &self.device;
         let panels = methods.len() as u32;
@@ -1285,6 +1302,9 @@ impl GpuRenderer {
                 shading_flags,
                 shading_scale: shading_scale(program) as f32,
                 secondary,
+                band_near: band_near as f32,
+                band_width: band_width as f32,
+                list_bands: DEPTH_BANDS,
                 ..scene.globals(settings, self.steps_per_dispatch)
             };
             let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {

@@ -383,13 +383,15 @@ mod tests {
                 max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
                 gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
                 output_width, heat_max, heat_view, shading_flags, shading_scale,
-                steps_per_dispatch, secondary, stats_crossings, bvh_unbounded, bvh_items),
+                steps_per_dispatch, secondary, stats_crossings, bvh_unbounded, bvh_items,
+                band_near, band_width, list_bands),
         );
         check_twin(
             &binning,
             "Binning",
             rust_layout!(GpuBinning: origin, forward, tan_half_fov, right, aspect, up, tiles_x,
-                tiles_y, tile_size, primitive_count, width, height, occluders),
+                tiles_y, tile_size, primitive_count, width, height, occluders, band_near,
+                band_width),
         );
         for source in [&trace, &binning] {
             check_twin(

@@ -280,6 +280,7 @@ pub fn wgsl_constants() -> String {
         u32_const(&mut out, name, bound as u32);
     }
     u32_const(&mut out, "MAX_GROUPS", MAX_GROUPS as u32);
+    u32_const(&mut out, "DEPTH_BANDS", crate::tile_binning::DEPTH_BANDS);
     u32_const(&mut out, "SECONDARY_SHADOW_RAYS", secondary::SHADOW_RAYS);
     u32_const(&mut out, "SECONDARY_PATHS", secondary::PATHS);
     u32_const(&mut out, "RAY_CAMERA", PathRayKind::Camera as u32);

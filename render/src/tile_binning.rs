@@ -26,6 +26,11 @@ pub const TILE: u32 = 4;
 /// fewer (primitive, tile) pairs and longer lists per ray.
 pub const MAX_TILE: u32 = 64;
 
+/// Depth bands per tile list (binning.wgsl): a tile lists its primitives band by band, by the
+/// distance from the eye to their bounding spheres, so that a ray's window fill (prelude.wgsl
+/// `fill_window`) stops at the first band that begins past what the window could still take.
+pub const DEPTH_BANDS: u32 = 8;
+
 /// Twin of `Binning` in binning.wgsl (a layout test checks every field's offset).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -60,8 +65,12 @@ pub struct GpuBinning {
     pub height: u32,
     /// 1: occluders on.
     pub occluders: u32,
+    /// Where the first depth band ends ([`FrameGeometry::band_near`]).
+    pub band_near: f32,
+    /// Depth of each band past the first.
+    pub band_width: f32,
     /// Padding.
-    pub pad2: u32,
+    pub pad2: [u32; 3],
 }
 
 /// The camera's frame of one render, shared by the binning and trace uniforms.
@@ -80,6 +89,11 @@ pub struct FrameGeometry {
     pub(crate) tiles_y: u32,
     /// Tile edge in pixels.
     pub(crate) tile: u32,
+    /// The depth bands of the tile lists ([`DEPTH_BANDS`]): a primitive whose bounding sphere
+    /// is nearer the eye than `band_near + band_width` is in the first band, one within the
+    /// next `band_width` in the second, and so on, the last band taking the rest.
+    pub(crate) band_near: f64,
+    pub(crate) band_width: f64,
 }
 
 impl FrameGeometry {
@@ -99,8 +113,31 @@ impl FrameGeometry {
             tiles_x: 0,
             tiles_y: 0,
             tile: 0,
+            band_near: 0.0,
+            band_width: f64::from(f32::MAX),
         }
         .with_tile(TILE)
+    }
+
+    /// The same frame with depth bands spread evenly over the depths of `bounds` (the scene's
+    /// bounded supports) as seen from the eye; one band holds everything where they are empty.
+    #[must_use]
+    pub fn with_depth_bands(self, bounds: &skeletrace_core::field::geometry::Aabb) -> Self {
+        if bounds.is_empty() {
+            return self;
+        }
+        let distance = (bounds.center() - self.origin).length();
+        let radius = 0.5 * bounds.diagonal();
+        let near = (distance - radius).max(0.0);
+        let width = (distance + radius - near) / f64::from(DEPTH_BANDS);
+        if !(width.is_finite() && width > 0.0) {
+            return self;
+        }
+        Self {
+            band_near: near + width,
+            band_width: width,
+            ..self
+        }
     }
 
     /// The same frame cut into tiles of `tile` pixels.
@@ -328,6 +365,8 @@ impl TileBinning {
             tiles_x,
             tiles_y,
             tile,
+            band_near,
+            band_width,
             ..
         } = *geometry;
         let tiles = tiles_x * tiles_y;
@@ -353,7 +392,9 @@ impl TileBinning {
                 width,
                 height,
                 occluders: u32::from(self.occluders),
-                pad2: 0,
+                band_near: band_near as f32,
+                band_width: band_width as f32,
+                pad2: [0; 3],
             }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
@@ -506,12 +547,14 @@ impl BinningBuffers {
             })
         };
         let tiles = u64::from(tiles);
+        // One list per band of every tile.
+        let lists = tiles * u64::from(DEPTH_BANDS);
         let prims = u64::from(n_prims.max(1));
         let cleared = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         Self {
             shape: (tiles as u32, n_prims),
-            counts: buffer("tile counts", tiles * 4, cleared),
-            ranges: buffer("tile ranges", tiles * 8, wgpu::BufferUsages::STORAGE),
+            counts: buffer("tile counts", lists * 4, cleared),
+            ranges: buffer("tile ranges", lists * 8, wgpu::BufferUsages::STORAGE),
             rects: buffer("tile rectangles", prims * 16, wgpu::BufferUsages::STORAGE),
             occluded: buffer("occluding depths", tiles * 4, cleared),
             nearest: buffer("nearest reaches", prims * 4, wgpu::BufferUsages::STORAGE),
