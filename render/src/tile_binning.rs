@@ -29,7 +29,7 @@ pub const MAX_TILE: u32 = 64;
 /// Depth bands per tile list (binning.wgsl): a tile lists its primitives band by band, by the
 /// distance from the eye to their bounding spheres, so that a ray's window fill (prelude.wgsl
 /// `fill_window`) stops at the first band that begins past what the window could still take.
-pub const DEPTH_BANDS: u32 = 8;
+pub const DEPTH_BANDS: u32 = 16;
 
 /// Twin of `Binning` in binning.wgsl (a layout test checks every field's offset).
 #[repr(C)]
