@@ -1078,14 +1078,14 @@ fn a_few_ulps_of_the_isovalue_keep_the_transparent_steps() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
-/// A dense foam, whose rays cross far more supports than a window holds (64): every refill of
-/// a window walked a tile list thousands long, and lavapipe cut rays short at its 65 535 loop
-/// iterations per invocation. Before the tile lists were cut into depth bands (docs/gpu.md),
-/// lavapipe's quadratic Taylor frame of this foam differed from the CPU's on about a third of
-/// the pixels (and changed from run to run); a fill now stops at the first band past the full
-/// window's horizon. The frames are held to the CPU's as in [`check_methods_agreement`].
-/// (From the generator's default camera, face-on, the rays are deeper and 61 of 479 hits are
-/// still missed on lavapipe: docs/gpu.md.)
+/// A dense foam, whose rays cross far more supports than a window holds (64), so that every
+/// refill of a window walked a tile list thousands long. Before the tile lists were cut into
+/// depth bands (docs/gpu.md), lavapipe's quadratic Taylor frame of this foam differed from the
+/// CPU's on about a third of the pixels (and changed from run to run), for a cause not
+/// established; a fill now stops at the first band past the full window's horizon. The frames
+/// are held to the CPU's as in [`check_methods_agreement`]. (From the generator's default
+/// camera, face-on, the rays are deeper and 61 of 479 hits are still missed on lavapipe:
+/// docs/gpu.md.)
 #[test]
 fn a_dense_foam_matches_the_cpu() {
     use skeletrace_core::model::generate::GeneratorKind;
