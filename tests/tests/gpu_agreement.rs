@@ -1037,7 +1037,7 @@ fn gpu_statistics_agree_with_the_cpus() {
             name,
             &scene,
             (protocol, mode),
-            methods,
+            (methods, STEPS_TOLERANCE),
         ));
     }
     assert!(failures.is_empty(), "disagreements: {failures:?}");
@@ -1067,7 +1067,7 @@ fn a_few_ulps_of_the_isovalue_keep_the_transparent_steps() {
             (0..ulps.abs()).fold(c, |v, _| if ulps > 0 { v.next_up() } else { v.next_down() });
         let mut nudged = scene.clone();
         nudged.isovalue = f64::from(isovalue);
-        failures.extend(statistics_disagreements_within(
+        failures.extend(statistics_disagreements(
             &mut gpu,
             &format!("summed-blobs, isovalue {ulps:+} ulp"),
             &nudged,
@@ -1130,7 +1130,7 @@ fn the_opengl_backend_agrees_with_the_cpu() {
         "tree (OpenGL)",
         &load("tree"),
         (Protocol::Default, TraceMode::Transparent),
-        &[MethodId::ScalisQuadratic],
+        (&[MethodId::ScalisQuadratic], STEPS_TOLERANCE),
     );
     let tree = load("tree");
     check_methods_agreement(
@@ -1158,24 +1158,14 @@ fn generated(
     skeletrace_core::model::generate::generate(kind, &options).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The relative gap in average steps [`gpu_statistics_agree_with_the_cpus`] allows.
+const STEPS_TOLERANCE: f64 = 0.01;
+
 /// Traces the statistics protocol's first 3 000 rays (seed 5) on `scene` with `methods` on the
 /// CPU and on `gpu`, prints both, and names the methods that miss the thresholds of
-/// [`gpu_statistics_agree_with_the_cpus`].
+/// [`gpu_statistics_agree_with_the_cpus`], with average steps held to `steps_tolerance`
+/// (relative).
 fn statistics_disagreements(
-    gpu: &mut GpuRenderer,
-    name: &str,
-    scene: &Scene,
-    (protocol, mode): (
-        skeletrace_core::methods::Protocol,
-        skeletrace_core::methods::TraceMode,
-    ),
-    methods: &[skeletrace_core::methods::MethodId],
-) -> Vec<String> {
-    statistics_disagreements_within(gpu, name, scene, (protocol, mode), (methods, 0.01))
-}
-
-/// [`statistics_disagreements`] with average steps held to `steps_tolerance` (relative).
-fn statistics_disagreements_within(
     gpu: &mut GpuRenderer,
     name: &str,
     scene: &Scene,
