@@ -375,10 +375,10 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
         if job.kind == RAY_CAMERA {
             ray = pixel_ray(px, py);
             job.weight = vec3<f32>(1.0);
-            gather_supports(sp, ray, px, py);
+            gather_supports(sp, ray, px, py, resumed_floor(pixel));
         } else {
             ray = Ray(job.origin, job.dir);
-            gather_every(sp, ray, job.far);
+            gather_every(sp, ray, job.far, resumed_floor(pixel));
         }
         var trace: Trace;
         if !march_resumed(pixel, sp, ray, &trace) {
@@ -528,9 +528,9 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     var supports: RaySupports;
     let sp = &supports;
     if r.list == EVERY_PRIMITIVE {
-        gather_every(sp, ray, r.far);
+        gather_every(sp, ray, r.far, resumed_floor(k));
     } else {
-        gather_list(sp, ray, r.list, r.far);
+        gather_list(sp, ray, r.list, r.far, resumed_floor(k));
     }
     var trace: Trace;
     if !march_resumed(k, sp, ray, &trace) {

@@ -7,9 +7,10 @@
 // loops once they reach 65 535 iterations in all, and each step loops over the support window,
 // so a ray near the 2 048-step budget would be cut short in one dispatch. A ray whose
 // allowance runs out with budget left is suspended: its march state, the end of its part and
-// the floor of its support window go to its `Suspension`, and the next dispatch refills the
-// same window and goes on from the top of the same loop iteration. The renderer dispatches a
-// marching method until every budget is spent, so the result does not depend on the allowance.
+// the floor of its support window go to its `Suspension`, and the next dispatch gathers the
+// same window (main.wgsl resumed_floor, one fill per dispatch) and goes on from the top of the
+// same loop iteration. The renderer dispatches a marching method until every budget is spent,
+// so the result does not depend on the allowance.
 
 // Where a method's march stands at the top of its loop: the position, two numbers and flags of
 // the method's own (march.wgsl, sphere_enhanced.wgsl).
@@ -26,7 +27,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
     var part: vec2<f32>;
     var state: MarchState;
     if ((*resume).flags & SUSPENDED) != 0u {
-        fill_window(sp, ray, (*resume).window_floor);
+        // The window was gathered at the suspension's floor (main.wgsl resumed_floor).
         part = vec2<f32>((*resume).t, (*resume).part_end);
         state = MarchState((*resume).t, (*resume).carry0, (*resume).carry1, (*resume).flags & ~SUSPENDED);
     } else {

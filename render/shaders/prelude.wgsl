@@ -714,18 +714,18 @@ fn window_take(sp: ptr<function, RaySupports>, ray: Ray, i: u32) {
     (*sp).ids[k] = i;
 }
 
-fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32) {
+fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32, floor: f32) {
     let ts = globals.tile_size;
-    gather_list(sp, ray, (py / ts) * globals.tiles_x + px / ts, globals.far);
+    gather_list(sp, ray, (py / ts) * globals.tiles_x + px / ts, globals.far, floor);
 }
 
-// The supports along `ray` over [0, far] among those of list `list` (a tile's, made of
+// The supports along `ray` over [floor, far] among those of list `list` (a tile's, made of
 // globals.list_bands lists in tile_ranges).
-fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32) {
+fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32, floor: f32) {
     (*sp).far = far;
     (*sp).list = list * globals.list_bands;
     (*sp).listed = true;
-    fill_window(sp, ray, 0.0);
+    fill_window(sp, ray, floor);
 }
 
 // The items of list `list` in tile_items. A list past the items' end (the host grows them and
@@ -736,13 +736,20 @@ fn band_range(list: u32) -> vec2<u32> {
     return vec2<u32>(min(range.x, written), min(range.y, written));
 }
 
-// The supports along `ray` over [0, far] among every primitive: a secondary ray (main.wgsl
+// The supports along `ray` over [floor, far] among every primitive: a secondary ray (main.wgsl
 // trace_path) or a statistics ray off the axes leaves the screen tiles, and is traced against
 // the whole scene as on the CPU, whose primitives the hierarchy (bvh_nodes) finds.
-fn gather_every(sp: ptr<function, RaySupports>, ray: Ray, far: f32) {
+fn gather_every(sp: ptr<function, RaySupports>, ray: Ray, far: f32, floor: f32) {
     (*sp).far = far;
     (*sp).listed = false;
-    fill_window(sp, ray, 0.0);
+    fill_window(sp, ray, floor);
+}
+
+// Where the window of ray `k`'s march starts: the floor its suspended march left (parts.wgsl),
+// whose window the march goes on with, or 0 for a march that begins. One fill per dispatch.
+fn resumed_floor(k: u32) -> f32 {
+    let s = suspensions[k];
+    return select(0.0, s.window_floor, (s.flags & SUSPENDED) != 0u);
 }
 
 fn support_count(sp: ptr<function, RaySupports>) -> u32 {
