@@ -247,10 +247,11 @@ struct Path {
 };
 
 @group(0) @binding(13) var<storage, read_write> paths: array<Path>;
-// Non-zero once a dispatch has left a path unfinished (a ray still marching); the renderer
+// [0]: non-zero once a dispatch has left a path unfinished (a ray still marching); the renderer
 // clears it before the last dispatch of a batch and reads it after (gpu_renderer.rs
-// `dispatch_marches`), to stop dispatching once every path is done.
-@group(0) @binding(14) var<storage, read_write> unfinished_paths: atomic<u32>;
+// `dispatch_marches`), to stop dispatching once every path is done. [1]: the invocations that
+// passed lavapipe's loop limit (note_loop_limit), which fail the frame.
+@group(0) @binding(14) var<storage, read_write> unfinished_paths: array<atomic<u32>, 2>;
 
 fn push_ray(path: ptr<function, Path>, ray: PathRay) {
     if (*path).stacked < PATH_STACK {
@@ -433,8 +434,24 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
 
 // Another dispatch is needed: one store per dispatch, not one per ray.
 fn note_unfinished() {
-    if atomicLoad(&unfinished_paths) == 0u {
-        atomicStore(&unfinished_paths, 1u);
+    if atomicLoad(&unfinished_paths[0]) == 0u {
+        atomicStore(&unfinished_paths[0], 1u);
+    }
+}
+
+// Mesa's llvmpipe (lavapipe) counts the iterations of all the loops of an invocation against
+// one limit of 65 535, and past it leaves every loop after its first iteration (gallivm
+// LP_MAX_TGSI_LOOP_ITERATIONS): a fill, a step or a march cut short would miss surfaces
+// silently. A loop of globals.loop_probe (2) iterations, which the compiler cannot count ahead,
+// runs once only past that limit; such invocations are counted in unfinished_paths[1].
+// Hardware GPUs have no such limit.
+fn note_loop_limit() {
+    var runs = 0u;
+    for (var i = 0u; i < globals.loop_probe; i++) {
+        runs += 1u;
+    }
+    if runs < globals.loop_probe {
+        atomicAdd(&unfinished_paths[1], 1u);
     }
 }
 
@@ -449,6 +466,7 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     steps_left = globals.steps_per_dispatch;
     trace_path(pixel, id.x, id.y);
+    note_loop_limit();
 }
 
 // A ray of `stats --backend gpu` (gpu_stats.rs): traced over [0, far] among the primitives of
@@ -523,6 +541,12 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     steps_left = globals.steps_per_dispatch;
     stats_ray = k;
+    trace_statistics_ray(k);
+    note_loop_limit();
+}
+
+// trace_rays' ray `k`.
+fn trace_statistics_ray(k: u32) {
     let r = stats_rays[k];
     let ray = Ray(r.origin, r.dir);
     var supports: RaySupports;

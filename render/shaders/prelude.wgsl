@@ -45,7 +45,7 @@ struct Globals {
     band_near: f32,             // the tile lists' depth bands (binning.wgsl band_list)
     band_width: f32,
     list_bands: u32,            // lists per tile in tile_ranges: DEPTH_BANDS, 1 for statistics rays
-    pad0: u32,
+    loop_probe: u32,            // 2: the iterations of main.wgsl note_loop_limit's probe
 };
 
 // Twin of `GpuPrimitive`. kind: KIND_*.

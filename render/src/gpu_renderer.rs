@@ -47,6 +47,10 @@ pub const STEPS_PER_DISPATCH: u32 = 256;
 /// limit, where 8 stay far below it.
 pub const STEPS_PER_DISPATCH_CPU_ADAPTER: u32 = 8;
 
+/// Iterations of the loop by which an invocation finds whether it passed lavapipe's loop limit
+/// (main.wgsl `note_loop_limit`): a loop of 2 runs once past it.
+pub const LOOP_PROBE: u32 = 2;
+
 /// How a march's dispatches go between two checks of whether a ray is still marching
 /// (`dispatch_marches`): batches of `first` dispatches, or with `doubling`, a first batch of
 /// `first` and each later one twice the one before.
@@ -154,8 +158,8 @@ pub struct GpuGlobals {
     /// Lists per tile in `tile_ranges`: [`DEPTH_BANDS`] in frames, 1 for the statistics
     /// rays' lists.
     pub list_bands: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// [`LOOP_PROBE`].
+    pub loop_probe: u32,
 }
 
 /// The uploaded scene.
@@ -222,7 +226,7 @@ impl SceneBuffers {
             band_near: 0.0,
             band_width: f32::MAX,
             list_bands: 1,
-            pad0: 0,
+            loop_probe: LOOP_PROBE,
         }
     }
 }
@@ -1433,14 +1437,14 @@ fn timestamps_at(
         })
 }
 
-/// The flag a dispatch sets when it leaves a ray marching (main.wgsl `unfinished_paths`) and
-/// its `MAP_READ` copy.
+/// The flag a dispatch sets when it leaves a ray marching and the count of invocations past
+/// lavapipe's loop limit (main.wgsl `unfinished_paths`), and their `MAP_READ` copy.
 fn unfinished_flag(device: &wgpu::Device) -> [wgpu::Buffer; 2] {
     [
         buffer_of(
             device,
             "unfinished paths",
-            4,
+            8,
             wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
@@ -1448,7 +1452,7 @@ fn unfinished_flag(device: &wgpu::Device) -> [wgpu::Buffer; 2] {
         buffer_of(
             device,
             "unfinished paths readback",
-            4,
+            8,
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         ),
     ]
@@ -1467,8 +1471,11 @@ fn unfinished_flag(device: &wgpu::Device) -> [wgpu::Buffer; 2] {
 /// about 14 ms at 128 × 128), and a march's budget is many dispatches
 /// ([`STEPS_PER_DISPATCH_CPU_ADAPTER`]).
 ///
+/// With `batches`, the march is also checked for lavapipe's loop limit (main.wgsl
+/// `note_loop_limit`), even when it takes a single batch.
+///
 /// # Errors
-/// The readback's.
+/// The readback's, and an invocation past lavapipe's loop limit, whose rays were cut short.
 fn dispatch_marches(
     (device, queue, encoder): (&wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder),
     (pipeline, group, label): (&wgpu::ComputePipeline, &wgpu::BindGroup, &str),
@@ -1488,10 +1495,11 @@ fn dispatch_marches(
             pass.dispatch_workgroups(workgroups.0, workgroups.1, 1);
         }
     };
-    let Some((batches, [flag, read])) = batches.filter(|(b, _)| dispatches > b.first) else {
+    let Some((batches, [flag, read])) = batches else {
         pass(encoder, dispatches, (true, true));
         return Ok(());
     };
+    encoder.clear_buffer(flag, 4, Some(4));
     let mut done = 0;
     let mut next = batches.first;
     while done < dispatches {
@@ -1502,16 +1510,24 @@ fn dispatch_marches(
         if batch > 1 {
             pass(encoder, batch - 1, (done == 0, false));
         }
-        encoder.clear_buffer(flag, 0, None);
+        encoder.clear_buffer(flag, 0, Some(4));
         pass(encoder, 1, (done == 0 && batch == 1, true));
         done += batch;
-        encoder.copy_buffer_to_buffer(flag, 0, read, 0, 4);
+        encoder.copy_buffer_to_buffer(flag, 0, read, 0, 8);
         let recorded = std::mem::replace(
             encoder,
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default()),
         );
         queue.submit([recorded.finish()]);
-        if read_back::<u32>(device, read)?.first() == Some(&0) {
+        let flags = read_back::<u32>(device, read)?;
+        if let Some(&passed) = flags.get(1).filter(|&&passed| passed != 0) {
+            return Err(format!(
+                "{label}: {passed} shader invocation(s) passed the software adapter's loop \
+                 limit (Mesa's llvmpipe stops an invocation's loops after 65 535 iterations in \
+                 all), so some rays were cut short; trace this scene on the CPU (--backend cpu)"
+            ));
+        }
+        if flags.first() == Some(&0) {
             break;
         }
     }

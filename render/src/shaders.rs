@@ -384,7 +384,7 @@ mod tests {
                 gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
                 output_width, heat_max, heat_view, shading_flags, shading_scale,
                 steps_per_dispatch, secondary, stats_crossings, bvh_unbounded, bvh_items,
-                band_near, band_width, list_bands),
+                band_near, band_width, list_bands, loop_probe),
         );
         check_twin(
             &binning,

@@ -1108,6 +1108,53 @@ fn a_dense_foam_matches_the_cpu() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
+/// Lavapipe stops an invocation's loops once they have run 65 535 iterations in all, which cuts
+/// rays short and loses hits without a word; the renderer finds out (main.wgsl
+/// `note_loop_limit`) and fails the frame, naming the cause. Sphere tracing the tree takes up
+/// to 2 048 steps per ray, each looping over the ray's supports: with the whole budget in one
+/// dispatch it passes the limit on lavapipe (552 of the 1 600 invocations), with the software
+/// adapter's allowance of 8 steps it stays below it. A hardware GPU has no such limit and
+/// traces both frames.
+#[test]
+fn a_frame_past_lavapipes_loop_limit_fails_naming_it() {
+    let Some(mut gpu) = gpu_or_skip("a_frame_past_lavapipes_loop_limit_fails_naming_it") else {
+        return;
+    };
+    let tree = load("tree");
+    let compiled = compile(&tree);
+    gpu.set_scene(&compiled)
+        .unwrap_or_else(|e| panic!("tree: {e}"));
+    let frame = |gpu: &mut GpuRenderer| {
+        gpu.render(
+            &[GpuMethod::Sphere],
+            &tree.camera,
+            &compiled.settings,
+            (SIZE as u32, SIZE as u32),
+            (
+                View::Shaded(skeletrace_core::frame::FieldShading::default()),
+                false,
+            ),
+        )
+        .map_err(|e| e.to_string())
+    };
+    if let Err(e) = frame(&mut gpu) {
+        panic!("tree, the default allowance: {e}");
+    }
+    let default_allowance = gpu.steps_per_dispatch();
+    gpu.set_steps_per_dispatch(compiled.settings.max_steps);
+    let whole_budget = frame(&mut gpu);
+    // The renderer goes back to the other tests as it came.
+    gpu.set_steps_per_dispatch(default_allowance);
+    if gpu.device_kind() == skeletrace_core::backend::DeviceKind::SoftwareGpu {
+        let Err(e) = whole_budget else {
+            panic!("tree, the whole budget in one dispatch: no error on a software adapter")
+        };
+        assert!(e.contains("loop limit"), "{e}");
+    } else if let Err(e) = whole_budget {
+        panic!("tree, the whole budget in one dispatch: {e}");
+    }
+}
+
 /// wgpu's OpenGL backend (Mesa's llvmpipe through EGL here and in CI), which wgpu falls back to
 /// on a machine without a Vulkan loader: its shaders go through naga's GLSL and the driver's
 /// GLSL compiler, which once dropped a store in the SCALIS tracer's breakpoint sort that
