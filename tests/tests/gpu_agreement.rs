@@ -124,6 +124,16 @@ fn shaded_frames(
     settings: &skeletrace_core::methods::TraceSettings,
     label: &str,
 ) -> Vec<Frame> {
+    try_shaded_frames(gpu, methods, camera, settings).unwrap_or_else(|e| panic!("{label}: {e}"))
+}
+
+/// [`shaded_frames`], with the renderer's error.
+fn try_shaded_frames(
+    gpu: &mut GpuRenderer,
+    methods: &[GpuMethod],
+    camera: &Camera,
+    settings: &skeletrace_core::methods::TraceSettings,
+) -> Result<Vec<Frame>, String> {
     gpu.render(
         methods,
         camera,
@@ -134,7 +144,7 @@ fn shaded_frames(
             false,
         ),
     )
-    .unwrap_or_else(|e| panic!("{label}: {e}"))
+    .map_err(|e| e.to_string())
 }
 
 /// Compares two frames of a method whose step budget is `budget`. A march that runs out of
@@ -1125,17 +1135,7 @@ fn a_frame_past_lavapipes_loop_limit_fails_naming_it() {
     gpu.set_scene(&compiled)
         .unwrap_or_else(|e| panic!("tree: {e}"));
     let frame = |gpu: &mut GpuRenderer| {
-        gpu.render(
-            &[GpuMethod::Sphere],
-            &tree.camera,
-            &compiled.settings,
-            (SIZE as u32, SIZE as u32),
-            (
-                View::Shaded(skeletrace_core::frame::FieldShading::default()),
-                false,
-            ),
-        )
-        .map_err(|e| e.to_string())
+        try_shaded_frames(gpu, &[GpuMethod::Sphere], &tree.camera, &compiled.settings)
     };
     if let Err(e) = frame(&mut gpu) {
         panic!("tree, the default allowance: {e}");
