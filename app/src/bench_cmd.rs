@@ -4,7 +4,7 @@
 //! GPU, where the adapter has timestamp queries, also the GPU's own time for the trace pass and
 //! the tile binning: the wall-clock frame holds the readback and the conversion to frames as
 //! well. With `--after-edits`, the frames that follow vertex edits on the CPU, which copies the
-//! tiles an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
+//! tiles and rays an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
 
 use std::time::Instant;
 
@@ -45,8 +45,9 @@ struct Row {
     frame_ms: f64,
     /// Median GPU milliseconds of the trace pass and of the binning passes.
     passes: Option<(f64, f64)>,
-    /// After edits: the median share of screen tiles copied instead of traced.
-    reused: Option<f64>,
+    /// After edits: the median shares of screen tiles copied whole and of pixels copied
+    /// instead of traced.
+    reused: Option<(f64, f64)>,
 }
 
 /// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices
@@ -73,7 +74,7 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
     if vertices.is_empty() {
         return Err("--after-edits moves skeleton vertices: the scene has none".to_owned());
     }
-    let (mut times, mut reused) = (Vec::new(), Vec::new());
+    let (mut times, mut tiles, mut pixels) = (Vec::new(), Vec::new(), Vec::new());
     for (g, s, v) in vertices {
         let vertex = &mut scene.groups[g].skeletons[s].vertices[v];
         vertex.position[1] += 0.05 * vertex.radius;
@@ -81,13 +82,14 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
         let start = Instant::now();
         backend.render(&compiled, request).map_err(fail)?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
-        reused.push(backend.share_of_tiles_reused());
+        tiles.push(backend.share_of_tiles_reused());
+        pixels.push(backend.share_of_pixels_reused());
     }
     Ok(Row {
         name: method.name(),
         frame_ms: median(times),
         passes: None,
-        reused: Some(median(reused)),
+        reused: Some((median(tiles), median(pixels))),
     })
 }
 
@@ -170,9 +172,9 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                     format!(", \"gpu_trace_ms\": {trace:.3}, \"gpu_binning_ms\": {binning:.3}")
                 });
                 let passes = passes
-                    + &row
-                        .reused
-                        .map_or(String::new(), |r| format!(", \"tiles_reused\": {r:.4}"));
+                    + &row.reused.map_or(String::new(), |(tiles, pixels)| {
+                        format!(", \"tiles_reused\": {tiles:.4}, \"pixels_reused\": {pixels:.4}")
+                    });
                 format!(
                     "{{\"name\": \"{}\", \"ms_per_frame\": {:.3}{passes}}}",
                     row.name, row.frame_ms
@@ -198,8 +200,12 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         for row in rows {
             let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                 format!("   (GPU: trace {trace:.3} ms, binning {binning:.3} ms)")
-            }) + &row.reused.map_or(String::new(), |r| {
-                format!("   ({:.1} % of tiles copied)", 100.0 * r)
+            }) + &row.reused.map_or(String::new(), |(tiles, pixels)| {
+                format!(
+                    "   ({:.1} % of tiles copied whole, {:.1} % of pixels copied)",
+                    100.0 * tiles,
+                    100.0 * pixels
+                )
             });
             println!("{:<28} {:>10.2} ms/frame{passes}", row.name, row.frame_ms);
         }

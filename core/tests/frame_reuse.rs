@@ -1,7 +1,8 @@
 //! The CPU backend's tile reuse (`cpu_backend.rs`, issue 18's edit loop): after an edit, a
-//! frame that copies the earlier frame's unchanged tiles is the frame a full trace gives, bit
-//! for bit, for every method, on generated scenes and random edits the code was not written
-//! against; and it does copy tiles.
+//! frame that copies the earlier frame's unchanged tiles, and in the other tiles the rays no
+//! changed primitive reaches, is the frame a full trace gives, bit for bit, for every method,
+//! on generated scenes and random edits the code was not written against; and it does copy
+//! tiles and rays.
 
 mod common;
 
@@ -110,7 +111,7 @@ fn frames_reusing_tiles_are_the_frames_traced_in_full() {
     let assets =
         ["creature", "operators", "hrbf"].map(|name| (name.to_owned(), common::asset(name)));
     let mut rng = SplitMix64::new(4401);
-    let (mut compared, mut edits_reusing) = (0, 0);
+    let (mut compared, mut edits_reusing, mut edits_copying_rays) = (0, 0, 0);
     for (kind, mut scene) in generated.chain(assets) {
         let mut compiled = compile(&scene);
         let methods = methods_tracing(&compiled);
@@ -146,12 +147,23 @@ fn frames_reusing_tiles_are_the_frames_traced_in_full() {
                     compared += 1;
                 }
                 edits_reusing += usize::from(backend.share_of_tiles_reused() > 0.0);
+                // Every tile is whole (`SIZE` is a multiple of 8): more pixels than tiles
+                // copied means rays copied in tiles traced again.
+                edits_copying_rays +=
+                    usize::from(backend.share_of_pixels_reused() > backend.share_of_tiles_reused());
             }
         }
     }
-    eprintln!("compared {compared} frames; {edits_reusing} edits reused tiles");
+    eprintln!(
+        "compared {compared} frames; {edits_reusing} edits reused tiles, \
+         {edits_copying_rays} copied rays of tiles traced again"
+    );
     assert!(compared > 100, "{compared}");
     assert!(edits_reusing > 0, "no edit reused a tile");
+    assert!(
+        edits_copying_rays > 0,
+        "no edit copied a ray of a tile traced again"
+    );
 }
 
 /// An edit far from most of the screen copies most tiles: a blob of a generated scene moved,
@@ -192,6 +204,7 @@ fn an_edit_traces_again_only_the_tiles_it_reaches() {
             frame: &first.frame,
             tile_primitives: &first.tile_primitives,
             changed: &changed,
+            program: &before.program,
         }),
     );
     let full = trace(&after, None);
@@ -205,6 +218,63 @@ fn an_edit_traces_again_only_the_tiles_it_reaches() {
     assert!(
         again.reused_tiles * 2 > tiles && again.reused_tiles < tiles,
         "{} of {tiles} tiles reused",
+        again.reused_tiles
+    );
+}
+
+/// In the tiles an edit reaches, the rays that no changed primitive reaches are copied: the
+/// creature's left hind knee moved, quadratic Taylor; the frame is the full trace's.
+#[test]
+fn an_edit_traces_again_only_the_rays_it_reaches() {
+    let mut scene = common::asset("creature");
+    let before = compile(&scene);
+    let knee = &mut scene.groups[0].skeletons[0].vertices[9];
+    knee.position[1] += 0.05 * knee.radius;
+    let after = compile(&scene);
+    let changed = after
+        .program
+        .primitives_changed_since(&before.program)
+        .unwrap_or_else(|| panic!("a knee moved inside the scene changes nothing else"));
+    let render_options = RenderOptions {
+        width: 96,
+        height: 72,
+        shadows: false,
+        shading: FieldShading::default(),
+    };
+    let method = MethodId::QuadraticTaylor.method();
+    let trace = |compiled: &Compiled, earlier: Option<&EarlierFrame<'_>>| {
+        let tracer = method.prepare(&compiled.program, compiled.settings);
+        Renderer::new(compiled, tracer.as_ref(), compiled.settings)
+            .render_reusing(&scene.camera, render_options, &Cancel::new(), earlier)
+            .unwrap_or_else(|| panic!("not cancelled"))
+    };
+    let first = trace(&before, None);
+    let again = trace(
+        &after,
+        Some(&EarlierFrame {
+            frame: &first.frame,
+            tile_primitives: &first.tile_primitives,
+            changed: &changed,
+            program: &before.program,
+        }),
+    );
+    let full = trace(&after, None);
+    assert!(
+        bits(&first.frame) != bits(&full.frame),
+        "the edit must show"
+    );
+    assert!(bits(&again.frame) == bits(&full.frame));
+    // 96 × 72 is 12 × 9 whole tiles of 64 pixels.
+    let (tiles, pixels) = (12 * 9, 96 * 72);
+    eprintln!(
+        "{} of {pixels} pixels copied, {} of {tiles} tiles whole",
+        again.reused_pixels, again.reused_tiles
+    );
+    assert!(again.reused_tiles < tiles, "the edit reaches some tiles");
+    assert!(
+        again.reused_pixels > again.reused_tiles * 64 && again.reused_pixels < pixels,
+        "{} of {pixels} pixels reused, {} of {tiles} whole tiles",
+        again.reused_pixels,
         again.reused_tiles
     );
 }

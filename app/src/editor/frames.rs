@@ -36,8 +36,8 @@ pub(super) struct ShownFrame {
     pub texture: egui::TextureHandle,
     pub on_gpu: bool,
     pub ms: f64,
-    /// On the CPU, the share of tiles copied from an earlier frame.
-    pub tiles_copied: Option<f64>,
+    /// On the CPU, the share of pixels copied from an earlier frame.
+    pub pixels_copied: Option<f64>,
 }
 
 /// The latest reply from the renderer thread.
@@ -255,7 +255,7 @@ impl ViewportFrames {
                     texture,
                     on_gpu: t.on_gpu,
                     ms: t.ms,
-                    tiles_copied: t.tiles_copied,
+                    pixels_copied: t.pixels_copied,
                 }
             })
             .collect();

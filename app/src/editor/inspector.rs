@@ -740,10 +740,13 @@ impl Editor {
             } else if let Some(shown) = &self.frames.shown {
                 for f in &shown.frames {
                     let backend = if f.on_gpu { "GPU" } else { "CPU" };
-                    let copied = f.tiles_copied.filter(|share| *share > 0.0).map_or(
+                    let copied = f.pixels_copied.filter(|share| *share > 0.0).map_or(
                         String::new(),
                         |share| {
-                            format!(", {:.0} % of tiles kept from the last frame", 100.0 * share)
+                            format!(
+                                ", {:.0} % of pixels kept from the last frame",
+                                100.0 * share
+                            )
                         },
                     );
                     ui.monospace(format!(

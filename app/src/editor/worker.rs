@@ -56,9 +56,9 @@ pub struct Traced {
     pub on_gpu: bool,
     /// Milliseconds spent tracing it.
     pub ms: f64,
-    /// On the CPU, the share of its screen tiles copied from an earlier frame instead of
-    /// traced (after an edit that left them alone, `CpuBackend::reusing_tiles`).
-    pub tiles_copied: Option<f64>,
+    /// On the CPU, the share of its pixels copied from an earlier frame instead of traced
+    /// (after an edit that did not reach them, `CpuBackend::reusing_tiles`).
+    pub pixels_copied: Option<f64>,
 }
 
 /// The answer to a request.
@@ -214,7 +214,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
                 frame,
                 on_gpu,
                 ms: start.elapsed().as_secs_f64() * 1e3,
-                tiles_copied: (!on_gpu).then(|| backends.cpu.share_of_tiles_reused()),
+                pixels_copied: (!on_gpu).then(|| backends.cpu.share_of_pixels_reused()),
             }),
             Err(e) => skipped.push(format!("{method}: {e}")),
         }

@@ -2,9 +2,10 @@
 //! threads. It is the reference the GPU's frames are compared with.
 //!
 //! In the editor it keeps its last frames ([`CpuBackend::reusing_tiles`]): after an edit that
-//! moved a few primitives, a frame through the same camera traces again only the screen tiles
-//! whose candidates changed, and copies the others (`Renderer::render_reusing`; issue 18, the
-//! edit loop). It does so only where every ray's trace is known to depend on nothing else:
+//! moved a few primitives, a frame through the same camera copies the screen tiles whose
+//! candidates did not change and, in the other tiles, the rays that no changed primitive
+//! reaches, and traces again only the rest (`Renderer::render_reusing`; issue 18, the edit
+//! loop). It does so only where every ray's trace is known to depend on nothing else:
 //! the same method, camera, size, view and settings; a program that differs only in some
 //! bounded primitives (`FieldProgram::primitives_changed_since`), with the same materials,
 //! lights and method inputs (`Method::scene_inputs`); no shadow rays, no field shading and no
@@ -31,9 +32,13 @@ pub struct CpuBackend {
     reuse: bool,
     /// The kept frames, oldest first.
     kept: Vec<KeptFrame>,
-    /// The last request's screen tiles, all methods together: how many were copied from
+    /// The last request's screen tiles, all methods together: how many were copied whole from
     /// earlier frames, and how many there were.
     reused: (usize, usize),
+    /// The last request's pixels, all methods together: how many were copied from earlier
+    /// frames (in tiles copied whole, or rays of other tiles that no edit reached), and how
+    /// many there were.
+    reused_pixels: (usize, usize),
 }
 
 /// One method's frame, kept with what decides whether a later one may reuse its tiles.
@@ -72,16 +77,19 @@ impl CpuBackend {
         }
     }
 
-    /// The share of the last request's screen tiles (all its methods together) copied from
-    /// earlier frames instead of traced: 0 when none was.
+    /// The share of the last request's screen tiles (all its methods together) copied whole
+    /// from earlier frames instead of traced: 0 when none was.
     #[must_use]
     pub fn share_of_tiles_reused(&self) -> f64 {
-        let (copied, tiles) = self.reused;
-        if tiles == 0 {
-            0.0
-        } else {
-            copied as f64 / tiles as f64
-        }
+        share(self.reused)
+    }
+
+    /// The share of the last request's pixels (all its methods together) copied from earlier
+    /// frames instead of traced: those of the tiles copied whole, and the rays of the others
+    /// that no changed primitive reaches.
+    #[must_use]
+    pub fn share_of_pixels_reused(&self) -> f64 {
+        share(self.reused_pixels)
     }
 
     /// The frame kept for `method` through `view` whose tiles a frame of `compiled` may reuse,
@@ -119,6 +127,15 @@ impl CpuBackend {
         let size_of = |k: &KeptFrame| (k.view.width, k.view.height);
         let sizes = sizes_to_keep(self.kept.iter().rev().map(size_of));
         self.kept.retain(|k| sizes.contains(&size_of(k)));
+    }
+}
+
+/// `part / whole`, 0 for an empty whole.
+fn share((part, whole): (usize, usize)) -> f64 {
+    if whole == 0 {
+        0.0
+    } else {
+        part as f64 / whole as f64
     }
 }
 
@@ -190,6 +207,7 @@ impl FrameBackend for CpuBackend {
         };
         let reuse = self.reuse && rays_stay_in_their_tiles(compiled, &options);
         self.reused = (0, 0);
+        self.reused_pixels = (0, 0);
         let mut frames = Vec::with_capacity(request.methods.len());
         for &id in &request.methods {
             let method = id.method();
@@ -213,12 +231,15 @@ impl FrameBackend for CpuBackend {
                             frame: &kept.traced.frame,
                             tile_primitives: &kept.traced.tile_primitives,
                             changed,
+                            program: &kept.compiled.program,
                         })
                         .as_ref(),
                 )
                 .ok_or(BackendError::Cancelled)?;
             self.reused.0 += traced.reused_tiles;
             self.reused.1 += traced.tile_primitives.len();
+            self.reused_pixels.0 += traced.reused_pixels;
+            self.reused_pixels.1 += traced.frame.width * traced.frame.height;
             if let View::Steps { steps_max } = request.view {
                 let top = f64::from(steps_max.max(1));
                 for (colour, &steps) in traced.frame.colour.iter_mut().zip(&traced.frame.steps) {

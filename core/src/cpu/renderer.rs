@@ -30,9 +30,9 @@ use crate::model::scene::{Camera, Light, Material};
 /// A traced pixel: colour, depth of the first crossing and steps.
 type Pixel = ([f32; 3], f64, u32);
 
-/// A screen tile's pixels, its candidate primitives, and whether the pixels were copied from
-/// an earlier frame.
-type TileOutcome = (Vec<Pixel>, Vec<u32>, bool);
+/// A screen tile's pixels, its candidate primitives, whether the whole tile was copied from
+/// an earlier frame, and how many of its pixels were.
+type TileOutcome = (Vec<Pixel>, Vec<u32>, bool, usize);
 
 /// Side of the square screen tiles whose camera rays share one candidate list.
 const TILE: usize = 8;
@@ -63,6 +63,8 @@ pub struct EarlierFrame<'f> {
     pub tile_primitives: &'f [Vec<u32>],
     /// The primitives changed since, one flag per primitive of this renderer's program.
     pub changed: &'f [bool],
+    /// The program it was traced on.
+    pub program: &'f FieldProgram,
 }
 
 /// A frame with what a later one needs to reuse its tiles.
@@ -71,8 +73,59 @@ pub struct TracedFrame {
     pub frame: Frame,
     /// Each screen tile's candidate primitives, in their order (row-major tiles).
     pub tile_primitives: Vec<Vec<u32>>,
-    /// How many tiles were copied from the earlier frame.
+    /// How many tiles were copied whole from the earlier frame.
     pub reused_tiles: usize,
+    /// How many pixels were copied from the earlier frame: those of the tiles copied whole,
+    /// and the rays of the other tiles that no changed primitive reaches.
+    pub reused_pixels: usize,
+}
+
+/// The changed primitives the rays of a tile traced again after an edit may meet
+/// ([`Renderer::render_reusing`]): those of the tile's earlier list, in the earlier program,
+/// and those of its list now. A ray that meets none of them, as they were or as they are,
+/// asks its questions of the same unchanged primitives in the same order as in the earlier
+/// frame (its other candidates are left out both times, `RayField::leaves_out`), so its
+/// pixel is the earlier one.
+struct EditReach {
+    before: Vec<u32>,
+    now: Vec<u32>,
+}
+
+impl EditReach {
+    /// The changed primitives of tile `tile`'s lists, or `None` where its unchanged
+    /// candidates are not those it had, in the same order: then every ray is traced again.
+    fn of_tile(earlier: &EarlierFrame<'_>, tile: usize, listed: &[u32]) -> Option<Self> {
+        let then = &earlier.tile_primitives[tile];
+        let changed = |i: &&u32| earlier.changed[**i as usize];
+        let unchanged = |i: &&u32| !changed(i);
+        then.iter()
+            .filter(unchanged)
+            .eq(listed.iter().filter(unchanged))
+            .then(|| Self {
+                before: then.iter().filter(changed).copied().collect(),
+                now: listed.iter().filter(changed).copied().collect(),
+            })
+    }
+
+    /// Whether no changed primitive is in the tile's lists: its pixels are the earlier ones.
+    fn is_empty(&self) -> bool {
+        self.before.is_empty() && self.now.is_empty()
+    }
+
+    /// Whether `ray` (on `span`) may meet a changed primitive, in the program `before` the
+    /// edit or in the program `now`.
+    fn meets(
+        &self,
+        ray: &Ray,
+        span: Interval,
+        (before, now): (&FieldProgram, &FieldProgram),
+    ) -> bool {
+        let meets_in = |program, list: &[u32]| {
+            list.iter()
+                .any(|&i| !RayField::leaves_out(program, ray, span, i))
+        };
+        meets_in(before, &self.before) || meets_in(now, &self.now)
+    }
 }
 
 /// A compiled scene bound to a method, ready to render frames through any camera.
@@ -134,10 +187,12 @@ impl<'a> Renderer<'a> {
             .map(|traced| traced.frame)
     }
 
-    /// As [`Renderer::render_unless_cancelled`], taking from `earlier` the tiles it may: a
+    /// As [`Renderer::render_unless_cancelled`], taking from `earlier` the pixels it may: a
     /// tile whose candidates are those it had in `earlier`'s frame, in the same order, none
     /// of them changed since, has the same rays over the same primitives, so its pixels are
-    /// copied instead of traced. The caller vouches for the rest (`earlier` was traced by
+    /// copied instead of traced; in a tile whose unchanged candidates are those it had, in
+    /// the same order, a ray that meets no changed primitive, as it was or as it is, is
+    /// copied too ([`EditReach`]). The caller vouches for the rest (`earlier` was traced by
     /// this method, through this camera, with these options, on a program that differs from
     /// this one only in the primitives `earlier.changed` flags, with no global shading and
     /// no transparent group: `cpu_backend.rs`).
@@ -179,21 +234,33 @@ impl<'a> Renderer<'a> {
                     TileCandidates::gather(self.program, pinhole.origin(), corners, span);
                 let listed: Vec<u32> = candidates.primitives().collect();
                 let mut pixels = Vec::with_capacity((x1 - x0) * (y1 - y0));
-                if let Some(earlier) = earlier
-                    && earlier.tile_primitives[tile] == listed
-                    && !listed.iter().any(|&i| earlier.changed[i as usize])
+                let copy = |pixels: &mut Vec<Pixel>, f: &Frame, x: usize, y: usize| {
+                    let i = y * w + x;
+                    pixels.push((f.colour[i], f.depth[i], f.steps[i]));
+                };
+                let reach = earlier.and_then(|e| EditReach::of_tile(e, tile, &listed));
+                if let (Some(earlier), Some(reach)) = (earlier, &reach)
+                    && reach.is_empty()
                 {
-                    let f = earlier.frame;
                     for y in y0..y1 {
-                        for i in y * w + x0..y * w + x1 {
-                            pixels.push((f.colour[i], f.depth[i], f.steps[i]));
+                        for x in x0..x1 {
+                            copy(&mut pixels, earlier.frame, x, y);
                         }
                     }
-                    return Some((pixels, listed, true));
+                    let copied = pixels.len();
+                    return Some((pixels, listed, true, copied));
                 }
+                let mut copied = 0;
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let ray = pinhole.ray(x, y, w, h);
+                        if let (Some(earlier), Some(reach)) = (earlier, &reach)
+                            && !reach.meets(&ray, span, (earlier.program, self.program))
+                        {
+                            copy(&mut pixels, earlier.frame, x, y);
+                            copied += 1;
+                            continue;
+                        }
                         // The field gives the crossing's normal and material, then is
                         // dropped before shading, so that the shadow rays' fields reuse its
                         // arrays.
@@ -209,21 +276,22 @@ impl<'a> Renderer<'a> {
                         pixels.push((colour.as_vec3().to_array(), depth, steps));
                     }
                 }
-                Some((pixels, listed, false))
+                Some((pixels, listed, false, copied))
             })
             .collect();
         let tiles = tiles?;
         let mut colour = vec![[0.0; 3]; w * h];
         let mut depth = vec![f64::INFINITY; w * h];
         let mut steps = vec![0; w * h];
-        for (tile, (pixels, _, _)) in tiles.iter().enumerate() {
+        for (tile, (pixels, ..)) in tiles.iter().enumerate() {
             let ((x0, x1), (y0, _)) = tile_pixels(tile);
             for (k, pixel) in pixels.iter().enumerate() {
                 let i = (y0 + k / (x1 - x0)) * w + x0 + k % (x1 - x0);
                 (colour[i], depth[i], steps[i]) = *pixel;
             }
         }
-        let reused_tiles = tiles.iter().filter(|(_, _, reused)| *reused).count();
+        let reused_tiles = tiles.iter().filter(|(_, _, whole, _)| *whole).count();
+        let reused_pixels = tiles.iter().map(|(.., copied)| copied).sum();
         Some(TracedFrame {
             frame: Frame {
                 width: w,
@@ -232,8 +300,9 @@ impl<'a> Renderer<'a> {
                 depth,
                 steps,
             },
-            tile_primitives: tiles.into_iter().map(|(_, listed, _)| listed).collect(),
+            tile_primitives: tiles.into_iter().map(|(_, listed, ..)| listed).collect(),
             reused_tiles,
+            reused_pixels,
         })
     }
 

@@ -445,6 +445,16 @@ impl<'a> RayField<'a> {
         Self::with_candidates(program, &sieve, (span, reach), candidates)
     }
 
+    /// Whether every field of `ray` on `span` over `program` answers as if primitive `i` were
+    /// not there: the ray's line misses its support by more than rounding (the test that
+    /// leaves a primitive out of [`RayField::new`]; [`RayField::from_tile`] leaves out fewer
+    /// point blobs, whose terms are then `±0` and change no answer).
+    #[must_use]
+    pub fn leaves_out(program: &FieldProgram, ray: &Ray, span: Interval, i: u32) -> bool {
+        let sieve = Sieve::new(program, ray, reach_of(span));
+        sieve.support(i).is_none() && sieve.zero_on_ray(i)
+    }
+
     /// As [`RayField::new`] for a ray of the bundle `tile` was gathered for: the tile's list
     /// filtered by the BVH walk's own test on each box, which gives the walk's candidates in
     /// its order (a box the ray meets has every enclosing node's box met too), so every
