@@ -50,8 +50,53 @@ struct Row {
     reused: Option<(f64, f64)>,
 }
 
-/// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices
-/// moved one after the other, each edit compiled and its frame traced by a CPU backend that
+/// Most edits `--after-edits` times per method.
+const MOST_EDITS: usize = 64;
+
+/// What one edit of `--after-edits` moves, in group `group`.
+struct EditTarget {
+    group: usize,
+    item: EditItem,
+}
+
+enum EditItem {
+    /// Vertex `.1` of skeleton `.0`.
+    Vertex(usize, usize),
+    /// Point blob `.0`.
+    Blob(usize),
+}
+
+/// The scene's skeleton vertices and point blobs, at most [`MOST_EDITS`] of them evenly
+/// spread over the scene's order.
+fn edit_targets(scene: &Scene) -> Vec<EditTarget> {
+    let all: Vec<EditTarget> = scene
+        .groups
+        .iter()
+        .enumerate()
+        .flat_map(|(group, g)| {
+            let vertices = g
+                .skeletons
+                .iter()
+                .enumerate()
+                .flat_map(move |(s, skeleton)| {
+                    (0..skeleton.vertices.len()).map(move |v| EditTarget {
+                        group,
+                        item: EditItem::Vertex(s, v),
+                    })
+                });
+            let blobs = (0..g.blobs.len()).map(move |b| EditTarget {
+                group,
+                item: EditItem::Blob(b),
+            });
+            vertices.chain(blobs)
+        })
+        .collect();
+    let stride = all.len().div_ceil(MOST_EDITS).max(1);
+    all.into_iter().step_by(stride).collect()
+}
+
+/// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices and
+/// point blobs ([`edit_targets`]) moved one after the other, each edit compiled and its frame traced by a CPU backend that
 /// keeps its last frames; the first, full frame is not timed.
 fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Result<Row, String> {
     let mut scene = scene.clone();
@@ -59,25 +104,26 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
     let mut backend = CpuBackend::reusing_tiles();
     let compiled = compile(&scene);
     backend.render(&compiled, request).map_err(fail)?;
-    let vertices: Vec<(usize, usize, usize)> = scene
-        .groups
-        .iter()
-        .enumerate()
-        .flat_map(|(g, group)| {
-            group
-                .skeletons
-                .iter()
-                .enumerate()
-                .flat_map(move |(s, skeleton)| (0..skeleton.vertices.len()).map(move |v| (g, s, v)))
-        })
-        .collect();
-    if vertices.is_empty() {
-        return Err("--after-edits moves skeleton vertices: the scene has none".to_owned());
+    let targets = edit_targets(&scene);
+    if targets.is_empty() {
+        return Err(
+            "--after-edits moves skeleton vertices and point blobs: the scene has none".to_owned(),
+        );
     }
     let (mut times, mut tiles, mut pixels) = (Vec::new(), Vec::new(), Vec::new());
-    for (g, s, v) in vertices {
-        let vertex = &mut scene.groups[g].skeletons[s].vertices[v];
-        vertex.position[1] += 0.05 * vertex.radius;
+    for target in targets {
+        let group = &mut scene.groups[target.group];
+        let (position, radius) = match target.item {
+            EditItem::Vertex(s, v) => {
+                let vertex = &mut group.skeletons[s].vertices[v];
+                (&mut vertex.position, vertex.radius)
+            }
+            EditItem::Blob(b) => {
+                let blob = &mut group.blobs[b];
+                (&mut blob.center, blob.radius)
+            }
+        };
+        position[1] += 0.05 * radius;
         let compiled = compile(&scene);
         let start = Instant::now();
         backend.render(&compiled, request).map_err(fail)?;

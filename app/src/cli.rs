@@ -82,9 +82,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub json: bool,
     /// Time the frames that follow edits, as the editor traces them on the CPU: every
-    /// skeleton vertex in turn moved up by a twentieth of its radius, each edit's frame traced
-    /// by a backend that copies the screen tiles the edit did not reach (`--frames` is
-    /// unused); reports the median of those frames and of the share of tiles copied.
+    /// skeleton vertex and point blob in turn (at most 64, evenly spread) moved up by a
+    /// twentieth of its radius, each edit's frame traced by a backend that copies the tiles
+    /// and rays the edit did not reach (`--frames` is unused); reports the median of those
+    /// frames and of the shares of tiles and pixels copied.
     #[arg(long)]
     pub after_edits: bool,
 }

@@ -423,6 +423,40 @@ fn bench_reports_milliseconds_per_frame_for_each_method() {
     assert!(times.iter().all(|&t| t > 0.0 && t.is_finite()), "{out}");
 }
 
+/// `bench --after-edits` moves the point blobs of a blob scene in turn and reports the frames
+/// after them with the shares of tiles and pixels copied (pixels include the whole tiles').
+#[test]
+fn bench_after_edits_reports_the_shares_copied() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
+    let o = skeletrace(&[
+        "bench",
+        scene.to_str().unwrap_or_default(),
+        "--size",
+        "48x40",
+        "--methods",
+        "quadratic-taylor",
+        "--after-edits",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    let number = |key: &str| -> f64 {
+        out.split(&format!("\"{key}\": "))
+            .nth(1)
+            .and_then(|s| s.split(['}', ',']).next()?.trim().parse().ok())
+            .unwrap_or_else(|| panic!("{key} missing from {out}"))
+    };
+    let (ms, tiles, pixels) = (
+        number("ms_per_frame"),
+        number("tiles_reused"),
+        number("pixels_reused"),
+    );
+    assert!(ms > 0.0 && ms.is_finite(), "{out}");
+    assert!((0.0..=1.0).contains(&tiles), "{out}");
+    assert!(pixels >= tiles && pixels <= 1.0, "{out}");
+    assert!(pixels > 0.0, "moving one blob of several copies pixels: {out}");
+}
+
 /// `trace-ray --json` traces the ray the CPU renderer traces for that pixel: its step counts are
 /// the step heat map's there, and its step log (for the marching methods) has one record per
 /// step.

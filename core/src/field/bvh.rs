@@ -1,8 +1,17 @@
 //! Bounding volume hierarchy over primitive supports: the CPU analogue of the scalis 2021
 //! paper's A-buffer (§6). A point query visits only the primitives whose support box contains
-//! the point; a ray query visits those whose box meets a ray interval. Built top-down with the
-//! binned surface area heuristic (falling back to a median split when it finds no useful split),
-//! so a query costs O(log n + k) at fixed overlap.
+//! the point; a ray query visits those whose box meets a ray interval, so a query costs
+//! O(log n + k) at fixed overlap.
+//!
+//! The leaves hold the items in one fixed order — the Morton code of each box's centre in the
+//! root box, then the id — and each node splits its run of that order where the surface area
+//! heuristic is lowest (a median split past [`MAX_SAH_DEPTH`]). Every query visits items in
+//! that order, so the order of the sums over a ray's or a point's primitives depends on the
+//! primitives themselves only, not on how others split the tree: after an edit that moves a
+//! few primitives within the same root box, every other primitive keeps its place relative to
+//! the rest, and the editor can copy the rays the edit did not reach (`cpu/renderer.rs`
+//! `EditReach`). A binned split that partitions the items freely reorders them all around
+//! the edit.
 
 use glam::DVec3;
 
@@ -10,8 +19,6 @@ use crate::bounds::interval::Interval;
 use crate::field::geometry::{Aabb, Ray};
 
 const LEAF_SIZE: usize = 4;
-/// Centroid bins per axis of the surface area heuristic.
-const SAH_BINS: usize = 16;
 /// Depth below which splits use the surface area heuristic; median splits after it.
 const MAX_SAH_DEPTH: usize = 32;
 /// Traversal stack size: enough for `MAX_SAH_DEPTH` plus a balanced tree of 2³⁰ items.
@@ -45,13 +52,21 @@ impl Bvh {
         if boxes.is_empty() {
             return bvh;
         }
-        let mut work: Vec<(u32, Aabb, DVec3)> =
-            boxes.iter().map(|&(id, b)| (id, b, b.center())).collect();
-        bvh.build_node(&mut work, 0);
+        let root = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b.1));
+        let mut work: Vec<(u64, u32, Aabb)> = boxes
+            .iter()
+            .map(|&(id, b)| (morton_code(b.center(), &root), id, b))
+            .collect();
+        work.sort_unstable_by_key(|w| (w.0, w.1));
+        let work: Vec<(u32, Aabb)> = work.into_iter().map(|(_, id, b)| (id, b)).collect();
+        let mut right_areas = vec![0.0; work.len()];
+        bvh.build_node(&work, &mut right_areas, 0);
         bvh
     }
 
-    fn build_node(&mut self, work: &mut [(u32, Aabb, DVec3)], depth: usize) -> u32 {
+    /// Builds the node over `work`, a run of the leaf order; `right_areas` is scratch space
+    /// of the run's length.
+    fn build_node(&mut self, work: &[(u32, Aabb)], right_areas: &mut [f64], depth: usize) -> u32 {
         let bounds = work.iter().fold(Aabb::EMPTY, |acc, w| acc.union(w.1));
         let index = self.nodes.len() as u32;
         if work.len() <= LEAF_SIZE {
@@ -60,7 +75,7 @@ impl Bvh {
                 first_or_right: self.items.len() as u32,
                 count: work.len() as u32,
             });
-            self.items.extend(work.iter().map(|w| (w.0, w.1)));
+            self.items.extend_from_slice(work);
             return index;
         }
         self.nodes.push(Node {
@@ -71,13 +86,14 @@ impl Bvh {
         // Deep in the tree, balanced median splits bound the remaining depth by log2(n), which
         // keeps the whole tree within the traversal stack.
         let mid = if depth < MAX_SAH_DEPTH {
-            sah_split(work)
+            sah_split(work, right_areas)
         } else {
-            median_split(work)
+            work.len() / 2
         };
-        let (left, right) = work.split_at_mut(mid);
-        self.build_node(left, depth + 1);
-        let right_index = self.build_node(right, depth + 1);
+        let (left, right) = work.split_at(mid);
+        let (left_scratch, right_scratch) = right_areas.split_at_mut(mid);
+        self.build_node(left, left_scratch, depth + 1);
+        let right_index = self.build_node(right, right_scratch, depth + 1);
         self.nodes[index as usize].first_or_right = right_index;
         index
     }
@@ -294,74 +310,49 @@ fn surface_area(b: &Aabb) -> f64 {
     d.x * d.y + d.y * d.z + d.z * d.x
 }
 
-/// Reorders `work` and returns the split index chosen by the binned surface area heuristic;
-/// a median split along the widest centroid axis when no bin boundary separates the items.
-fn sah_split(work: &mut [(u32, Aabb, DVec3)]) -> usize {
-    let (lo, hi) = centroid_bounds(work);
-    let extent = hi - lo;
-    let bin_of = |c: DVec3, axis: usize| {
-        (((c[axis] - lo[axis]) / extent[axis] * SAH_BINS as f64) as usize).min(SAH_BINS - 1)
+/// The split of the run `work` (at least two items) with the lowest surface area heuristic:
+/// `area(left)·|left| + area(right)·|right|`, by one sweep from each end; among equal costs
+/// the split nearest the middle (all boxes alike: halves).
+fn sah_split(work: &[(u32, Aabb)], right_areas: &mut [f64]) -> usize {
+    let n = work.len();
+    let mut acc = Aabb::EMPTY;
+    for i in (1..n).rev() {
+        acc = acc.union(work[i].1);
+        right_areas[i] = surface_area(&acc);
+    }
+    let mut acc = Aabb::EMPTY;
+    let mut best = (f64::INFINITY, n / 2);
+    for i in 1..n {
+        acc = acc.union(work[i - 1].1);
+        let cost = surface_area(&acc) * i as f64 + right_areas[i] * (n - i) as f64;
+        let nearer = i.abs_diff(n / 2) < best.1.abs_diff(n / 2);
+        if cost < best.0 || (cost == best.0 && nearer) {
+            best = (cost, i);
+        }
+    }
+    best.1
+}
+
+/// The 63-bit Morton code of `p` in `root`: 21 bits per axis, interleaved (a flat axis and a
+/// non-finite coordinate give 0 on that axis).
+fn morton_code(p: DVec3, root: &Aabb) -> u64 {
+    const CELLS: f64 = ((1_u64 << 21) - 1) as f64;
+    let spread = |v: u64| {
+        // Bit `k` of `v` to bit `3k`.
+        let mut v = v & 0x1f_ffff;
+        v = (v | v << 32) & 0x1f_0000_0000_ffff;
+        v = (v | v << 16) & 0x1f_0000_ff00_00ff;
+        v = (v | v << 8) & 0x100f_00f0_0f00_f00f;
+        v = (v | v << 4) & 0x10c3_0c30_c30c_30c3;
+        (v | v << 2) & 0x1249_2492_4924_9249
     };
-    // (cost, axis, first bin of the right side)
-    let mut best: Option<(f64, usize, usize)> = None;
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        let mut bins = [(Aabb::EMPTY, 0_usize); SAH_BINS];
-        for w in work.iter() {
-            let b = &mut bins[bin_of(w.2, axis)];
-            b.0 = b.0.union(w.1);
-            b.1 += 1;
-        }
-        let mut right = [(0.0, 0_usize); SAH_BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
-        for i in (1..SAH_BINS).rev() {
-            acc = acc.union(bins[i].0);
-            n += bins[i].1;
-            right[i] = (surface_area(&acc), n);
-        }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
-        for i in 1..SAH_BINS {
-            acc = acc.union(bins[i - 1].0);
-            n += bins[i - 1].1;
-            if n == 0 || right[i].1 == 0 {
-                continue;
-            }
-            let cost = surface_area(&acc) * n as f64 + right[i].0 * right[i].1 as f64;
-            if best.is_none_or(|b| cost < b.0) {
-                best = Some((cost, axis, i));
-            }
-        }
-    }
-    if let Some((_, axis, first_right)) = best {
-        let mut split = 0;
-        for i in 0..work.len() {
-            if bin_of(work[i].2, axis) < first_right {
-                work.swap(i, split);
-                split += 1;
-            }
-        }
-        return split;
-    }
-    // All centroids coincide: split the list in half.
-    work.len() / 2
-}
-
-fn centroid_bounds(work: &[(u32, Aabb, DVec3)]) -> (DVec3, DVec3) {
-    work.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), w| (lo.min(w.2), hi.max(w.2)),
-    )
-}
-
-/// Median split of the centroids along the widest axis.
-fn median_split(work: &mut [(u32, Aabb, DVec3)]) -> usize {
-    let (lo, hi) = centroid_bounds(work);
-    let axis = (hi - lo).max_position();
-    let mid = work.len() / 2;
-    work.select_nth_unstable_by(mid, |a, b| a.2[axis].total_cmp(&b.2[axis]));
-    mid
+    let extent = root.max - root.min;
+    let cell = |axis: usize| {
+        let unit = (p[axis] - root.min[axis]) / extent[axis];
+        // Saturating cast: NaN (a flat axis, 0/0) gives 0.
+        spread((unit * CELLS).clamp(0.0, CELLS) as u64)
+    };
+    cell(0) << 2 | cell(1) << 1 | cell(2)
 }
 
 #[cfg(test)]
