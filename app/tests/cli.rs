@@ -454,7 +454,10 @@ fn bench_after_edits_reports_the_shares_copied() {
     assert!(ms > 0.0 && ms.is_finite(), "{out}");
     assert!((0.0..=1.0).contains(&tiles), "{out}");
     assert!(pixels >= tiles && pixels <= 1.0, "{out}");
-    assert!(pixels > 0.0, "moving one blob of several copies pixels: {out}");
+    assert!(
+        pixels > 0.0,
+        "moving one blob of several copies pixels: {out}"
+    );
 }
 
 /// `trace-ray --json` traces the ray the CPU renderer traces for that pixel: its step counts are

@@ -395,4 +395,66 @@ mod tests {
             }
         }
     }
+
+    /// Moving one box within the root box leaves every other item's place in the leaf order
+    /// relative to the rest (what the editor's reuse of rays after an edit relies on), on
+    /// random scenes of every size, and queries still answer like brute force.
+    #[test]
+    fn moving_one_box_keeps_the_others_in_their_order() {
+        use crate::model::rng::SplitMix64;
+        let mut rng = SplitMix64::new(8123);
+        for case in 0..40 {
+            let n = 2 + rng.below(400);
+            let mut boxes: Vec<(u32, Aabb)> = (0..n as u32)
+                .map(|i| {
+                    let c = DVec3::new(
+                        rng.range(-5.0, 5.0),
+                        rng.range(-5.0, 5.0),
+                        rng.range(-1.0, 1.0),
+                    );
+                    (i, Aabb::ball(c, rng.range(0.05, 1.0)))
+                })
+                .collect();
+            // Two far corners keep the root box when the moved box stays inside it.
+            boxes.push((n as u32, Aabb::ball(DVec3::splat(-20.0), 1.0)));
+            boxes.push((n as u32 + 1, Aabb::ball(DVec3::splat(20.0), 1.0)));
+            let before = Bvh::build(&boxes);
+            let moved = rng.below(n) as u32;
+            let b = &mut boxes[moved as usize].1;
+            let shift = DVec3::new(
+                rng.range(-2.0, 2.0),
+                rng.range(-2.0, 2.0),
+                rng.range(-0.5, 0.5),
+            );
+            *b = Aabb {
+                min: b.min + shift,
+                max: b.max + shift,
+            };
+            let after = Bvh::build(&boxes);
+            assert_eq!(before.bounds(), after.bounds(), "case {case}");
+            let others = |bvh: &Bvh| -> Vec<u32> {
+                bvh.items
+                    .iter()
+                    .map(|item| item.0)
+                    .filter(|&i| i != moved)
+                    .collect()
+            };
+            assert_eq!(
+                others(&before),
+                others(&after),
+                "case {case}: {n} boxes, {moved} moved"
+            );
+            for _ in 0..20 {
+                let p = DVec3::new(
+                    rng.range(-6.0, 6.0),
+                    rng.range(-6.0, 6.0),
+                    rng.range(-2.0, 2.0),
+                );
+                let mut got = Vec::new();
+                after.for_each_containing(p, |i| got.push(i));
+                got.sort_unstable();
+                assert_eq!(got, brute(&boxes, p), "case {case}");
+            }
+        }
+    }
 }
