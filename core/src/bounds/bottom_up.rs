@@ -137,7 +137,8 @@ fn primitive_taylor(
         Primitive::Hrbf(_) => (0.0, DVec3::ZERO),
         _ => primitive.value_gradient(ray.at(span.lo), k),
     };
-    let jet = primitive.ray_jet(ray, span, k);
+    // `inside` is the support's part of `span`, which `Primitive::ray_jet` would compute again.
+    let jet = primitive.ray_jet_inside(ray, span, inside, k);
     match degree {
         Degree::Linear => ForwardInclusion::linear(v, &jet, span.width()),
         Degree::Quadratic => {
@@ -148,8 +149,9 @@ fn primitive_taylor(
 
 /// Bottom-up inclusion of the whole field on `[t, t + h]`: per primitive, summed per group,
 /// composed through the blend tree; where the tree has no composition rule (smooth blends;
-/// Ricci where two operands may be positive), the Taylor inclusion of the whole field (`f`, `f′`
-/// at `t` given).
+/// Ricci where two operands may be positive), the Taylor inclusion of the whole field (`f` at
+/// `t` given, and `f′` where the march computed it: NaN otherwise, and the quadratic fallback
+/// computes it, the same bits as the march's `RayField::along`).
 #[must_use]
 pub fn field_inclusion(
     field: &RayField,
@@ -174,7 +176,10 @@ pub fn field_inclusion(
         let jet = field.jet(span);
         match degree {
             Degree::Linear => ForwardInclusion::linear(f, &jet, h),
-            Degree::Quadratic => ForwardInclusion::quadratic(f, d, &jet, h),
+            Degree::Quadratic => {
+                let d = if d.is_nan() { field.along(t).1 } else { d };
+                ForwardInclusion::quadratic(f, d, &jet, h)
+            }
         }
     });
     match degree {

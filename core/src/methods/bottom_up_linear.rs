@@ -34,7 +34,9 @@ impl Method for BottomUpLinear {
         Box::new(Marcher {
             program,
             settings,
-            slope: Slope::Used,
+            // Each primitive's own value at `t` enters its inclusion; the field's `f′(t)`
+            // enters none.
+            slope: Slope::Unused,
             bound: |field: &RayField, t, f, d, h| {
                 field_inclusion(field, (t, f, d, h), Degree::Linear)
             },

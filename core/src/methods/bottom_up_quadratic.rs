@@ -34,7 +34,9 @@ impl Method for BottomUpQuadratic {
         Box::new(Marcher {
             program,
             settings,
-            slope: Slope::Used,
+            // Each primitive's own value and slope at `t` enter its inclusion; the field's
+            // `f′(t)` only the Taylor fallback's, which computes it (`field_inclusion`).
+            slope: Slope::Unused,
             bound: |field: &RayField, t, f, d, h| {
                 field_inclusion(field, (t, f, d, h), Degree::Quadratic)
             },
