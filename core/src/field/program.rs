@@ -535,7 +535,9 @@ impl FieldProgram {
                         .ray_jet_inside(ray, span, inside, kernel)
                         .d1
                         .magnitude(),
-                    PrimitiveSlope::Published => primitive.published_slope_bound(ray, span, kernel),
+                    PrimitiveSlope::Published => {
+                        primitive.published_slope_bound(ray, (span, inside), kernel)
+                    }
                 };
             });
             blend::lipschitz(&self.blend, slots)

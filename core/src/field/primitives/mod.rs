@@ -114,19 +114,17 @@ impl Primitive {
     /// primitives the ray jet's `f′ = K′(x)·x′` already is such a product, of the kernel
     /// derivative's range and the distance derivative's range, each bounded on its own; SCALIS
     /// segments and HRBF terms, which the original had no bound for, use their ray jets too.
+    /// `inside` is the support's part of `span`.
     #[must_use]
-    pub fn published_slope_bound(&self, ray: &Ray, span: Interval, k: &KernelProfile) -> f64 {
+    pub fn published_slope_bound(
+        &self,
+        ray: &Ray,
+        (span, inside): (Interval, Interval),
+        k: &KernelProfile,
+    ) -> f64 {
         match self {
-            Self::Point(x) => {
-                let Some(inside) = x
-                    .support_interval(ray, k)
-                    .and_then(|support| span.intersect(support))
-                else {
-                    return 0.0;
-                };
-                x.kernel_slope_times_cosine(ray, inside, k)
-            }
-            _ => self.ray_jet(ray, span, k).d1.magnitude(),
+            Self::Point(x) => x.kernel_slope_times_cosine(ray, inside, k),
+            _ => self.ray_jet_inside(ray, span, inside, k).d1.magnitude(),
         }
     }
 
