@@ -9,7 +9,7 @@ mod common;
 use skeletrace_core::backend::{Cancel, FrameBackend, FrameRequest};
 use skeletrace_core::compile::{Compiled, compile};
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
-use skeletrace_core::cpu::renderer::{EarlierFrame, RenderOptions, Renderer};
+use skeletrace_core::cpu::renderer::{EarlierFrame, RenderOptions, Renderer, TracedFrame};
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::frame::{FieldShading, Frame, View};
 use skeletrace_core::methods::MethodId;
@@ -166,27 +166,34 @@ fn frames_reusing_tiles_are_the_frames_traced_in_full() {
     );
 }
 
-/// An edit far from most of the screen copies most tiles: a blob of a generated scene moved,
-/// quadratic Taylor, through the scene's camera; the frame is the full trace's.
-#[test]
-fn an_edit_traces_again_only_the_tiles_it_reaches() {
-    let options = GenerateOptions {
-        seed: 77,
-        size: Some(80),
-        ..GenerateOptions::default()
-    };
-    let mut scene = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+/// Side, in pixels, of the frames of [`frames_around`]: 12 × 9 whole tiles of 64 pixels.
+const EDIT_FRAME: (usize, usize) = (96, 72);
+
+/// An edit's frames, quadratic Taylor through the scene's camera at [`EDIT_FRAME`].
+struct EditFrames {
+    /// Before the edit.
+    first: TracedFrame,
+    /// After it, reusing `first`.
+    again: TracedFrame,
+    /// After it, traced in full.
+    full: TracedFrame,
+    /// How many primitives it changed.
+    changed: usize,
+}
+
+/// The frames around `edit` of `scene`, after checking that the edit shows and that the frame
+/// reusing the earlier one is the full trace's, bit for bit.
+fn frames_around(mut scene: Scene, edit: impl FnOnce(&mut Scene)) -> EditFrames {
     let before = compile(&scene);
-    scene.groups[0].blobs[0].center[0] += 0.1 * scene.groups[0].blobs[0].radius;
+    edit(&mut scene);
     let after = compile(&scene);
     let changed = after
         .program
         .primitives_changed_since(&before.program)
-        .unwrap_or_else(|| panic!("a blob moved inside the scene changes nothing else"));
-    assert_eq!(changed.iter().filter(|c| **c).count(), 1);
+        .unwrap_or_else(|| panic!("the edit changes nothing but some primitives"));
     let render_options = RenderOptions {
-        width: 96,
-        height: 72,
+        width: EDIT_FRAME.0,
+        height: EDIT_FRAME.1,
         shadows: false,
         shading: FieldShading::default(),
     };
@@ -210,11 +217,36 @@ fn an_edit_traces_again_only_the_tiles_it_reaches() {
     let full = trace(&after, None);
     assert!(
         bits(&first.frame) != bits(&full.frame),
-        "the edit must show, or copying a tile it reached would go unseen"
+        "the edit must show, or copying a pixel it reached would go unseen"
     );
     assert!(bits(&again.frame) == bits(&full.frame));
-    assert_eq!(full.reused_tiles, 0);
-    let tiles = full.tile_primitives.len();
+    assert_eq!((full.reused_tiles, full.reused_pixels), (0, 0));
+    EditFrames {
+        first,
+        again,
+        full,
+        changed: changed.iter().filter(|c| **c).count(),
+    }
+}
+
+/// An edit far from most of the screen copies most tiles: a blob of a generated scene moved;
+/// the frame is the full trace's.
+#[test]
+fn an_edit_traces_again_only_the_tiles_it_reaches() {
+    let options = GenerateOptions {
+        seed: 77,
+        size: Some(80),
+        ..GenerateOptions::default()
+    };
+    let scene = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+    let frames = frames_around(scene, |scene| {
+        let blob = &mut scene.groups[0].blobs[0];
+        blob.center[0] += 0.1 * blob.radius;
+    });
+    assert_eq!(frames.changed, 1);
+    let tiles = frames.full.tile_primitives.len();
+    assert_eq!(tiles, frames.first.tile_primitives.len());
+    let again = &frames.again;
     assert!(
         again.reused_tiles * 2 > tiles && again.reused_tiles < tiles,
         "{} of {tiles} tiles reused",
@@ -223,49 +255,16 @@ fn an_edit_traces_again_only_the_tiles_it_reaches() {
 }
 
 /// In the tiles an edit reaches, the rays that no changed primitive reaches are copied: the
-/// creature's left hind knee moved, quadratic Taylor; the frame is the full trace's.
+/// creature's left hind knee moved; the frame is the full trace's.
 #[test]
 fn an_edit_traces_again_only_the_rays_it_reaches() {
-    let mut scene = common::asset("creature");
-    let before = compile(&scene);
-    let knee = &mut scene.groups[0].skeletons[0].vertices[9];
-    knee.position[1] += 0.05 * knee.radius;
-    let after = compile(&scene);
-    let changed = after
-        .program
-        .primitives_changed_since(&before.program)
-        .unwrap_or_else(|| panic!("a knee moved inside the scene changes nothing else"));
-    let render_options = RenderOptions {
-        width: 96,
-        height: 72,
-        shadows: false,
-        shading: FieldShading::default(),
-    };
-    let method = MethodId::QuadraticTaylor.method();
-    let trace = |compiled: &Compiled, earlier: Option<&EarlierFrame<'_>>| {
-        let tracer = method.prepare(&compiled.program, compiled.settings);
-        Renderer::new(compiled, tracer.as_ref(), compiled.settings)
-            .render_reusing(&scene.camera, render_options, &Cancel::new(), earlier)
-            .unwrap_or_else(|| panic!("not cancelled"))
-    };
-    let first = trace(&before, None);
-    let again = trace(
-        &after,
-        Some(&EarlierFrame {
-            frame: &first.frame,
-            tile_primitives: &first.tile_primitives,
-            changed: &changed,
-            program: &before.program,
-        }),
-    );
-    let full = trace(&after, None);
-    assert!(
-        bits(&first.frame) != bits(&full.frame),
-        "the edit must show"
-    );
-    assert!(bits(&again.frame) == bits(&full.frame));
-    // 96 × 72 is 12 × 9 whole tiles of 64 pixels.
-    let (tiles, pixels) = (12 * 9, 96 * 72);
+    let frames = frames_around(common::asset("creature"), |scene| {
+        let knee = &mut scene.groups[0].skeletons[0].vertices[9];
+        knee.position[1] += 0.05 * knee.radius;
+    });
+    let again = &frames.again;
+    let pixels = EDIT_FRAME.0 * EDIT_FRAME.1;
+    let tiles = frames.full.tile_primitives.len();
     eprintln!(
         "{} of {pixels} pixels copied, {} of {tiles} tiles whole",
         again.reused_pixels, again.reused_tiles
