@@ -96,8 +96,8 @@ fn edit_targets(scene: &Scene) -> Vec<EditTarget> {
 }
 
 /// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices and
-/// point blobs ([`edit_targets`]) moved one after the other, each edit compiled and its frame traced by a CPU backend that
-/// keeps its last frames; the first, full frame is not timed.
+/// point blobs ([`edit_targets`]) moved one after the other, each edit compiled and its frame
+/// traced by a CPU backend that keeps its last frames; the first, full frame is not timed.
 fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Result<Row, String> {
     let mut scene = scene.clone();
     let fail = |e: BackendError| format!("{method}: {e}");

@@ -402,6 +402,14 @@ impl<'p> Sieve<'p> {
         }
     }
 
+    /// Primitive `i`'s support on the ray's line, where the ray's fields keep the primitive;
+    /// `None` where they leave it out: the line misses the support, by more than rounding
+    /// ([`Sieve::zero_on_ray`]).
+    fn kept(&self, i: u32) -> Option<Option<Interval>> {
+        let on_line = self.support(i);
+        (on_line.is_some() || !self.zero_on_ray(i)).then_some(on_line)
+    }
+
     /// Primitive `i`'s support on the ray's line.
     fn support(&self, i: u32) -> Option<Interval> {
         self.program.primitives()[i as usize].support_interval(self.ray, self.program.kernel_of(i))
@@ -431,10 +439,9 @@ impl<'a> RayField<'a> {
         bvh.for_each_near(
             &NearRay::new(ray, reach, pad_of(program)),
             |i, bounds, near| {
-                let on_line = sieve.support(i);
-                if on_line.is_none() && sieve.zero_on_ray(i) {
+                let Some(on_line) = sieve.kept(i) else {
                     return;
-                }
+                };
                 let line = bounds
                     .ray_interval_with(ray, inv, Interval::ENTIRE)
                     .unwrap_or(NO_SUPPORT);
@@ -451,8 +458,7 @@ impl<'a> RayField<'a> {
     /// point blobs, whose terms are then `±0` and change no answer).
     #[must_use]
     pub fn leaves_out(program: &FieldProgram, ray: &Ray, span: Interval, i: u32) -> bool {
-        let sieve = Sieve::new(program, ray, reach_of(span));
-        sieve.support(i).is_none() && sieve.zero_on_ray(i)
+        Sieve::new(program, ray, reach_of(span)).kept(i).is_none()
     }
 
     /// As [`RayField::new`] for a ray of the bundle `tile` was gathered for: the tile's list
@@ -484,18 +490,16 @@ impl<'a> RayField<'a> {
             let Some(near) = near_slab_interval(low * inv, high * inv, reach) else {
                 continue;
             };
-            let on_line = match &item.ball {
-                Some(ball) => ball.interval(ray.direction),
-                None => sieve.support(item.primitive),
+            let kept = match &item.ball {
+                Some(ball) => {
+                    let on_line = ball.interval(ray.direction);
+                    (on_line.is_some() || !ball.line_misses(ray.direction)).then_some(on_line)
+                }
+                None => sieve.kept(item.primitive),
             };
-            let zero = on_line.is_none()
-                && match &item.ball {
-                    Some(ball) => ball.line_misses(ray.direction),
-                    None => sieve.zero_on_ray(item.primitive),
-                };
-            if zero {
+            let Some(on_line) = kept else {
                 continue;
-            }
+            };
             let (low, high) = item.line;
             let line = slab_interval(low * inv, high * inv, Interval::ENTIRE).unwrap_or(NO_SUPPORT);
             candidates.push(item.primitive, near, line, on_line);
