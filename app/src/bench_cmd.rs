@@ -235,7 +235,8 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         );
     } else {
         let timed = if args.after_edits {
-            "median of the frames after editing each skeleton vertex".to_owned()
+            "median of the frames after moving each skeleton vertex and point blob (at most 64)"
+                .to_owned()
         } else {
             format!("median of {frames} frames")
         };
