@@ -45,9 +45,21 @@ struct Row {
     frame_ms: f64,
     /// Median GPU milliseconds of the trace pass and of the binning passes.
     passes: Option<(f64, f64)>,
-    /// After edits: the median shares of screen tiles copied whole and of pixels copied
-    /// instead of traced.
-    reused: Option<(f64, f64)>,
+    /// After edits: what the frames copied, and their spread.
+    edits: Option<AfterEdits>,
+}
+
+/// The frames of `--after-edits` beyond their median.
+struct AfterEdits {
+    /// Median shares of screen tiles copied whole and of pixels copied instead of traced.
+    tiles: f64,
+    pixels: f64,
+    /// Mean and largest milliseconds per frame: the median hides the edits traced in full.
+    mean_ms: f64,
+    slowest_ms: f64,
+    /// How many of the `edits` frames copied no pixel.
+    traced_in_full: usize,
+    edits: usize,
 }
 
 /// Most edits `--after-edits` times per method.
@@ -131,11 +143,19 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
         tiles.push(backend.share_of_tiles_reused());
         pixels.push(backend.share_of_pixels_reused());
     }
+    let edits = AfterEdits {
+        tiles: median(tiles),
+        traced_in_full: pixels.iter().filter(|share| **share == 0.0).count(),
+        pixels: median(pixels),
+        mean_ms: times.iter().sum::<f64>() / times.len() as f64,
+        slowest_ms: times.iter().copied().fold(0.0, f64::max),
+        edits: times.len(),
+    };
     Ok(Row {
         name: method.name(),
         frame_ms: median(times),
         passes: None,
-        reused: Some((median(tiles), median(pixels))),
+        edits: Some(edits),
     })
 }
 
@@ -206,7 +226,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             name: method.name(),
             frame_ms: median(times),
             passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
-            reused: None,
+            edits: None,
         });
     }
     let device = devices.join(" and ");
@@ -218,8 +238,11 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                     format!(", \"gpu_trace_ms\": {trace:.3}, \"gpu_binning_ms\": {binning:.3}")
                 });
                 let passes = passes
-                    + &row.reused.map_or(String::new(), |(tiles, pixels)| {
-                        format!(", \"tiles_reused\": {tiles:.4}, \"pixels_reused\": {pixels:.4}")
+                    + &row.edits.as_ref().map_or(String::new(), |e| {
+                        format!(
+                            ", \"tiles_reused\": {:.4}, \"pixels_reused\": {:.4}, \"mean_ms\": {:.3}, \"slowest_ms\": {:.3}, \"edits\": {}, \"traced_in_full\": {}",
+                            e.tiles, e.pixels, e.mean_ms, e.slowest_ms, e.edits, e.traced_in_full
+                        )
                     });
                 format!(
                     "{{\"name\": \"{}\", \"ms_per_frame\": {:.3}{passes}}}",
@@ -247,11 +270,15 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         for row in rows {
             let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                 format!("   (GPU: trace {trace:.3} ms, binning {binning:.3} ms)")
-            }) + &row.reused.map_or(String::new(), |(tiles, pixels)| {
+            }) + &row.edits.as_ref().map_or(String::new(), |e| {
                 format!(
-                    "   ({:.1} % of tiles copied whole, {:.1} % of pixels copied)",
-                    100.0 * tiles,
-                    100.0 * pixels
+                    "   ({:.1} % of tiles copied whole, {:.1} % of pixels copied; mean {:.2} ms, slowest {:.2} ms, {} of {} edits traced in full)",
+                    100.0 * e.tiles,
+                    100.0 * e.pixels,
+                    e.mean_ms,
+                    e.slowest_ms,
+                    e.traced_in_full,
+                    e.edits
                 )
             });
             println!("{:<28} {:>10.2} ms/frame{passes}", row.name, row.frame_ms);

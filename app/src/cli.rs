@@ -85,7 +85,8 @@ pub struct BenchArgs {
     /// skeleton vertex and point blob in turn (at most 64, evenly spread) moved up by a
     /// twentieth of its radius, each edit's frame traced by a backend that copies the tiles
     /// and rays the edit did not reach (`--frames` is unused); reports the median of those
-    /// frames and of the shares of tiles and pixels copied.
+    /// frames and of the shares of tiles and pixels copied, the mean and slowest frame, and
+    /// how many edits copied nothing (traced in full).
     #[arg(long)]
     pub after_edits: bool,
 }

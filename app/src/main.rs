@@ -300,5 +300,13 @@ fn print_info(name: &str, scene: &Scene) {
                 ""
             }
         );
+        let scale = program.scale_bounds();
+        println!(
+            "scale box  {} .. {} (diagonal {:.3}): the bounds snapped to their grid, which \
+             the trace tolerances and the rays' reach follow",
+            f(scale.min.to_array()),
+            f(scale.max.to_array()),
+            scale.diagonal(),
+        );
     }
 }

@@ -424,7 +424,8 @@ fn bench_reports_milliseconds_per_frame_for_each_method() {
 }
 
 /// `bench --after-edits` moves the point blobs of a blob scene in turn and reports the frames
-/// after them with the shares of tiles and pixels copied (pixels include the whole tiles').
+/// after them with the shares of tiles and pixels copied (pixels include the whole tiles'),
+/// the mean and slowest frames and how many edits copied nothing.
 #[test]
 fn bench_after_edits_reports_the_shares_copied() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
@@ -458,6 +459,14 @@ fn bench_after_edits_reports_the_shares_copied() {
         pixels > 0.0,
         "moving one blob of several copies pixels: {out}"
     );
+    let (mean, slowest, edits, in_full) = (
+        number("mean_ms"),
+        number("slowest_ms"),
+        number("edits"),
+        number("traced_in_full"),
+    );
+    assert!(mean > 0.0 && slowest >= mean && slowest >= ms, "{out}");
+    assert!(edits >= 1.0 && (0.0..edits).contains(&in_full), "{out}");
 }
 
 /// `trace-ray --json` traces the ray the CPU renderer traces for that pixel: its step counts are

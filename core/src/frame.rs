@@ -42,10 +42,11 @@ pub const AO_STEP: f64 = 0.012;
 /// Weight ratio between consecutive ambient-occlusion samples.
 pub const AO_DECAY: f64 = 0.6;
 
-/// The scale the shading distances are relative to: the diagonal of the bounded supports.
+/// The scale the shading distances are relative to: the diagonal of the bounded supports' box
+/// snapped to its grid (`FieldProgram::scale_bounds`).
 #[must_use]
 pub fn shading_scale(program: &FieldProgram) -> f64 {
-    let bounds = program.support_bounds();
+    let bounds = program.scale_bounds();
     if bounds.is_empty() {
         1.0
     } else {
@@ -297,11 +298,12 @@ impl PinholeCamera {
     }
 }
 
-/// Length of the primary rays: past the farthest support seen from the camera (four times as
-/// far when a plane reaches to infinity). The GPU backend uses the same value.
+/// Length of the primary rays: past the farthest support seen from the camera, measured on the
+/// supports' box snapped to its grid (`FieldProgram::scale_bounds`; four times as far when a
+/// plane reaches to infinity). The GPU backend uses the same value.
 #[must_use]
 pub fn far_distance(program: &FieldProgram, camera: &Camera) -> f64 {
-    let bounds = program.support_bounds();
+    let bounds = program.scale_bounds();
     if bounds.is_empty() {
         return 100.0;
     }

@@ -254,6 +254,76 @@ fn an_edit_traces_again_only_the_tiles_it_reaches() {
     );
 }
 
+/// An edit that moves the support bounds within their grid cells (`FieldProgram::scale_bounds`)
+/// copies what it did not reach, as any other: on generated scenes, the skeleton vertex or
+/// blob whose support reaches highest moved up a little, the frame the full trace's.
+#[test]
+fn an_edit_of_an_extremal_primitive_traces_again_only_what_it_reaches() {
+    let kinds = [
+        (GeneratorKind::Blobs, 40),
+        (GeneratorKind::Tree, 3),
+        (GeneratorKind::RandomSkeleton, 16),
+        (GeneratorKind::Molecule, 30),
+    ];
+    let mut copied = 0;
+    for (case, (kind, size)) in kinds.into_iter().enumerate() {
+        let options = GenerateOptions {
+            seed: 9300 + case as u64,
+            size: Some(size),
+            ..GenerateOptions::default()
+        };
+        let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+        let top = |scene: &Scene| compile(scene).program.support_bounds().max.y;
+        let before = compile(&scene);
+        // A vertex of a group's first skeleton (`true`) or a blob, moved up by `by` radii.
+        let raise = |scene: &mut Scene, (g, vertex, i): (usize, bool, usize), by: f64| {
+            let group = &mut scene.groups[g];
+            let (position, radius) = if vertex {
+                let vertex = &mut group.skeletons[0].vertices[i];
+                (&mut vertex.position, vertex.radius)
+            } else {
+                let blob = &mut group.blobs[i];
+                (&mut blob.center, blob.radius)
+            };
+            position[1] += by * radius;
+        };
+        let targets = scene.groups.iter().enumerate().flat_map(|(g, group)| {
+            let vertices = group.skeletons.first().map_or(0, |s| s.vertices.len());
+            (0..vertices)
+                .map(move |v| (g, true, v))
+                .chain((0..group.blobs.len()).map(move |b| (g, false, b)))
+        });
+        // The vertex or blob whose move up raises the support bounds' top.
+        let extremal = targets
+            .filter(|&target| {
+                let mut moved = scene.clone();
+                raise(&mut moved, target, 0.01);
+                top(&moved) > top(&scene)
+            })
+            .collect::<Vec<_>>();
+        let Some(&target) = extremal.first() else {
+            panic!("{kind:?}: no vertex or blob reaches the top");
+        };
+        let mut moved = scene.clone();
+        raise(&mut moved, target, 0.01);
+        let (before, after) = (&before.program, &compile(&moved).program);
+        assert!(after.support_bounds() != before.support_bounds());
+        assert_eq!(
+            after.scale_bounds(),
+            before.scale_bounds(),
+            "{kind:?}: the move crosses a grid line; choose a smaller one"
+        );
+        let frames = frames_around(scene, |scene| raise(scene, target, 0.01));
+        eprintln!(
+            "{kind:?}: {} of {} pixels copied",
+            frames.again.reused_pixels,
+            EDIT_FRAME.0 * EDIT_FRAME.1
+        );
+        copied += usize::from(frames.again.reused_pixels > 0);
+    }
+    assert_eq!(copied, kinds.len(), "every extremal edit copies pixels");
+}
+
 /// In the tiles an edit reaches, the rays that no changed primitive reaches are copied: the
 /// creature's left hind knee moved; the frame is the full trace's.
 #[test]

@@ -227,9 +227,8 @@ fn compare_with_reference_under(
         .map(|m| (m.id(), m.is_conservative(), m.prepare(program, settings)))
         .collect();
     let reference = MethodId::Reference.method().prepare(program, settings);
-    let bounds = program.support_bounds();
-    let diagonal = bounds.diagonal();
-    let tolerance = 1e-4 * diagonal;
+    // The statistics' tolerance (`stats.rs` `TOLERANCE`), on the box the settings follow.
+    let tolerance = 1e-4 * program.scale_bounds().diagonal();
     let mut rng = SplitMix64::new(seed);
     let mut failures = Vec::new();
     for _ in 0..rays {

@@ -300,7 +300,7 @@ pub fn run(
             method.name(),
             tally,
             pairs,
-            bounds.diagonal(),
+            program.scale_bounds().diagonal(),
         ));
         progress(method.name(), 1.0);
     }

@@ -4,8 +4,9 @@
 //! ([`rays_around_box`]), as the forward-inclusion paper's tables use. Every method traces the same rays in opaque mode and is compared with the reference
 //! tracer: a *missed* ray has a reference crossing that the method finds too late or not at all, a
 //! *spurious* one a method crossing the reference does not have (or one found too early); both use
-//! a tolerance of 10⁻⁴ of the box diagonal ([`TOLERANCE`]), and the depth error of the remaining
-//! hits is reported separately, relative to the diagonal.
+//! a tolerance of 10⁻⁴ of the diagonal of the scale box ([`TOLERANCE`]; the support box snapped
+//! to its grid, `FieldProgram::scale_bounds`, which the trace settings' `min_step` follows too),
+//! and the depth error of the remaining hits is reported separately, relative to that diagonal.
 //!
 //! Transparent statistics (forward-inclusion 2023, Tables 3–4) trace every crossing, match them
 //! in order with the reference's, and count a ray's steps (and evaluations) up to the one that
@@ -59,7 +60,7 @@ pub struct MethodStats {
     /// Mean time per ray, in nanoseconds: one CPU thread's, or on the GPU the batches' wall
     /// time over their rays.
     pub ns_per_ray: f64,
-    /// Largest depth error of the matched hits, relative to the box diagonal.
+    /// Largest depth error of the matched hits, relative to the scale box's diagonal.
     pub max_depth_error: f64,
 }
 
@@ -166,7 +167,9 @@ impl StatsSetup {
     }
 }
 
-/// Tolerance of the comparison with the reference, relative to the box diagonal.
+/// Tolerance of the comparison with the reference, relative to the scale box's diagonal: the
+/// same fraction as `TraceSettings::min_step`, which bounds how early a confirmed crossing may
+/// be reported.
 pub const TOLERANCE: f64 = 1e-4;
 
 /// What one method did on every ray, before it is summarised ([`MethodStats::of`]).
@@ -266,7 +269,7 @@ pub fn run(
     progress: &(dyn Fn(&str, f64) + Sync),
 ) -> SceneStats {
     let settings = TraceSettings::for_protocol(program, setup.protocol);
-    let diagonal = program.support_bounds().diagonal();
+    let diagonal = program.scale_bounds().diagonal();
     let rays = rays_of(program, setup.protocol, setup.rays, setup.seed);
     progress("reference", 0.0);
     let reference = reference_crossings(program, settings, &rays, setup.mode);

@@ -89,6 +89,25 @@ impl Aabb {
         (self.max - self.min).length()
     }
 
+    /// The box widened to the lines of a grid of cubic cells whose side is the power of two
+    /// between 1/32 and 1/16 of its diagonal: the same box for every box that lies within the
+    /// same grid cells at the same power, so that what is scaled by it
+    /// ([`crate::field::program::FieldProgram::scale_bounds`]) does not move when the box
+    /// grows or shrinks by less than a cell. Exact: the cell is a power of two, and the
+    /// corners are whole multiples of it. An empty or degenerate box is returned as it is.
+    #[must_use]
+    pub fn snapped_to_grid(&self) -> Self {
+        let diagonal = self.diagonal();
+        if self.is_empty() || !(diagonal > 0.0 && diagonal.is_finite()) {
+            return *self;
+        }
+        let cell = (diagonal / 16.0).log2().floor().exp2();
+        Self {
+            min: (self.min / cell).floor() * cell,
+            max: (self.max / cell).ceil() * cell,
+        }
+    }
+
     /// Parameter interval where the ray is inside the box (slab test), clipped to `span`.
     #[must_use]
     pub fn ray_interval(&self, ray: &Ray, span: Interval) -> Option<Interval> {
@@ -424,6 +443,66 @@ mod tests {
                 "case {case}: {got} vs {expected}"
             );
         }
+    }
+
+    /// On random boxes of every scale and place: the snapped box contains the box, its
+    /// corners are whole multiples of one power of two between 1/32 and 1/16 of the box's
+    /// diagonal, its diagonal is at most `1 + 2√3/16` times the box's, and a box grown or
+    /// moved within the snapped box's cells (the same power) snaps to the same box.
+    #[test]
+    fn snapped_boxes_contain_the_box_and_stay_put_within_their_cells() {
+        let mut rng = crate::model::rng::SplitMix64::new(0x9a1d);
+        let mut unchanged_after_a_nudge = 0;
+        for case in 0..20_000 {
+            let scale = 10f64.powf(rng.range(-4.0, 4.0));
+            let corner = DVec3::new(
+                rng.range(-5.0, 5.0),
+                rng.range(-5.0, 5.0),
+                rng.range(-5.0, 5.0),
+            );
+            let size = DVec3::new(
+                rng.range(0.0, 1.0),
+                rng.range(0.0, 1.0),
+                rng.range(0.05, 1.0),
+            );
+            let b = Aabb {
+                min: corner * scale,
+                max: (corner + size) * scale,
+            };
+            let s = b.snapped_to_grid();
+            let d = b.diagonal();
+            assert!(
+                s.min.cmple(b.min).all() && s.max.cmpge(b.max).all(),
+                "case {case}"
+            );
+            assert!(s.diagonal() <= d * (1.0 + 2.0 * 3f64.sqrt() / 16.0) * (1.0 + 1e-12));
+            let cell = (s.max - b.max).max(b.min - s.min).max_element();
+            let power = (d / 16.0).log2().floor().exp2();
+            assert!(
+                power > d / 32.0 && power <= d / 16.0 && cell < power,
+                "case {case}"
+            );
+            for corner in [s.min, s.max] {
+                for c in corner.to_array() {
+                    assert_eq!((c / power).fract(), 0.0, "case {case}: {c} by {power}");
+                }
+            }
+            // The top face raised by a thousandth of the diagonal.
+            let nudged = Aabb {
+                max: b.max + DVec3::Y * 1e-3 * d,
+                ..b
+            };
+            let same_power = (nudged.diagonal() / 16.0).log2().floor().exp2() == power;
+            if same_power && nudged.max.y <= s.max.y {
+                assert_eq!(nudged.snapped_to_grid(), s, "case {case}");
+                unchanged_after_a_nudge += 1;
+            }
+        }
+        assert!(
+            unchanged_after_a_nudge > 15_000,
+            "{unchanged_after_a_nudge}"
+        );
+        assert_eq!(Aabb::EMPTY.snapped_to_grid(), Aabb::EMPTY);
     }
 
     #[test]

@@ -234,6 +234,17 @@ impl FieldProgram {
         self.bvh.bounds()
     }
 
+    /// The box the scene's tolerances and reach are measured from: [`Self::support_bounds`]
+    /// snapped to a power-of-two grid ([`Aabb::snapped_to_grid`]). It scales the trace settings
+    /// (`TraceSettings::for_protocol`), the rays' reach (`frame::far_distance`), field
+    /// shading, the candidate tests' padding and the BVH's leaf order, so an edit that moves
+    /// the support bounds within their grid cells (an extremal vertex moved a little) changes
+    /// none of them, and the editor traces again only the rays the edit reaches (issue 18).
+    #[must_use]
+    pub fn scale_bounds(&self) -> Aabb {
+        self.support_bounds().snapped_to_grid()
+    }
+
     /// Whether some primitive has an unbounded support (a plane).
     #[must_use]
     pub fn has_unbounded_support(&self) -> bool {
@@ -610,8 +621,8 @@ impl FieldProgram {
     /// Which primitives of `self` differ from those of `before`, an earlier compilation of an
     /// edited scene (one flag per primitive), when nothing else does: as many primitives, in
     /// the same groups, with the same isovalue, kernels, blend tree, HRBF cuts and unbounded
-    /// primitives, and the same support bounds (which scale the trace settings, the rays'
-    /// reach and the tiles' padding). `None` where anything else changed, or an unbounded
+    /// primitives, and the same [`Self::scale_bounds`] (which scale the trace settings, the
+    /// rays' reach and the tiles' padding). `None` where anything else changed, or an unbounded
     /// primitive (every ray has those among its candidates): then any ray may trace
     /// differently. The BVH is left out: a ray's candidates are compared where they are
     /// gathered (`cpu/renderer.rs`).
@@ -641,7 +652,7 @@ impl FieldProgram {
             && *unbounded == before.unbounded
             && *clamped == before.clamped
             && *cut_boxes == before.cut_boxes
-            && self.support_bounds() == before.support_bounds();
+            && self.scale_bounds() == before.scale_bounds();
         if !same_elsewhere {
             return None;
         }

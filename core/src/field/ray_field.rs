@@ -131,9 +131,10 @@ pub struct RayField<'a> {
 }
 
 /// Widening of every box in the candidate tests: it absorbs the rounding of `ray.at(t)`
-/// against the slab test, so that a point question's box containing the point is in the list.
+/// against the slab test, so that a point question's box containing the point is in the list;
+/// measured on `FieldProgram::scale_bounds`, so that it is the same after an edit within them.
 fn pad_of(program: &FieldProgram) -> f64 {
-    let b = program.lookup_parts().0.bounds();
+    let b = program.scale_bounds();
     if b.is_empty() {
         0.0
     } else {

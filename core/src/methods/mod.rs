@@ -77,8 +77,10 @@ pub struct TraceSettings {
 }
 
 impl TraceSettings {
-    /// Defaults scaled to the scene: `epsilon` is 2·10⁻⁵ of the support box diagonal (well below
-    /// the 10⁻⁴ depth accuracy the statistics check), 2048 steps at most, k = 2.
+    /// Defaults scaled to the scene: `epsilon` is 2·10⁻⁵ of the diagonal of the support box
+    /// snapped to its grid (`FieldProgram::scale_bounds`, at most about a fifth longer than the
+    /// box's own; well below the 10⁻⁴ depth accuracy the statistics check), 2048 steps at
+    /// most, k = 2.
     #[must_use]
     pub fn for_program(program: &FieldProgram) -> Self {
         Self::for_protocol(program, Protocol::Default)
@@ -87,7 +89,7 @@ impl TraceSettings {
     /// The settings of `protocol` ([`Protocol`]) scaled to the scene.
     #[must_use]
     pub fn for_protocol(program: &FieldProgram, protocol: Protocol) -> Self {
-        let b = program.support_bounds();
+        let b = program.scale_bounds();
         let diagonal = if b.is_empty() { 1.0 } else { b.diagonal() };
         Self {
             epsilon: 2e-5 * diagonal,

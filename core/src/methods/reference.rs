@@ -36,7 +36,7 @@ impl Method for Reference {
     }
 
     fn scene_inputs(&self, _: &FieldProgram) -> Vec<f64> {
-        // Its resolution follows the support bounds, a global the caller compares.
+        // Its resolution follows the scale bounds, a global the caller compares.
         Vec::new()
     }
 
@@ -45,7 +45,7 @@ impl Method for Reference {
         program: &'a FieldProgram,
         settings: TraceSettings,
     ) -> Box<dyn RayTracer + 'a> {
-        let b = program.support_bounds();
+        let b = program.scale_bounds();
         let diagonal = if b.is_empty() { 1.0 } else { b.diagonal() };
         Box::new(Prepared {
             program,
