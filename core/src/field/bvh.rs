@@ -4,13 +4,13 @@
 //! O(log n + k) at fixed overlap.
 //!
 //! The leaves hold the items in one fixed order — the Morton code of each box's centre in the
-//! root box snapped to its grid (`Aabb::snapped_to_grid`), then the id — and each node splits its run of that order where the surface area
-//! heuristic is lowest (a median split past [`MAX_SAH_DEPTH`]). Every query visits items in
-//! that order, so the order of the sums over a ray's or a point's primitives depends on the
-//! primitives themselves only, not on how others split the tree: after an edit that moves a
-//! few primitives within the same snapped root box, every other primitive keeps its place relative to
-//! the rest, and the editor can copy the rays the edit did not reach (`cpu/renderer.rs`
-//! `EditReach`). A binned split that partitions the items freely reorders them all around
+//! root box snapped to its grid (`Aabb::snapped_to_grid`), then the id — and each node splits
+//! its run of that order where the surface area heuristic is lowest (a median split past
+//! [`MAX_SAH_DEPTH`]). Every query visits items in that order, so the order of the sums over a
+//! ray's or a point's primitives depends on the primitives themselves only, not on how others
+//! split the tree: after an edit that moves a few primitives within the same snapped root box,
+//! every other primitive keeps its place relative to the rest, and the editor can copy the
+//! rays the edit did not reach (`cpu/renderer.rs` `EditReach`). A binned split that partitions the items freely reorders them all around
 //! the edit.
 
 use glam::DVec3;
