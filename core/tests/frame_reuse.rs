@@ -50,6 +50,16 @@ fn methods_tracing(compiled: &Compiled) -> Vec<MethodId> {
         .collect()
 }
 
+/// The scene `generate` makes of `kind` at `size` from `seed`.
+fn generated(kind: GeneratorKind, size: usize, seed: u64) -> Scene {
+    let options = GenerateOptions {
+        seed,
+        size: Some(size),
+        ..GenerateOptions::default()
+    };
+    generate(kind, &options).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// A random edit of `scene`: a vertex or a blob moved a little, a radius changed, or (one
 /// time in five) a kernel scale, which every ray sees.
 fn edit(scene: &mut Scene, rng: &mut SplitMix64) -> &'static str {
@@ -98,13 +108,10 @@ fn frames_reusing_tiles_are_the_frames_traced_in_full() {
         (GeneratorKind::Molecule, 40),
     ];
     let generated = kinds.into_iter().enumerate().map(|(case, (kind, size))| {
-        let options = GenerateOptions {
-            seed: 4401 + case as u64,
-            size: Some(size),
-            ..GenerateOptions::default()
-        };
-        let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
-        (format!("{kind:?}"), scene)
+        (
+            format!("{kind:?}"),
+            generated(kind, size, 4401 + case as u64),
+        )
     });
     // And hand-made scenes: a plane and groups under a max (creature), shapes and every
     // operator (operators), an HRBF set (hrbf).
@@ -233,12 +240,7 @@ fn frames_around(mut scene: Scene, edit: impl FnOnce(&mut Scene)) -> EditFrames 
 /// the frame is the full trace's.
 #[test]
 fn an_edit_traces_again_only_the_tiles_it_reaches() {
-    let options = GenerateOptions {
-        seed: 77,
-        size: Some(80),
-        ..GenerateOptions::default()
-    };
-    let scene = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+    let scene = generated(GeneratorKind::Blobs, 80, 77);
     let frames = frames_around(scene, |scene| {
         let blob = &mut scene.groups[0].blobs[0];
         blob.center[0] += 0.1 * blob.radius;
@@ -267,12 +269,7 @@ fn an_edit_of_an_extremal_primitive_traces_again_only_what_it_reaches() {
     ];
     let mut copied = 0;
     for (case, (kind, size)) in kinds.into_iter().enumerate() {
-        let options = GenerateOptions {
-            seed: 9300 + case as u64,
-            size: Some(size),
-            ..GenerateOptions::default()
-        };
-        let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+        let scene = generated(kind, size, 9300 + case as u64);
         let top = |scene: &Scene| compile(scene).program.support_bounds().max.y;
         let before = compile(&scene);
         // A vertex of a group's first skeleton (`true`) or a blob, moved up by `by` radii.
