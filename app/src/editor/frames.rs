@@ -1,11 +1,17 @@
 //! The viewport renderer: asks the render thread (`worker.rs`) for frames when what they depend
 //! on changes — the document's compiled revision, the camera, the size, the methods, the
-//! options — never otherwise; traces previews at a reduced resolution while the user interacts
-//! (the divisor adapted so that one takes about [`PREVIEW_TARGET_MS`]), the full frame once
-//! idle; and turns replies into textures.
+//! options — never otherwise; traces previews at a reduced resolution while the user interacts,
+//! the full frame once idle; and turns replies into textures.
+//!
+//! Previews start at half resolution (issue 18) and keep their divisor, a power of two, while
+//! they take about [`PREVIEW_TARGET_MS`]: a drag then traces one resolution after the other, and
+//! the CPU copies what each edit did not reach from the preview before it (a new resolution
+//! copies nothing). A preview much slower than the target doubles the divisor, one much faster
+//! halves it; a full frame traced without copying sets the coarsest divisor its time calls for,
+//! and a preview left unanswered for [`PREVIEW_OVERRUN`] is cancelled for a coarser one.
 
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use eframe::egui;
 use skeletrace_core::Compiled;
@@ -18,12 +24,31 @@ use super::ViewMode;
 use super::worker::{RenderWorker, Reply, Request};
 use crate::picture::Canvas;
 
-/// Preview resolution divisor at start, before any preview was timed.
-const PREVIEW_DIVISOR: usize = 4;
+/// Preview resolution divisor at start: half the viewport's width and height.
+const PREVIEW_DIVISOR: usize = 2;
 /// Time one preview reply should take, all its methods together: what keeps a drag fluid.
 const PREVIEW_TARGET_MS: f64 = 60.0;
+/// A preview slower than this makes the next ones twice as coarse.
+const COARSEN_ABOVE_MS: f64 = 2.5 * PREVIEW_TARGET_MS;
+/// Half-resolution previews of edits (that copy pixels from the preview before) stay up to
+/// this long (issue 18: previews at half resolution or better while dragging; on two cores,
+/// `bench assets/scenes/creature.ron --after-edits --size 398x367` moves each vertex of the
+/// default creature in 36 ms (median), 166 ms at most; a drag that moves a body vertex farther
+/// between previews takes up to about 300 ms). Camera moves copy nothing and keep
+/// [`COARSEN_ABOVE_MS`].
+const HALF_RESOLUTION_UP_TO_MS: f64 = 5.0 * PREVIEW_TARGET_MS;
+/// A preview faster than this makes the next ones twice as fine (four times the pixels, still
+/// below [`COARSEN_ABOVE_MS`]).
+const REFINE_BELOW_MS: f64 = PREVIEW_TARGET_MS / 3.0;
+/// A full frame traced without copying tells what a preview traced without copying costs: the
+/// divisor is at least the one at which that is this long (an edit's preview copies most of
+/// its pixels from the one before).
+const FULL_TRACE_PREVIEW_MS: f64 = 10.0 * PREVIEW_TARGET_MS;
 /// The coarsest preview: 1/16 of the viewport's width and height.
 const PREVIEW_DIVISOR_MAX: usize = 16;
+/// A preview unanswered this long while the user interacts is cancelled, and the divisor
+/// doubles.
+const PREVIEW_OVERRUN: Duration = Duration::from_millis(500);
 /// Idle time after which the full-resolution frame is requested.
 pub(super) const REFINE_AFTER: Duration = Duration::from_millis(250);
 
@@ -51,6 +76,8 @@ pub(super) struct Shown {
     pub scale: StepScale,
     /// The reply was traced at full resolution.
     pub refined: bool,
+    /// A preview's resolution divisor (of the viewport's width and height).
+    pub divisor: usize,
 }
 
 /// Everything a frame depends on; a request is sent only when it changes.
@@ -90,10 +117,22 @@ pub(super) struct ViewportFrames {
     requested: Option<RenderKey>,
     /// The latest reply, on screen.
     pub shown: Option<Shown>,
-    /// Resolution divisor while interacting, adapted to the last reply's trace time.
-    pub preview_divisor: usize,
+    /// Resolution divisor while interacting (a power of two), adapted to the replies' trace
+    /// times.
+    preview_divisor: usize,
     /// Pixels of the viewport (or of one grid panel) at full resolution.
     viewport_pixels: usize,
+    /// The size of the last preview shown: a preview of another size had no earlier frame of
+    /// its size to copy from, and its time does not tell what the next ones take.
+    last_preview_size: Option<(usize, usize)>,
+    /// Since when the renderer has had an unanswered request, and whether the newest one is a
+    /// preview.
+    waiting: Option<(Instant, bool)>,
+    /// The id of the newest request sent to the renderer.
+    newest_sent: u64,
+    /// The ids of the latest preview requests (a preview at full resolution is timed as a
+    /// preview).
+    preview_ids: std::collections::VecDeque<u64>,
 }
 
 impl ViewportFrames {
@@ -106,6 +145,10 @@ impl ViewportFrames {
             shown: None,
             preview_divisor: PREVIEW_DIVISOR,
             viewport_pixels: 0,
+            last_preview_size: None,
+            waiting: None,
+            newest_sent: 0,
+            preview_ids: std::collections::VecDeque::new(),
         }
     }
 
@@ -131,6 +174,17 @@ impl ViewportFrames {
             interacting,
         } = order;
         self.viewport_pixels = pixels.0 * pixels.1;
+        if interacting
+            && let Some((since, true)) = self.waiting
+            && since.elapsed() > PREVIEW_OVERRUN
+            && self.preview_divisor < PREVIEW_DIVISOR_MAX
+        {
+            // Too slow to show anything while the user drags: ask for a coarser one now.
+            self.worker.cancel_all();
+            self.preview_divisor = next_divisor(self.preview_divisor, Timing::Overrun);
+            self.waiting = None;
+            self.requested = None;
+        }
         let divisor = if interacting { self.preview_divisor } else { 1 };
         let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
         let shaded = view == ViewMode::Shaded;
@@ -162,9 +216,19 @@ impl ViewportFrames {
             methods,
             backend: key.backend,
             shadows: key.shadows,
+            preview: interacting,
             shading: key.shading,
             cancel: Cancel::new(),
         });
+        let since = self.waiting.map_or_else(Instant::now, |(since, _)| since);
+        self.waiting = Some((since, interacting));
+        self.newest_sent = id;
+        if interacting {
+            if self.preview_ids.len() == 8 {
+                self.preview_ids.pop_front();
+            }
+            self.preview_ids.push_back(id);
+        }
         self.requested = Some(key);
     }
 
@@ -225,11 +289,32 @@ impl ViewportFrames {
             .frames
             .first()
             .is_some_and(|t| t.frame.width * t.frame.height >= self.viewport_pixels);
+        // The newest request answered, the renderer is idle; an older one, it starts the next.
+        let divisor = reply.frames.first().map_or(1, |t| {
+            let shown = (t.frame.width * t.frame.height).max(1);
+            (self.viewport_pixels as f64 / shown as f64)
+                .sqrt()
+                .round()
+                .max(1.0) as usize
+        });
+        let newest_is_preview = self.waiting.is_some_and(|(_, preview)| preview);
+        self.waiting = (reply.id < self.newest_sent).then(|| (Instant::now(), newest_is_preview));
         if let Some(first) = reply.frames.first() {
             let ms = reply.frames.iter().map(|t| t.ms).sum();
-            let traced = first.frame.width * first.frame.height;
-            self.preview_divisor =
-                adapted_divisor(self.preview_divisor, ms, traced, self.viewport_pixels);
+            let size = (first.frame.width, first.frame.height);
+            let copied = reply.frames.iter().any(|t| t.pixels_copied > Some(0.0));
+            let timing = if self.preview_ids.contains(&reply.id) {
+                let first_at_size = self.last_preview_size != Some(size);
+                self.last_preview_size = Some(size);
+                Timing::Preview {
+                    ms,
+                    first_at_size,
+                    copied,
+                }
+            } else {
+                Timing::Full { ms, copied }
+            };
+            self.preview_divisor = next_divisor(self.preview_divisor, timing);
         }
         let histograms: Vec<StepHistogram> = reply
             .frames
@@ -267,22 +352,63 @@ impl ViewportFrames {
             steps_max,
             scale,
             refined,
+            divisor,
         });
         reply.device_failure
     }
 }
 
-/// The preview divisor that makes a preview take about [`PREVIEW_TARGET_MS`], given that the
-/// last reply took `ms` for `traced` pixels (per method) and the viewport has `viewport`
-/// pixels: trace time goes with the pixel count, 1/divisor². It changes by at most a factor
-/// of two per reply, so one slow frame does not swing it.
-pub(super) fn adapted_divisor(divisor: usize, ms: f64, traced: usize, viewport: usize) -> usize {
-    if !ms.is_finite() || ms <= 0.0 || traced == 0 || viewport == 0 {
-        return divisor;
+/// What a reply or its absence tells about the preview divisor.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Timing {
+    /// A preview took `ms`, all its methods together; `first_at_size`: none of its size came
+    /// before it, so it copied nothing from an earlier frame; `copied`: some of its pixels
+    /// came from an earlier frame (an edit's preview, not a camera move's).
+    Preview {
+        ms: f64,
+        first_at_size: bool,
+        copied: bool,
+    },
+    /// A full-resolution frame took `ms`; `copied`: some of its pixels came from an earlier
+    /// frame.
+    Full { ms: f64, copied: bool },
+    /// A preview went unanswered for [`PREVIEW_OVERRUN`].
+    Overrun,
+}
+
+/// The preview divisor after `timing`, from `divisor`: a power of two from 1 to
+/// [`PREVIEW_DIVISOR_MAX`], moved by one factor of two at a time, kept while previews take
+/// between [`REFINE_BELOW_MS`] and [`COARSEN_ABOVE_MS`] (so that a drag keeps its resolution,
+/// and with it the frames its edits copy from), an edit's at half resolution up to
+/// [`HALF_RESOLUTION_UP_TO_MS`].
+pub(super) fn next_divisor(divisor: usize, timing: Timing) -> usize {
+    let coarser = (divisor * 2).min(PREVIEW_DIVISOR_MAX);
+    match timing {
+        Timing::Preview { ms, .. } if !ms.is_finite() => divisor,
+        Timing::Preview {
+            first_at_size: true,
+            ..
+        } => divisor,
+        Timing::Preview { ms, copied, .. }
+            if ms > COARSEN_ABOVE_MS
+                && (divisor != PREVIEW_DIVISOR || !copied || ms > HALF_RESOLUTION_UP_TO_MS) =>
+        {
+            coarser
+        }
+        Timing::Preview { ms, .. } if ms < REFINE_BELOW_MS => (divisor / 2).max(1),
+        Timing::Preview { .. } | Timing::Full { copied: true, .. } => divisor,
+        Timing::Full { ms, copied: false } => {
+            // The finest power of two at which this frame's pixels, all traced, take at most
+            // FULL_TRACE_PREVIEW_MS.
+            let mut least = 1;
+            while least < PREVIEW_DIVISOR_MAX && ms / (least * least) as f64 > FULL_TRACE_PREVIEW_MS
+            {
+                least *= 2;
+            }
+            divisor.max(least)
+        }
+        Timing::Overrun => coarser,
     }
-    let ideal = (viewport as f64 * ms / (traced as f64 * PREVIEW_TARGET_MS)).sqrt();
-    let bounded = ideal.clamp(divisor as f64 / 2.0, divisor as f64 * 2.0);
-    (bounded.round() as usize).clamp(1, PREVIEW_DIVISOR_MAX)
 }
 
 /// The texture image of a frame: shaded colours, or the heat map on `[0, steps_max]` on
@@ -306,29 +432,60 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_preview_divisor_follows_the_trace_time_by_at_most_a_factor_of_two() {
-        let full = 800 * 600;
-        let quarter = full / 16;
-        // A quarter-resolution preview at 4× the target: twice as coarse.
-        assert_eq!(
-            adapted_divisor(4, 4.0 * PREVIEW_TARGET_MS, quarter, full),
-            8
-        );
-        // 100× the target: capped at doubling, and at the coarsest divisor.
-        assert_eq!(
-            adapted_divisor(4, 100.0 * PREVIEW_TARGET_MS, quarter, full),
-            8
-        );
-        assert_eq!(
-            adapted_divisor(12, 100.0 * PREVIEW_TARGET_MS, quarter, full),
-            PREVIEW_DIVISOR_MAX
-        );
-        // A full-resolution frame tells as much: 16× the target there is divisor 4.
-        assert_eq!(adapted_divisor(4, 16.0 * PREVIEW_TARGET_MS, full, full), 4);
-        // Much faster than needed: finer, down to full resolution.
-        assert_eq!(adapted_divisor(4, 0.01, quarter, full), 2);
-        assert_eq!(adapted_divisor(1, 0.01, full, full), 1);
-        assert_eq!(adapted_divisor(4, f64::NAN, quarter, full), 4);
-        assert_eq!(adapted_divisor(4, 10.0, 0, full), 4);
+    fn previews_keep_half_resolution_while_they_take_about_the_target() {
+        let preview = |ms| Timing::Preview {
+            ms,
+            first_at_size: false,
+            copied: true,
+        };
+        // Within the band, the divisor stays: a drag keeps its resolution.
+        for ms in [25.0_f64, 60.0, 140.0, 290.0] {
+            assert_eq!(next_divisor(4, preview(ms.min(140.0))), 4, "{ms}");
+            assert_eq!(next_divisor(PREVIEW_DIVISOR, preview(ms)), 2, "{ms}");
+        }
+        // An edit's half resolution holds up to HALF_RESOLUTION_UP_TO_MS, a camera move's
+        // (nothing copied) and other divisors to COARSEN_ABOVE_MS.
+        assert_eq!(next_divisor(2, preview(250.0)), 2);
+        let camera_move = Timing::Preview {
+            ms: 250.0,
+            first_at_size: false,
+            copied: false,
+        };
+        assert_eq!(next_divisor(2, camera_move), 4);
+        assert_eq!(next_divisor(1, preview(200.0)), 2);
+        assert_eq!(next_divisor(4, preview(200.0)), 8);
+        // Much slower: twice as coarse, at most once per reply, up to the coarsest.
+        assert_eq!(next_divisor(2, preview(400.0)), 4);
+        assert_eq!(next_divisor(2, preview(1e6)), 4);
+        assert_eq!(next_divisor(16, preview(1e6)), PREVIEW_DIVISOR_MAX);
+        // Much faster: twice as fine, down to full resolution.
+        assert_eq!(next_divisor(4, preview(5.0)), 2);
+        assert_eq!(next_divisor(1, preview(5.0)), 1);
+        // The first preview of a size copied nothing: its time says nothing of the next ones.
+        let first = Timing::Preview {
+            ms: 1e4,
+            first_at_size: true,
+            copied: false,
+        };
+        assert_eq!(next_divisor(2, first), 2);
+        assert_eq!(next_divisor(2, preview(f64::NAN)), 2);
+        // A full frame traced in full bounds the divisor from below: the default creature's
+        // full editor frame (about 1 s on two cores) keeps half resolution, a grid of slow
+        // methods (a minute) starts at the coarsest.
+        let full = |ms| Timing::Full { ms, copied: false };
+        assert_eq!(next_divisor(2, full(1_000.0)), 2);
+        assert_eq!(next_divisor(2, full(3_000.0)), 4);
+        assert_eq!(next_divisor(2, full(60_000.0)), 16);
+        assert_eq!(next_divisor(1, full(30.0)), 1);
+        assert_eq!(next_divisor(8, full(30.0)), 8, "only previews refine");
+        // A full frame that copied pixels says nothing of what a preview traces.
+        let copied = Timing::Full {
+            ms: 60_000.0,
+            copied: true,
+        };
+        assert_eq!(next_divisor(2, copied), 2);
+        // An overrunning preview: twice as coarse.
+        assert_eq!(next_divisor(2, Timing::Overrun), 4);
+        assert_eq!(next_divisor(16, Timing::Overrun), 16);
     }
 }

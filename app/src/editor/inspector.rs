@@ -757,10 +757,7 @@ impl Editor {
                 ui.separator();
                 ui.weak(&shown.adapter);
                 if !shown.refined {
-                    ui.weak(format!(
-                        "(preview, 1/{} resolution)",
-                        self.frames.preview_divisor
-                    ));
+                    ui.weak(format!("(preview, 1/{} resolution)", shown.divisor));
                 }
                 for s in &shown.skipped {
                     ui.colored_label(egui::Color32::from_rgb(240, 180, 90), s);

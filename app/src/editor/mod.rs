@@ -687,6 +687,7 @@ impl Editor {
             methods,
             backend: self.ui_state.backend,
             shadows: self.ui_state.shadows,
+            preview: false,
             shading: self.ui_state.shading,
             cancel: skeletrace_core::backend::Cancel::new(),
         };

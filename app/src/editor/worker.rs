@@ -1,7 +1,10 @@
 //! The viewport's renderer thread: takes the latest render request, traces it through the
 //! backend `skeletrace::backends::Backends::choose` picks for each method, and hands the frames
 //! back with their timings, so the UI thread never waits for a frame. Stale requests are
-//! dropped: only the newest one is traced.
+//! dropped: only the newest one is traced. A newer request cancels a full-resolution frame in
+//! flight (an edit does not wait for it); a preview in flight is left to finish, so that a
+//! continuous drag shows a preview every preview time instead of none until it pauses (the UI
+//! cancels one that overruns, `RenderWorker::cancel_all`).
 //!
 //! A request carries the document's `Arc<Compiled>`, never a scene to compile: moving the
 //! camera compiles nothing, and the GPU re-uploads only when the compiled scene changes. Every
@@ -39,10 +42,14 @@ pub struct Request {
     pub backend: BackendChoice,
     /// Shadow rays in the shaded view (CPU only).
     pub shadows: bool,
+    /// A reduced-resolution frame while the user interacts: a newer request does not cancel
+    /// it once it is traced.
+    pub preview: bool,
     /// Field soft shadows and ambient occlusion in the shaded view.
     pub shading: FieldShading,
-    /// Set by [`RenderWorker::request`] when a newer request replaces this one: the CPU tracer
-    /// stops mid-frame and no reply is sent.
+    /// Set by [`RenderWorker::request`] when a newer request replaces this one (unless this is
+    /// a preview), or by [`RenderWorker::cancel_all`]: the CPU tracer stops mid-frame and no
+    /// reply is sent.
     pub cancel: Cancel,
 }
 
@@ -79,8 +86,10 @@ pub struct Reply {
 /// Handle on the renderer thread.
 pub struct RenderWorker {
     requests: Option<Sender<Request>>,
-    /// The cancel flag of the newest request sent.
-    newest: Mutex<Option<Cancel>>,
+    /// The cancel flag of the newest request sent, and whether it is a preview.
+    newest: Mutex<Option<(Cancel, bool)>>,
+    /// The cancel flag of the request the thread is tracing.
+    running: Arc<Mutex<Option<Cancel>>>,
     replies: Receiver<Reply>,
     thread: Option<JoinHandle<()>>,
 }
@@ -91,29 +100,48 @@ impl RenderWorker {
     pub fn start(wake: impl Fn() + Send + 'static) -> Self {
         let (request_tx, request_rx) = channel::<Request>();
         let (reply_tx, reply_rx) = channel();
+        let running = Arc::new(Mutex::new(None));
+        let tracing = Arc::clone(&running);
         let thread = std::thread::Builder::new()
             .name("skeletrace-render".to_owned())
-            .spawn(move || serve(&request_rx, &reply_tx, &wake))
+            .spawn(move || serve(&request_rx, &reply_tx, &tracing, &wake))
             .ok();
         Self {
             requests: Some(request_tx),
             newest: Mutex::new(None),
+            running,
             replies: reply_rx,
             thread,
         }
     }
 
-    /// Queues a request: the one being traced is cancelled, older queued ones are dropped by
-    /// the thread.
+    /// Queues a request: the one sent before is cancelled unless it is a preview (a preview
+    /// being traced finishes); older queued ones are dropped by the thread.
     pub fn request(&self, request: Request) {
         if let Ok(mut newest) = self.newest.lock()
-            && let Some(previous) = newest.replace(request.cancel.clone())
+            && let Some((previous, false)) =
+                newest.replace((request.cancel.clone(), request.preview))
         {
             previous.cancel();
         }
         if let Some(tx) = &self.requests {
             // A closed channel means the thread ended; the UI then shows its last frame.
             let _ = tx.send(request);
+        }
+    }
+
+    /// Cancels the request being traced and the newest one sent: none of them gets a reply
+    /// (an overrunning preview, before a coarser one is asked for).
+    pub fn cancel_all(&self) {
+        if let Ok(newest) = self.newest.lock()
+            && let Some((cancel, _)) = newest.as_ref()
+        {
+            cancel.cancel();
+        }
+        if let Ok(running) = self.running.lock()
+            && let Some(cancel) = running.as_ref()
+        {
+            cancel.cancel();
         }
     }
 
@@ -139,7 +167,12 @@ impl Drop for RenderWorker {
     }
 }
 
-fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn()) {
+fn serve(
+    requests: &Receiver<Request>,
+    replies: &Sender<Reply>,
+    running: &Mutex<Option<Cancel>>,
+    wake: &dyn Fn(),
+) {
     let mut backends: Option<Backends> = None;
     while let Ok(mut request) = requests.recv() {
         while let Ok(newer) = requests.try_recv() {
@@ -153,8 +186,15 @@ fn serve(requests: &Receiver<Request>, replies: &Sender<Reply>, wake: &dyn Fn())
             opened
         });
         backends.open_gpu_for(request.backend);
+        if let Ok(mut running) = running.lock() {
+            *running = Some(request.cancel.clone());
+        }
+        let traced = trace(&request, backends);
+        if let Ok(mut running) = running.lock() {
+            *running = None;
+        }
         // A cancelled request has a newer one behind it: that one gets the reply.
-        let Some(reply) = trace(&request, backends) else {
+        let Some(reply) = traced else {
             continue;
         };
         if replies.send(reply).is_err() {
@@ -252,6 +292,7 @@ mod tests {
             methods: vec![MethodId::Segment, MethodId::QuadraticTaylor],
             backend: BackendChoice::Auto,
             shadows: false,
+            preview: false,
             shading: FieldShading::default(),
             cancel: Cancel::new(),
         };
@@ -298,6 +339,7 @@ mod tests {
             methods: vec![MethodId::Sphere],
             backend: BackendChoice::Cpu,
             shadows: false,
+            preview: false,
             shading: FieldShading::default(),
             cancel,
         };
@@ -324,5 +366,43 @@ mod tests {
             .unwrap_or_else(|| panic!("a reply to the newest request"));
         assert_eq!(reply.id, 3);
         assert_eq!(reply.frames.len(), 1);
+    }
+
+    /// A preview is left to finish when a newer request comes (a continuous drag shows
+    /// previews), a full-resolution frame is not, and `cancel_all` cancels the one in flight
+    /// and the newest.
+    #[test]
+    fn a_newer_request_leaves_a_preview_to_finish() {
+        let scene = crate::editor::default_scene();
+        let request = |id, preview| Request {
+            id,
+            compiled: skeletrace_core::compile(&scene),
+            camera: scene.camera,
+            size: (12, 8),
+            methods: vec![MethodId::QuadraticTaylor],
+            backend: BackendChoice::Cpu,
+            shadows: false,
+            preview,
+            shading: FieldShading::default(),
+            cancel: Cancel::new(),
+        };
+        let worker = RenderWorker::start(|| {});
+        let (preview, full, newest) = (request(1, true), request(2, false), request(3, true));
+        let cancels = [&preview, &full, &newest].map(|r| r.cancel.clone());
+        worker.request(preview);
+        worker.request(full);
+        assert!(!cancels[0].is_cancelled(), "a superseded preview finishes");
+        worker.request(newest);
+        assert!(
+            cancels[1].is_cancelled(),
+            "a superseded full frame does not"
+        );
+        assert!(!cancels[2].is_cancelled());
+        let reply = worker
+            .wait_for(3)
+            .unwrap_or_else(|| panic!("a reply to the newest request"));
+        assert_eq!(reply.id, 3);
+        worker.cancel_all();
+        assert!(cancels[2].is_cancelled(), "cancel_all cancels the newest");
     }
 }
