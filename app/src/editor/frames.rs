@@ -220,7 +220,12 @@ impl ViewportFrames {
             shading: key.shading,
             cancel: Cancel::new(),
         });
-        let since = self.waiting.map_or_else(Instant::now, |(since, _)| since);
+        // A preview in flight goes on (the worker leaves it to finish); a full frame in flight
+        // is cancelled by this request, which starts the wait afresh.
+        let since = match self.waiting {
+            Some((since, true)) => since,
+            _ => Instant::now(),
+        };
         self.waiting = Some((since, interacting));
         self.newest_sent = id;
         if interacting {
