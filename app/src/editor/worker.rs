@@ -405,4 +405,38 @@ mod tests {
         worker.cancel_all();
         assert!(cancels[2].is_cancelled(), "cancel_all cancels the newest");
     }
+
+    /// A drag sends a preview request far more often than one is traced: previews come back
+    /// while it goes on (when each request cancelled the one in flight, none did until the
+    /// drag paused).
+    #[test]
+    fn a_continuous_drag_shows_previews() {
+        let scene = crate::editor::default_scene();
+        let compiled = skeletrace_core::compile(&scene);
+        let worker = RenderWorker::start(|| {});
+        let mut answered = 0;
+        // A request every 2 ms for a second, each a frame of the creature that takes tens of
+        // milliseconds to trace.
+        for id in 1..=500 {
+            worker.request(Request {
+                id,
+                compiled: Arc::clone(&compiled),
+                camera: scene.camera,
+                size: (96, 72),
+                methods: vec![MethodId::QuadraticTaylor],
+                backend: BackendChoice::Cpu,
+                shadows: false,
+                preview: true,
+                shading: FieldShading::default(),
+                cancel: Cancel::new(),
+            });
+            answered += worker.replies.try_iter().count();
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        assert!(answered > 0, "no preview came back during the drag");
+        let last = worker
+            .wait_for(500)
+            .unwrap_or_else(|| panic!("a reply to the newest request"));
+        assert_eq!(last.id, 500);
+    }
 }
