@@ -7,8 +7,10 @@
 //! they take about [`PREVIEW_TARGET_MS`]: a drag then traces one resolution after the other, and
 //! the CPU copies what each edit did not reach from the preview before it (a new resolution
 //! copies nothing). A preview much slower than the target doubles the divisor, one much faster
-//! halves it; a full frame traced without copying sets the coarsest divisor its time calls for,
-//! and a preview left unanswered for [`PREVIEW_OVERRUN`] is cancelled for a coarser one.
+//! halves it; a full frame traced without copying bounds it from below, and a preview left
+//! unanswered for [`PREVIEW_OVERRUN`] is cancelled for a coarser one. Camera moves copy nothing:
+//! they keep a divisor of their own, set from the full frame's time to the power of two nearest
+//! to the target (the creature's: 1/4), so that orbiting stays as fluid as before.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -39,11 +41,14 @@ const COARSEN_ABOVE_MS: f64 = 2.5 * PREVIEW_TARGET_MS;
 const HALF_RESOLUTION_UP_TO_MS: f64 = 5.0 * PREVIEW_TARGET_MS;
 /// A preview faster than this makes the next ones twice as fine (four times the pixels, still
 /// below [`COARSEN_ABOVE_MS`]).
-const REFINE_BELOW_MS: f64 = PREVIEW_TARGET_MS / 3.0;
+const REFINE_BELOW_MS: f64 = PREVIEW_TARGET_MS / 2.0;
 /// A full frame traced without copying tells what a preview traced without copying costs: the
 /// divisor is at least the one at which that is this long (an edit's preview copies most of
 /// its pixels from the one before).
 const FULL_TRACE_PREVIEW_MS: f64 = 10.0 * PREVIEW_TARGET_MS;
+/// A camera move's preview, which copies nothing, takes at most this long at the divisor a full
+/// frame traced in full sets (the power of two nearest to taking [`PREVIEW_TARGET_MS`]).
+const CAMERA_PREVIEW_UP_TO_MS: f64 = 2.0 * PREVIEW_TARGET_MS;
 /// The coarsest preview: 1/16 of the viewport's width and height.
 const PREVIEW_DIVISOR_MAX: usize = 16;
 /// A preview unanswered this long while the user interacts is cancelled, and the divisor
@@ -117,9 +122,11 @@ pub(super) struct ViewportFrames {
     requested: Option<RenderKey>,
     /// The latest reply, on screen.
     pub shown: Option<Shown>,
-    /// Resolution divisor while interacting (a power of two), adapted to the replies' trace
-    /// times.
-    preview_divisor: usize,
+    /// Resolution divisors while interacting (powers of two), adapted to the replies' trace
+    /// times: one for edits, one for camera moves.
+    divisors: PreviewDivisors,
+    /// What the user's interaction changes now.
+    interaction: PreviewKind,
     /// Pixels of the viewport (or of one grid panel) at full resolution.
     viewport_pixels: usize,
     /// The size of the last preview shown: a preview of another size had no earlier frame of
@@ -130,9 +137,9 @@ pub(super) struct ViewportFrames {
     waiting: Option<(Instant, bool)>,
     /// The id of the newest request sent to the renderer.
     newest_sent: u64,
-    /// The ids of the latest preview requests (a preview at full resolution is timed as a
-    /// preview).
-    preview_ids: std::collections::VecDeque<u64>,
+    /// The ids and kinds of the latest preview requests (a preview at full resolution is
+    /// timed as a preview).
+    preview_ids: std::collections::VecDeque<(u64, PreviewKind)>,
 }
 
 impl ViewportFrames {
@@ -143,7 +150,11 @@ impl ViewportFrames {
             next_request: 1,
             requested: None,
             shown: None,
-            preview_divisor: PREVIEW_DIVISOR,
+            divisors: PreviewDivisors {
+                edit: PREVIEW_DIVISOR,
+                camera: PREVIEW_DIVISOR,
+            },
+            interaction: PreviewKind::Edit,
             viewport_pixels: 0,
             last_preview_size: None,
             waiting: None,
@@ -174,18 +185,31 @@ impl ViewportFrames {
             interacting,
         } = order;
         self.viewport_pixels = pixels.0 * pixels.1;
+        if interacting && let Some(last) = &self.requested {
+            if last.camera != camera {
+                self.interaction = PreviewKind::CameraMove;
+            } else if last.revision != revision {
+                self.interaction = PreviewKind::Edit;
+            }
+        }
+        let kind = self.interaction;
         if interacting
             && let Some((since, true)) = self.waiting
             && since.elapsed() > PREVIEW_OVERRUN
-            && self.preview_divisor < PREVIEW_DIVISOR_MAX
+            && *self.divisors.of(kind) < PREVIEW_DIVISOR_MAX
         {
             // Too slow to show anything while the user drags: ask for a coarser one now.
             self.worker.cancel_all();
-            self.preview_divisor = next_divisor(self.preview_divisor, Timing::Overrun);
+            let divisor = self.divisors.of(kind);
+            *divisor = next_divisor(*divisor, Timing::Overrun);
             self.waiting = None;
             self.requested = None;
         }
-        let divisor = if interacting { self.preview_divisor } else { 1 };
+        let divisor = if interacting {
+            *self.divisors.of(kind)
+        } else {
+            1
+        };
         let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
         let shaded = view == ViewMode::Shaded;
         let key = RenderKey {
@@ -232,7 +256,7 @@ impl ViewportFrames {
             if self.preview_ids.len() == 8 {
                 self.preview_ids.pop_front();
             }
-            self.preview_ids.push_back(id);
+            self.preview_ids.push_back((id, kind));
         }
         self.requested = Some(key);
     }
@@ -308,18 +332,38 @@ impl ViewportFrames {
             let ms = reply.frames.iter().map(|t| t.ms).sum();
             let size = (first.frame.width, first.frame.height);
             let copied = reply.frames.iter().any(|t| t.pixels_copied > Some(0.0));
-            let timing = if self.preview_ids.contains(&reply.id) {
-                let first_at_size = self.last_preview_size != Some(size);
-                self.last_preview_size = Some(size);
-                Timing::Preview {
-                    ms,
-                    first_at_size,
-                    copied,
+            let preview = self
+                .preview_ids
+                .iter()
+                .find(|(id, _)| *id == reply.id)
+                .map(|(_, kind)| *kind);
+            // A frame copied whole (a camera back where a kept frame was) traced nothing and
+            // tells nothing.
+            let traced_nothing = reply.frames.iter().all(|t| t.pixels_copied == Some(1.0));
+            match preview {
+                _ if traced_nothing => {}
+                Some(kind) => {
+                    let first_at_size = self.last_preview_size != Some(size);
+                    self.last_preview_size = Some(size);
+                    let divisor = self.divisors.of(kind);
+                    *divisor = next_divisor(
+                        *divisor,
+                        Timing::Preview {
+                            ms,
+                            first_at_size,
+                            copied,
+                        },
+                    );
                 }
-            } else {
-                Timing::Full { ms, copied }
-            };
-            self.preview_divisor = next_divisor(self.preview_divisor, timing);
+                None if !copied => {
+                    // A full frame traced in full: what a camera move's preview, which copies
+                    // nothing, takes at each divisor, and a bound for an edit's.
+                    self.divisors.camera = least_divisor(ms, CAMERA_PREVIEW_UP_TO_MS);
+                    self.divisors.edit =
+                        next_divisor(self.divisors.edit, Timing::Full { ms, copied });
+                }
+                None => {}
+            }
         }
         let histograms: Vec<StepHistogram> = reply
             .frames
@@ -363,6 +407,39 @@ impl ViewportFrames {
     }
 }
 
+/// What a preview shows: a camera move traces every pixel again; an edit copies from the
+/// preview before it what it did not reach.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PreviewKind {
+    CameraMove,
+    Edit,
+}
+
+/// The preview divisor of each kind of interaction.
+struct PreviewDivisors {
+    edit: usize,
+    camera: usize,
+}
+
+impl PreviewDivisors {
+    fn of(&mut self, kind: PreviewKind) -> &mut usize {
+        match kind {
+            PreviewKind::CameraMove => &mut self.camera,
+            PreviewKind::Edit => &mut self.edit,
+        }
+    }
+}
+
+/// The finest power-of-two divisor (up to [`PREVIEW_DIVISOR_MAX`]) at which a frame that took
+/// `ms` at full resolution, all its pixels traced, takes at most `budget` ms.
+fn least_divisor(ms: f64, budget: f64) -> usize {
+    let mut least = 1;
+    while least < PREVIEW_DIVISOR_MAX && ms / (least * least) as f64 > budget {
+        least *= 2;
+    }
+    least
+}
+
 /// What a reply or its absence tells about the preview divisor.
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Timing {
@@ -402,16 +479,7 @@ pub(super) fn next_divisor(divisor: usize, timing: Timing) -> usize {
         }
         Timing::Preview { ms, .. } if ms < REFINE_BELOW_MS => (divisor / 2).max(1),
         Timing::Preview { .. } | Timing::Full { copied: true, .. } => divisor,
-        Timing::Full { ms, copied: false } => {
-            // The finest power of two at which this frame's pixels, all traced, take at most
-            // FULL_TRACE_PREVIEW_MS.
-            let mut least = 1;
-            while least < PREVIEW_DIVISOR_MAX && ms / (least * least) as f64 > FULL_TRACE_PREVIEW_MS
-            {
-                least *= 2;
-            }
-            divisor.max(least)
-        }
+        Timing::Full { ms, copied: false } => divisor.max(least_divisor(ms, FULL_TRACE_PREVIEW_MS)),
         Timing::Overrun => coarser,
     }
 }
@@ -444,7 +512,7 @@ mod tests {
             copied: true,
         };
         // Within the band, the divisor stays: a drag keeps its resolution.
-        for ms in [25.0_f64, 60.0, 140.0, 290.0] {
+        for ms in [35.0_f64, 60.0, 140.0, 290.0] {
             assert_eq!(next_divisor(4, preview(ms.min(140.0))), 4, "{ms}");
             assert_eq!(next_divisor(PREVIEW_DIVISOR, preview(ms)), 2, "{ms}");
         }
@@ -489,6 +557,10 @@ mod tests {
             copied: true,
         };
         assert_eq!(next_divisor(2, copied), 2);
+        // A camera move's divisor after a full frame: the power of two nearest to the target.
+        assert_eq!(least_divisor(950.0, CAMERA_PREVIEW_UP_TO_MS), 4);
+        assert_eq!(least_divisor(100.0, CAMERA_PREVIEW_UP_TO_MS), 1);
+        assert_eq!(least_divisor(1e9, CAMERA_PREVIEW_UP_TO_MS), 16);
         // An overrunning preview: twice as coarse.
         assert_eq!(next_divisor(2, Timing::Overrun), 4);
         assert_eq!(next_divisor(16, Timing::Overrun), 16);
