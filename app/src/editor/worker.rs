@@ -277,24 +277,37 @@ mod tests {
     use super::*;
     use crate::backends::FailingGpu;
 
-    /// A device failure is reported, the frame is traced on the CPU instead, and the GPU is not
-    /// tried again.
-    #[test]
-    fn a_failing_gpu_is_reported_and_the_cpu_takes_over() {
+    /// A request of the default scene through its camera, on the CPU, a full frame with a
+    /// cancel flag of its own; tests change what they need with `..`.
+    fn default_request(id: u64, size: (usize, usize), methods: Vec<MethodId>) -> Request {
         let scene = crate::editor::default_scene();
-        let mut backends = Backends::open(BackendChoice::Cpu);
-        backends.gpu = Ok(Box::new(FailingGpu));
-        let request = Request {
-            id: 1,
+        Request {
+            id,
             compiled: skeletrace_core::compile(&scene),
             camera: scene.camera,
-            size: (24, 16),
-            methods: vec![MethodId::Segment, MethodId::QuadraticTaylor],
-            backend: BackendChoice::Auto,
+            size,
+            methods,
+            backend: BackendChoice::Cpu,
             shadows: false,
             preview: false,
             shading: FieldShading::default(),
             cancel: Cancel::new(),
+        }
+    }
+
+    /// A device failure is reported, the frame is traced on the CPU instead, and the GPU is not
+    /// tried again.
+    #[test]
+    fn a_failing_gpu_is_reported_and_the_cpu_takes_over() {
+        let mut backends = Backends::open(BackendChoice::Cpu);
+        backends.gpu = Ok(Box::new(FailingGpu));
+        let request = Request {
+            backend: BackendChoice::Auto,
+            ..default_request(
+                1,
+                (24, 16),
+                vec![MethodId::Segment, MethodId::QuadraticTaylor],
+            )
         };
         let reply = trace(&request, &mut backends).unwrap_or_else(|| panic!("not cancelled"));
         let failure = reply.device_failure.unwrap_or_default();
@@ -327,36 +340,14 @@ mod tests {
     /// A request cancelled while it is traced gets no reply, and the CPU tracer stops early.
     #[test]
     fn a_cancelled_request_gets_no_reply() {
-        let scene = crate::editor::default_scene();
         let mut backends = Backends::open(BackendChoice::Cpu);
-        let cancel = Cancel::new();
-        cancel.cancel();
-        let request = Request {
-            id: 1,
-            compiled: skeletrace_core::compile(&scene),
-            camera: scene.camera,
-            size: (640, 480),
-            methods: vec![MethodId::Sphere],
-            backend: BackendChoice::Cpu,
-            shadows: false,
-            preview: false,
-            shading: FieldShading::default(),
-            cancel,
-        };
+        let request = default_request(1, (640, 480), vec![MethodId::Sphere]);
+        request.cancel.cancel();
         assert!(trace(&request, &mut backends).is_none());
         // Through the thread: the first request is cancelled by the second, which is answered.
         let worker = RenderWorker::start(|| {});
-        let first = Request {
-            id: 2,
-            cancel: Cancel::new(),
-            ..request.clone()
-        };
-        let second = Request {
-            id: 3,
-            size: (8, 6),
-            cancel: Cancel::new(),
-            ..request
-        };
+        let first = default_request(2, (640, 480), vec![MethodId::Sphere]);
+        let second = default_request(3, (8, 6), vec![MethodId::Sphere]);
         let first_cancel = first.cancel.clone();
         worker.request(first);
         worker.request(second);
@@ -373,18 +364,9 @@ mod tests {
     /// and the newest.
     #[test]
     fn a_newer_request_leaves_a_preview_to_finish() {
-        let scene = crate::editor::default_scene();
         let request = |id, preview| Request {
-            id,
-            compiled: skeletrace_core::compile(&scene),
-            camera: scene.camera,
-            size: (12, 8),
-            methods: vec![MethodId::QuadraticTaylor],
-            backend: BackendChoice::Cpu,
-            shadows: false,
             preview,
-            shading: FieldShading::default(),
-            cancel: Cancel::new(),
+            ..default_request(id, (12, 8), vec![MethodId::QuadraticTaylor])
         };
         let worker = RenderWorker::start(|| {});
         let (preview, full, newest) = (request(1, true), request(2, false), request(3, true));
@@ -411,8 +393,10 @@ mod tests {
     /// drag paused).
     #[test]
     fn a_continuous_drag_shows_previews() {
-        let scene = crate::editor::default_scene();
-        let compiled = skeletrace_core::compile(&scene);
+        let drag = Request {
+            preview: true,
+            ..default_request(0, (96, 72), vec![MethodId::QuadraticTaylor])
+        };
         let worker = RenderWorker::start(|| {});
         let mut answered = 0;
         // A request every 2 ms for a second, each a frame of the creature that takes tens of
@@ -420,15 +404,8 @@ mod tests {
         for id in 1..=500 {
             worker.request(Request {
                 id,
-                compiled: Arc::clone(&compiled),
-                camera: scene.camera,
-                size: (96, 72),
-                methods: vec![MethodId::QuadraticTaylor],
-                backend: BackendChoice::Cpu,
-                shadows: false,
-                preview: true,
-                shading: FieldShading::default(),
                 cancel: Cancel::new(),
+                ..drag.clone()
             });
             answered += worker.replies.try_iter().count();
             std::thread::sleep(std::time::Duration::from_millis(2));
