@@ -10,7 +10,7 @@
 //! halves it; a full frame traced without copying bounds it from below, and a preview left
 //! unanswered for [`PREVIEW_OVERRUN`] is cancelled for a coarser one. Camera moves copy nothing:
 //! they keep a divisor of their own, set from the full frame's time to the power of two nearest
-//! to the target (the creature's: 1/4), so that orbiting stays as fluid as before.
+//! to the target (the creature's: 1/4), as every preview's was before.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -132,9 +132,8 @@ pub(super) struct ViewportFrames {
     /// The size of the last preview shown: a preview of another size had no earlier frame of
     /// its size to copy from, and its time does not tell what the next ones take.
     last_preview_size: Option<(usize, usize)>,
-    /// Since when the renderer has had an unanswered request, and whether the newest one is a
-    /// preview.
-    waiting: Option<(Instant, bool)>,
+    /// Since when the renderer has had an unanswered request.
+    waiting: Option<Instant>,
     /// The id of the newest request sent to the renderer.
     newest_sent: u64,
     /// The ids and kinds of the latest preview requests (a preview at full resolution is
@@ -194,7 +193,8 @@ impl ViewportFrames {
         }
         let kind = self.interaction;
         if interacting
-            && let Some((since, true)) = self.waiting
+            && self.newest_is_preview()
+            && let Some(since) = self.waiting
             && since.elapsed() > PREVIEW_OVERRUN
             && *self.divisors.of(kind) < PREVIEW_DIVISOR_MAX
         {
@@ -247,10 +247,10 @@ impl ViewportFrames {
         // A preview in flight goes on (the worker leaves it to finish); a full frame in flight
         // is cancelled by this request, which starts the wait afresh.
         let since = match self.waiting {
-            Some((since, true)) => since,
+            Some(since) if self.newest_is_preview() => since,
             _ => Instant::now(),
         };
-        self.waiting = Some((since, interacting));
+        self.waiting = Some(since);
         self.newest_sent = id;
         if interacting {
             if self.preview_ids.len() == 8 {
@@ -259,6 +259,13 @@ impl ViewportFrames {
             self.preview_ids.push_back((id, kind));
         }
         self.requested = Some(key);
+    }
+
+    /// Whether the newest request sent is a preview.
+    fn newest_is_preview(&self) -> bool {
+        self.preview_ids
+            .back()
+            .is_some_and(|(id, _)| *id == self.newest_sent)
     }
 
     /// Shows the newest reply, if one came; returns the device failure it reports, if any.
@@ -318,7 +325,6 @@ impl ViewportFrames {
             .frames
             .first()
             .is_some_and(|t| t.frame.width * t.frame.height >= self.viewport_pixels);
-        // The newest request answered, the renderer is idle; an older one, it starts the next.
         let divisor = reply.frames.first().map_or(1, |t| {
             let shown = (t.frame.width * t.frame.height).max(1);
             (self.viewport_pixels as f64 / shown as f64)
@@ -326,8 +332,8 @@ impl ViewportFrames {
                 .round()
                 .max(1.0) as usize
         });
-        let newest_is_preview = self.waiting.is_some_and(|(_, preview)| preview);
-        self.waiting = (reply.id < self.newest_sent).then(|| (Instant::now(), newest_is_preview));
+        // The newest request answered, the renderer is idle; an older one, it starts the next.
+        self.waiting = (reply.id < self.newest_sent).then(Instant::now);
         if let Some(first) = reply.frames.first() {
             let ms = reply.frames.iter().map(|t| t.ms).sum();
             let size = (first.frame.width, first.frame.height);

@@ -10,8 +10,8 @@
 //! ray's or a point's primitives depends on the primitives themselves only, not on how others
 //! split the tree: after an edit that moves a few primitives within the same snapped root box,
 //! every other primitive keeps its place relative to the rest, and the editor can copy the
-//! rays the edit did not reach (`cpu/renderer.rs` `EditReach`). A binned split that partitions the items freely reorders them all around
-//! the edit.
+//! rays the edit did not reach (`cpu/renderer.rs` `EditReach`). A binned split that
+//! partitions the items freely reorders them all around the edit.
 
 use glam::DVec3;
 
