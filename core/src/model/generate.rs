@@ -476,12 +476,12 @@ impl Polyhedron {
     }
 }
 
-/// Mean edge of a foam's Voronoi cells at which [`FOAM_STRUT_RADIUS`] holds: a cube of side 0.2,
-/// the cells of a 1 000-cell foam in the box `[-1, 1]³`.
+/// Size of a foam's cells (the cube root of the box's volume per cell) up to which
+/// [`FOAM_STRUT_RADIUS`] holds: 0.2, the cells of a 1 000-cell foam in the box `[-1, 1]³`.
 const FOAM_REFERENCE_CELL: f64 = 0.2;
 
 /// Strut radius of foams of up to 1 000 cells (varying radii: 0.016 to 0.03). Denser foams scale
-/// it with the mean cell edge `2/∛cells`, which keeps the struts' share of a cell (the foam's
+/// it with the cell size `2/∛cells`, which keeps the struts' share of a cell (the foam's
 /// relative density) as at 1 000 cells: a foam of 41 000 cells is the same open foam at a finer
 /// scale, as the paper's 526 000-segment foam (scalis 2021 fig. 12), not one whose kernel
 /// supports (4 radii across at σ = 2) fill its cells.
@@ -498,9 +498,9 @@ fn foam(rng: &mut SplitMix64, cells: usize, varying: bool, field: SkeletonField)
             )
         })
         .collect();
-    let mean_cell = 2.0 * half / (cells as f64).cbrt();
-    let radius_scale = if mean_cell < FOAM_REFERENCE_CELL {
-        mean_cell / FOAM_REFERENCE_CELL
+    let cell_size = 2.0 * half / (cells as f64).cbrt();
+    let radius_scale = if cell_size < FOAM_REFERENCE_CELL {
+        cell_size / FOAM_REFERENCE_CELL
     } else {
         1.0
     };
