@@ -22,6 +22,7 @@ pub mod frame;
 pub mod json;
 pub mod methods;
 pub mod model;
+mod scratch;
 
 pub use bounds::interval::{Interval, Jet};
 pub use compile::{Compiled, compile};

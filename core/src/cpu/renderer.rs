@@ -26,6 +26,7 @@ use crate::field::ray_field::{RayField, TileCandidates};
 use crate::frame::{FieldShading, Frame, PinholeCamera, far_distance, shading_scale};
 use crate::methods::{RayTracer, Trace, TraceMode, TraceSettings};
 use crate::model::scene::{Camera, Light, Material};
+use crate::scratch::ScratchPool;
 
 /// A traced pixel: colour, depth of the first crossing and steps.
 type Pixel = ([f32; 3], f64, u32);
@@ -327,10 +328,17 @@ impl<'a> Renderer<'a> {
     /// The gradient and material at the crossing `ray.at(t)` of a camera ray, from its field:
     /// the same bits as from the program, without walking the BVH.
     fn surface_on(&self, field: &RayField, t: f64) -> SurfacePoint {
-        SurfacePoint {
-            gradient: field.value_gradient(t).1,
-            material: self.material_of(&field.group_values(t)),
+        thread_local! {
+            static GROUP_VALUES: ScratchPool<(f64, f64)> = const { ScratchPool::new() };
         }
+        // The gradient first, then the groups' values, as the field was asked before.
+        let gradient = field.value_gradient(t).1;
+        let mut values = ScratchPool::take(&GROUP_VALUES);
+        values.resize(self.program.group_count(), (0.0, 0.0));
+        field.add_group_values(t, &mut values);
+        let material = self.material_of(&values);
+        ScratchPool::give_back(&GROUP_VALUES, values);
+        SurfacePoint { gradient, material }
     }
 
     /// Colour seen along `ray`, traced as `trace`, whose first crossing is at `surface`, and

@@ -486,19 +486,24 @@ impl FieldProgram {
     /// continuous on each part (the methods' bounds hold on spans inside one part).
     #[must_use]
     pub fn ray_support_unions(&self, ray: &Ray, span: Interval) -> Vec<Interval> {
-        self.ray_support_unions_in(&BvhOnRay(self, ray), ray, span)
+        let mut parts = Vec::new();
+        self.ray_support_unions_in(&BvhOnRay(self, ray), ray, span, &mut parts);
+        parts
     }
 
+    /// [`Self::ray_support_unions`] through `lookup`, into `out` (cleared first): a ray's
+    /// tracer passes an array it reuses.
     pub(crate) fn ray_support_unions_in(
         &self,
         lookup: &impl RayLookup,
         ray: &Ray,
         span: Interval,
-    ) -> Vec<Interval> {
+        out: &mut Vec<Interval>,
+    ) {
         // Each support is merged into the parts as the lookup visits it: no sort of the
         // supports (issue 18), the parts are few.
-        let mut out: Vec<Interval> = Vec::new();
-        lookup.on_ray(span, |_, span| merge_into_parts(&mut out, span));
+        out.clear();
+        lookup.on_ray(span, |_, span| merge_into_parts(out, span));
         for b in &self.cut_boxes {
             let Some(inside) = b.box_interval(ray, span) else {
                 continue;
@@ -511,7 +516,6 @@ impl FieldProgram {
                 }
             }
         }
-        out
     }
 
     /// Local directional Lipschitz bound on `span`: `max |f′|` (segment tracing; forward

@@ -666,13 +666,14 @@ impl<'a> RayField<'a> {
         self.program.ray_supports_in(self, span)
     }
 
-    /// As [`FieldProgram::ray_support_unions`].
-    #[must_use]
-    pub fn support_unions(&self, span: Interval) -> Vec<Interval> {
-        if !self.covers(span) {
-            return self.program.ray_support_unions(&self.ray, span);
+    /// As [`FieldProgram::ray_support_unions`], into `parts` (cleared first).
+    pub fn support_unions_into(&self, span: Interval, parts: &mut Vec<Interval>) {
+        if self.covers(span) {
+            self.program
+                .ray_support_unions_in(self, &self.ray, span, parts);
+        } else {
+            *parts = self.program.ray_support_unions(&self.ray, span);
         }
-        self.program.ray_support_unions_in(self, &self.ray, span)
     }
 }
 

@@ -35,6 +35,7 @@ use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
+use crate::scratch::ScratchPool;
 
 pub use affine_bisection::AffineArithmetic;
 pub use bottom_up_linear::BottomUpLinear;
@@ -297,8 +298,13 @@ pub(crate) fn trace_supports_into(
     max_steps: u32,
     mut trace_span: impl FnMut(Interval, &mut Trace),
 ) -> Trace {
+    thread_local! {
+        static PARTS: ScratchPool<Interval> = const { ScratchPool::new() };
+    }
+    let mut parts = ScratchPool::take(&PARTS);
+    field.support_unions_into(span, &mut parts);
     let mut previous_end = None;
-    for part in field.support_unions(span) {
+    for &part in &parts {
         if previous_end == Some(part.lo)
             && let Some(jump) = jump_crossing(field, part.lo, &mut trace)
             && trace
@@ -317,6 +323,7 @@ pub(crate) fn trace_supports_into(
             break;
         }
     }
+    ScratchPool::give_back(&PARTS, parts);
     if mode == TraceMode::Opaque {
         trace.crossings.truncate(1);
     }

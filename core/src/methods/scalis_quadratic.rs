@@ -29,6 +29,7 @@ use crate::field::kernel::KernelProfile;
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
+use crate::scratch::ScratchPool;
 
 use super::normalised_field::{normalised, normalising_kernel, scalis_kernel, thinnest_radius_on};
 use super::{
@@ -198,9 +199,10 @@ impl Prepared<'_> {
     }
 
     /// Support boundaries and homothetic-distance minima inside `part`, sorted, at least
-    /// `min_step` apart.
-    fn breakpoints(&self, field: &RayField, part: Interval) -> Vec<f64> {
-        let mut points = vec![part.lo];
+    /// `min_step` apart, into `points` (cleared first).
+    fn breakpoints_into(&self, field: &RayField, part: Interval, points: &mut Vec<f64>) {
+        points.clear();
+        points.push(part.lo);
         field.for_each_primitive(part, |_, p, _, _| {
             if let Primitive::Scalis(s) = p {
                 points.push(homothetic_argmin(&s.cone, field.ray()));
@@ -208,18 +210,21 @@ impl Prepared<'_> {
         });
         points.retain(|t| (part.lo..part.hi).contains(t));
         points.sort_by(f64::total_cmp);
+        // Keep each point at least `gap` past the last one kept, in place.
         let gap = self.settings.min_step;
-        let mut kept: Vec<f64> = Vec::with_capacity(points.len() + 1);
-        for t in points {
-            if kept.last().is_none_or(|&last| t - last >= gap) {
-                kept.push(t);
+        let mut kept = 0;
+        for i in 0..points.len() {
+            let t = points[i];
+            if kept == 0 || t - points[kept - 1] >= gap {
+                points[kept] = t;
+                kept += 1;
             }
         }
-        if part.hi - kept.last().copied().unwrap_or(part.lo) < gap && kept.len() > 1 {
-            kept.pop();
+        points.truncate(kept);
+        if part.hi - points.last().copied().unwrap_or(part.lo) < gap && points.len() > 1 {
+            points.pop();
         }
-        kept.push(part.hi);
-        kept
+        points.push(part.hi);
     }
 
     /// Algorithm 1 on one piece whose start value is ≥ 0 after orienting by `sign`: the
@@ -343,8 +348,12 @@ impl RayTracer for Prepared<'_> {
         let span = field.span();
         let s = &self.settings;
         let sphere_step_entry = s.protocol.scalis_sphere_step_entry();
-        trace_supports(field, span, mode, s.max_steps, |part, trace| {
-            let mut points = self.breakpoints(field, part);
+        thread_local! {
+            static BREAKPOINTS: ScratchPool<f64> = const { ScratchPool::new() };
+        }
+        let mut points = ScratchPool::take(&BREAKPOINTS);
+        let trace = trace_supports(field, span, mode, s.max_steps, |part, trace| {
+            self.breakpoints_into(field, part, &mut points);
             if sphere_step_entry {
                 let Some(start) = self.sphere_step_in(field, part) else {
                     return;
@@ -378,6 +387,8 @@ impl RayTracer for Prepared<'_> {
                 }
                 b = e;
             }
-        })
+        });
+        ScratchPool::give_back(&BREAKPOINTS, points);
+        trace
     }
 }
