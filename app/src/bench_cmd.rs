@@ -3,12 +3,15 @@
 //! has left its idle clock), on the CPU tracer or the GPU backend, with the adapter name. On the
 //! GPU, where the adapter has timestamp queries, also the GPU's own time for the trace pass and
 //! the tile binning: the wall-clock frame holds the readback and the conversion to frames as
-//! well. With `--after-edits`, the frames that follow vertex edits on the CPU, which copies the
+//! well; and the size of the frame's tile lists, which a scene of many primitives fills first.
+//! With `--after-edits`, the frames that follow vertex edits on the CPU, which copies the
 //! tiles and rays an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
 
 use std::time::Instant;
 
-use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest};
+use skeletrace_core::backend::{
+    BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest, TileLists,
+};
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::frame::{FieldShading, View};
 use skeletrace_core::methods::{MethodId, TraceSettings};
@@ -45,6 +48,8 @@ struct Row {
     frame_ms: f64,
     /// Median GPU milliseconds of the trace pass and of the binning passes.
     passes: Option<(f64, f64)>,
+    /// The last timed frame's tile lists (GPU).
+    tile_lists: Option<TileLists>,
     /// After edits: what the frames copied, and their spread.
     edits: Option<AfterEdits>,
 }
@@ -155,6 +160,7 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
         name: method.name(),
         frame_ms: median(times),
         passes: None,
+        tile_lists: None,
         edits: Some(edits),
     })
 }
@@ -226,6 +232,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             name: method.name(),
             frame_ms: median(times),
             passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
+            tile_lists: backend.last_tile_lists(),
             edits: None,
         });
     }
@@ -236,6 +243,11 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             .map(|row| {
                 let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                     format!(", \"gpu_trace_ms\": {trace:.3}, \"gpu_binning_ms\": {binning:.3}")
+                }) + &row.tile_lists.map_or(String::new(), |lists| {
+                    format!(
+                        ", \"tile_list_items\": {}, \"tile_edge\": {}",
+                        lists.items, lists.tile_edge
+                    )
                 });
                 let passes = passes
                     + &row.edits.as_ref().map_or(String::new(), |e| {
@@ -270,6 +282,12 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         for row in rows {
             let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                 format!("   (GPU: trace {trace:.3} ms, binning {binning:.3} ms)")
+            }) + &row.tile_lists.map_or(String::new(), |lists| {
+                format!(
+                    "   (tile lists: {:.2} MB, {}-pixel tiles)",
+                    lists.bytes() as f64 / 1e6,
+                    lists.tile_edge
+                )
             }) + &row.edits.as_ref().map_or(String::new(), |e| {
                 format!(
                     "   ({:.1} % of tiles copied whole, {:.1} % of pixels copied; mean {:.2} ms, slowest {:.2} ms, {} of {} edits traced in full)",

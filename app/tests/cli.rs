@@ -543,6 +543,54 @@ fn trace_ray_reports_the_heat_maps_step_counts_and_a_consistent_step_log() {
     assert!(text(&bad.stderr).contains("outside the 48x40 frame"));
 }
 
+/// Issue 22: `bench --backend gpu` reports the size of the frame's tile lists, the first limit a
+/// scene of many primitives meets: at 4-pixel tiles, and growing with the frame (the same
+/// supports over four times as many tiles). Skipped without an adapter, unless
+/// `SKELETRACE_REQUIRE_GPU=1` (CI) makes that a failure.
+#[test]
+fn bench_on_the_gpu_reports_the_tile_lists() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
+    let bench = |size: &str| {
+        skeletrace(&[
+            "bench",
+            scene.to_str().unwrap_or_default(),
+            "--backend",
+            "gpu",
+            "--size",
+            size,
+            "--frames",
+            "1",
+            "--methods",
+            "quadratic-taylor",
+            "--json",
+        ])
+    };
+    let small = bench("32x32");
+    if !small.status.success() && std::env::var("SKELETRACE_REQUIRE_GPU").as_deref() != Ok("1") {
+        eprintln!("SKIPPED: no GPU adapter ({})", text(&small.stderr));
+        return;
+    }
+    let large = bench("64x64");
+    let number = |o: &std::process::Output, key: &str| -> u64 {
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let out = text(&o.stdout);
+        out.split(&format!("\"{key}\": "))
+            .nth(1)
+            .and_then(|s| s.split(['}', ',']).next()?.trim().parse().ok())
+            .unwrap_or_else(|| panic!("{key} missing from {out}"))
+    };
+    assert_eq!(number(&small, "tile_edge"), 4);
+    assert_eq!(number(&large, "tile_edge"), 4);
+    let (few, many) = (
+        number(&small, "tile_list_items"),
+        number(&large, "tile_list_items"),
+    );
+    assert!(
+        few > 0 && many > few,
+        "{few} items at 32x32, {many} at 64x64"
+    );
+}
+
 /// Issue 22: `stats --backend gpu` prints the DESIGN.md JSON with the rays compared with the
 /// reference (`--compared`), no evaluation count (`null`), and the CPU's hits on the same rays.
 /// Without an adapter it is skipped, unless `SKELETRACE_REQUIRE_GPU=1` (CI) makes that a failure.

@@ -96,6 +96,24 @@ pub struct PassTimes {
     pub trace_ms: Vec<f64>,
 }
 
+/// The screen-tile lists a GPU frame traced from (`docs/gpu.md`): their size is what a frame
+/// of many primitives runs into first (one storage binding holds them, at most 2 GB on Vulkan).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TileLists {
+    /// (primitive, tile) pairs in the lists.
+    pub items: u64,
+    /// Edge of the tiles in pixels: 4, wider where the lists did not fit one binding.
+    pub tile_edge: u32,
+}
+
+impl TileLists {
+    /// Bytes the lists' items take (one `u32` each).
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        self.items * 4
+    }
+}
+
 /// Why a backend gave no frame.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum BackendError {
@@ -142,6 +160,12 @@ pub trait FrameBackend {
     /// The device's own time for the passes of the last frame, where the backend measures it
     /// (GPU timestamp queries); `None` otherwise.
     fn last_pass_times(&self) -> Option<PassTimes> {
+        None
+    }
+
+    /// The tile lists of the last frame, where the backend bins into screen tiles and read
+    /// their size back (the GPU, for frames it reads back); `None` otherwise.
+    fn last_tile_lists(&self) -> Option<TileLists> {
         None
     }
 

@@ -5,7 +5,9 @@
 
 use std::sync::Arc;
 
-use skeletrace_core::backend::{BackendError, DeviceKind, FrameBackend, FrameRequest, PassTimes};
+use skeletrace_core::backend::{
+    BackendError, DeviceKind, FrameBackend, FrameRequest, PassTimes, TileLists,
+};
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::frame::{Frame, View};
 use skeletrace_core::methods::MethodId;
@@ -73,6 +75,14 @@ impl FrameBackend for GpuBackend {
 
     fn last_pass_times(&self) -> Option<PassTimes> {
         self.renderer.last_pass_times().cloned()
+    }
+
+    fn last_tile_lists(&self) -> Option<TileLists> {
+        let items = self.renderer.last_tile_items();
+        (items > 0).then(|| TileLists {
+            items,
+            tile_edge: self.renderer.tile_edge(),
+        })
     }
 
     fn render(
