@@ -238,7 +238,7 @@ pub fn reference_crossings(
 ) -> Vec<Vec<Crossing>> {
     let tracer = methods::Reference.prepare(program, settings);
     rays.par_iter()
-        .map(|(ray, span)| tracer.trace(ray, *span, mode).crossings)
+        .map(|(ray, span)| tracer.trace(ray, *span, mode).crossings.into_vec())
         .collect()
 }
 
@@ -304,7 +304,7 @@ pub fn run(
                         trace.crossings.len(),
                     ),
                     nanoseconds,
-                    crossings: trace.crossings,
+                    crossings: trace.crossings.into_vec(),
                 }
             })
             .collect();

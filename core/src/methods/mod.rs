@@ -116,6 +116,9 @@ pub enum TraceMode {
     Transparent,
 }
 
+/// A trace's crossings: up to two inline, more on the heap.
+pub type Crossings = smallvec::SmallVec<[Crossing; 2]>;
+
 /// A point where the field crosses the isovalue.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Crossing {
@@ -128,8 +131,9 @@ pub struct Crossing {
 /// The outcome of tracing one ray.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trace {
-    /// Crossings found, in order.
-    pub crossings: Vec<Crossing>,
+    /// Crossings found, in order: the first two inline, so that an opaque trace allocates
+    /// nothing.
+    pub crossings: Crossings,
     /// Loop iterations.
     pub steps: u32,
     /// Point evaluations of the field (value and gradient count as one).
