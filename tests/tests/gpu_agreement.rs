@@ -1104,10 +1104,10 @@ fn a_dense_foam_matches_the_cpu() {
     };
     // 8 200 Voronoi cells: 99 647 SCALIS segments, seen as `skeletrace generate` frames them.
     // The generator thins the struts of foams past 1 000 cells; they keep the radius of 1 000
-    // cells here (0.022), so that the supports crowd the cells and the rays cross many.
+    // cells here, so that the supports crowd the cells and the rays cross many.
     let mut foam = generated(GeneratorKind::Foam, 1, 8200);
     for vertex in &mut foam.groups[0].skeletons[0].vertices {
-        vertex.radius = 0.022;
+        vertex.radius = skeletrace_core::model::generate::FOAM_STRUT_RADIUS;
     }
     let framed = skeletrace_core::compile::framing_camera(&compile(&foam));
     let mut failures = Vec::new();

@@ -329,7 +329,7 @@ impl<'a> Renderer<'a> {
     /// the same bits as from the program, without walking the BVH.
     fn surface_on(&self, field: &RayField, t: f64) -> SurfacePoint {
         thread_local! {
-            static GROUP_VALUES: ScratchPool<(f64, f64)> = const { ScratchPool::new() };
+            static GROUP_VALUES: ScratchPool<Vec<(f64, f64)>> = const { ScratchPool::new() };
         }
         // The gradient first, then the groups' values, as the field was asked before.
         let gradient = field.value_gradient(t).1;

@@ -39,6 +39,7 @@ use crate::field::geometry::{
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::{PointBlob, Primitive};
 use crate::field::program::{FieldProgram, PointLookup, PrimitiveSlope, RayLookup, SupportSpan};
+use crate::scratch::{Scratch, ScratchPool};
 
 /// The primitives the ray may meet, one array per field (structure of arrays: a question's
 /// scan reads only what its test needs), in the BVH's depth-first order, the unbounded
@@ -68,22 +69,24 @@ const NO_SUPPORT: Interval = Interval {
 thread_local! {
     /// Candidate arrays of rays whose fields were dropped, reused by the next rays of the thread:
     /// no allocation per ray once they have grown.
-    static SPARE: std::cell::RefCell<Vec<Candidates>> = const { std::cell::RefCell::new(Vec::new()) };
+    static SPARE: ScratchPool<Candidates> = const { ScratchPool::new() };
+}
+
+impl Scratch for Candidates {
+    fn clear(&mut self) {
+        self.primitive.clear();
+        self.near.clear();
+        self.boxes.clear();
+        self.line.clear();
+        self.support.clear();
+        self.bounded = 0;
+    }
 }
 
 impl Candidates {
     /// Empty arrays, recycled from a dropped field of this thread where there is one.
     fn recycled() -> Self {
-        let mut c = SPARE
-            .with(|spare| spare.borrow_mut().pop())
-            .unwrap_or_default();
-        c.primitive.clear();
-        c.near.clear();
-        c.boxes.clear();
-        c.line.clear();
-        c.support.clear();
-        c.bounded = 0;
-        c
+        ScratchPool::take(&SPARE)
     }
 
     fn len(&self) -> usize {
@@ -679,8 +682,7 @@ impl<'a> RayField<'a> {
 
 impl Drop for RayField<'_> {
     fn drop(&mut self) {
-        let candidates = std::mem::take(&mut self.candidates);
-        SPARE.with(|spare| spare.borrow_mut().push(candidates));
+        ScratchPool::give_back(&SPARE, std::mem::take(&mut self.candidates));
     }
 }
 

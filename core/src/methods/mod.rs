@@ -303,7 +303,7 @@ pub(crate) fn trace_supports_into(
     mut trace_span: impl FnMut(Interval, &mut Trace),
 ) -> Trace {
     thread_local! {
-        static PARTS: ScratchPool<Interval> = const { ScratchPool::new() };
+        static PARTS: ScratchPool<Vec<Interval>> = const { ScratchPool::new() };
     }
     let mut parts = ScratchPool::take(&PARTS);
     field.support_unions_into(span, &mut parts);

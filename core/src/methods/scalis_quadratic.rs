@@ -210,17 +210,10 @@ impl Prepared<'_> {
         });
         points.retain(|t| (part.lo..part.hi).contains(t));
         points.sort_by(f64::total_cmp);
-        // Keep each point at least `gap` past the last one kept, in place.
+        // Keep each point at least `gap` past the last one kept (`dedup_by` compares a point
+        // with the last one kept and removes it where that returns true).
         let gap = self.settings.min_step;
-        let mut kept = 0;
-        for i in 0..points.len() {
-            let t = points[i];
-            if kept == 0 || t - points[kept - 1] >= gap {
-                points[kept] = t;
-                kept += 1;
-            }
-        }
-        points.truncate(kept);
+        points.dedup_by(|t, last| *t - *last < gap);
         if part.hi - points.last().copied().unwrap_or(part.lo) < gap && points.len() > 1 {
             points.pop();
         }
@@ -349,7 +342,7 @@ impl RayTracer for Prepared<'_> {
         let s = &self.settings;
         let sphere_step_entry = s.protocol.scalis_sphere_step_entry();
         thread_local! {
-            static BREAKPOINTS: ScratchPool<f64> = const { ScratchPool::new() };
+            static BREAKPOINTS: ScratchPool<Vec<f64>> = const { ScratchPool::new() };
         }
         let mut points = ScratchPool::take(&BREAKPOINTS);
         let trace = trace_supports(field, span, mode, s.max_steps, |part, trace| {
