@@ -229,8 +229,8 @@ fn ricci_inclusion_end(acc: RicciInclusion) -> Composed {
 // rule, other primitives by their Taylor inclusion of the same degree, summed per group and
 // composed; the linear one is linearized after the composition.
 fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Composed {
-    var groups: array<Inclusion, MAX_GROUPS>;
-    for (var g = 0u; g < MAX_GROUPS; g++) {
+    var groups: array<Inclusion, GROUPS>;
+    for (var g = 0u; g < GROUPS; g++) {
         groups[g] = Inclusion(0.0, vec2<f32>(0.0), vec2<f32>(0.0), h);
     }
     let items = support_count(sp);
@@ -285,8 +285,8 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
 fn mixed(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic: bool) -> Composed {
     let values = groups_at(sp, ray, t);
     let jets = group_jets(sp, ray, t, t + h);
-    var groups: array<Inclusion, MAX_GROUPS>;
-    for (var g = 0u; g < MAX_GROUPS; g++) {
+    var groups: array<Inclusion, GROUPS>;
+    for (var g = 0u; g < GROUPS; g++) {
         if quadratic {
             groups[g] = quadratic_taylor(values[g].x, dot(values[g].yzw, ray.dir), jets[g], h);
         } else {

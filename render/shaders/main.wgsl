@@ -14,7 +14,7 @@
 // item of their leaves and each unbounded primitive tested against its bounding sphere. The
 // walk finds the next candidate in a loop of its own, so that `add_primitive` has one call site.
 fn field_anywhere(p: vec3<f32>) -> vec4<f32> {
-    var values: array<vec4<f32>, MAX_GROUPS>;
+    var values: array<vec4<f32>, GROUPS>;
     let node_count = arrayLength(&bvh_nodes);
     var node = 0u;
     var j = 0u;

@@ -806,16 +806,16 @@ fn ricci_slope(f: vec4<f32>, root: f32, p: f32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-fn add_primitive(values: ptr<function, array<vec4<f32>, MAX_GROUPS>>, i: u32, p: vec3<f32>) {
+fn add_primitive(values: ptr<function, array<vec4<f32>, GROUPS>>, i: u32, p: vec3<f32>) {
     let g = primitives[i].group;
     (*values)[g] += primitive_value_gradient(i, p);
 }
 
 // Every group's value and gradient at ray parameter t: only the primitives of the window
 // whose support contains the point.
-fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32>, MAX_GROUPS> {
+fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32>, GROUPS> {
     let p = ray.origin + t * ray.dir;
-    var values: array<vec4<f32>, MAX_GROUPS>;
+    var values: array<vec4<f32>, GROUPS>;
     for (var j = 0u; j < (*sp).count; j++) {
         let s = (*sp).spans[j];
         if s.x > t {

@@ -375,9 +375,9 @@ fn item_jet(ray: Ray, item: SupportItem, lo: f32, hi: f32) -> Jet {
 
 // Group jets over [lo, hi], blended (ray_jet), and the summed Lipschitz bound (summed_lipschitz).
 // Each group's jet over [lo, hi]: the sum of its primitives'.
-fn group_jets(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> array<Jet, MAX_GROUPS> {
-    var groups: array<Jet, MAX_GROUPS>;
-    for (var g = 0u; g < MAX_GROUPS; g++) {
+fn group_jets(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> array<Jet, GROUPS> {
+    var groups: array<Jet, GROUPS>;
+    for (var g = 0u; g < GROUPS; g++) {
         groups[g] = Jet(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
     let items = support_count(sp);
@@ -514,7 +514,7 @@ fn ray_jet(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> Jet {
 // derivative, or for point blobs when `published`, Galin et al.'s bound (PrimitiveSlope::
 // Published, point_published_slope) — through the scene's blend (`blend_lipschitz`).
 fn summed_lipschitz(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32, published: bool) -> f32 {
-    var groups: array<f32, MAX_GROUPS>;
+    var groups: array<f32, GROUPS>;
     let items = support_count(sp);
     for (var j = 0u; j < items; j++) {
         let item = support_item(sp, ray, j);

@@ -22,9 +22,13 @@ use skeletrace_core::field::blend::BlendTree;
 /// The WGSL of one blend tree: `values` defines `blend_groups` (every shader), `jets_and_lipschitz`
 /// defines `blend_jets` and `blend_lipschitz` (after interval.wgsl, which defines `Jet`), and
 /// `composition` defines `compose_groups` (after inclusion.wgsl, which defines `Inclusion`).
+/// The group slots these take, one per group of the scene, are `GROUPS` in the shaders
+/// ([`Self::groups_constant`]).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct BlendWgsl {
-    /// `fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32>`.
+    /// The scene's group count (at least 1: WGSL arrays are not empty).
+    pub groups: u32,
+    /// `fn blend_groups(values: array<vec4<f32>, GROUPS>) -> vec4<f32>`.
     pub values: String,
     /// `blend_jets` and `blend_lipschitz`.
     pub jets_and_lipschitz: String,
@@ -33,32 +37,39 @@ pub struct BlendWgsl {
 }
 
 impl BlendWgsl {
-    /// The functions for `tree`.
+    /// The functions for `tree`, over a scene of `groups` groups.
     #[must_use]
-    pub fn new(tree: &BlendTree) -> Self {
+    pub fn new(tree: &BlendTree, groups: usize) -> Self {
         let mut jets_and_lipschitz = function(
-            "blend_jets(groups: array<Jet, MAX_GROUPS>) -> Jet",
+            "blend_jets(groups: array<Jet, GROUPS>) -> Jet",
             tree,
             jet_node,
         );
         jets_and_lipschitz.push_str(&function(
-            "blend_lipschitz(groups: array<f32, MAX_GROUPS>) -> f32",
+            "blend_lipschitz(groups: array<f32, GROUPS>) -> f32",
             tree,
             lipschitz_node,
         ));
         Self {
+            groups: u32::try_from(groups.max(1)).unwrap_or(u32::MAX),
             values: function(
-                "blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32>",
+                "blend_groups(values: array<vec4<f32>, GROUPS>) -> vec4<f32>",
                 tree,
                 value_node,
             ),
             jets_and_lipschitz,
             composition: function(
-                "compose_groups(groups: array<Inclusion, MAX_GROUPS>) -> Composed",
+                "compose_groups(groups: array<Inclusion, GROUPS>) -> Composed",
                 tree,
                 compose_node,
             ),
         }
+    }
+
+    /// `const GROUPS`, the length of the shaders' per-ray arrays of group slots.
+    #[must_use]
+    pub fn groups_constant(&self) -> String {
+        format!("const GROUPS: u32 = {}u;\n", self.groups)
     }
 
     /// Every bound function of the inclusion family: jets, Lipschitz bound, composition.
@@ -370,10 +381,10 @@ mod tests {
                 BlendTree::Group(2),
             ],
         };
-        let wgsl = BlendWgsl::new(&tree);
+        let wgsl = BlendWgsl::new(&tree, 3);
         assert_eq!(
             wgsl.values,
-            "fn blend_groups(values: array<vec4<f32>, MAX_GROUPS>) -> vec4<f32> {
+            "fn blend_groups(values: array<vec4<f32>, GROUPS>) -> vec4<f32> {
     let n0 = values[0];
     let n1 = values[1];
     let n2 = value_difference(n0, n1);
@@ -396,7 +407,7 @@ mod tests {
                 BlendTree::Group(2),
             ],
         };
-        let values = BlendWgsl::new(&tree).values;
+        let values = BlendWgsl::new(&tree, 3).values;
         assert!(values.contains("let n2 = vec4<f32>(0.0) + n0;"), "{values}");
         assert!(values.contains("let n3 = n2 + n1;"), "{values}");
         assert!(
@@ -409,7 +420,7 @@ mod tests {
     /// for them or for the smooth operators.
     #[test]
     fn empty_operators_and_smooth_compositions_have_the_cpus_answers() {
-        let wgsl = BlendWgsl::new(&BlendTree::Max(vec![]));
+        let wgsl = BlendWgsl::new(&BlendTree::Max(vec![]), 1);
         assert!(
             wgsl.values.contains("let n0 = vec4<f32>(0.0);"),
             "{}",
@@ -420,19 +431,22 @@ mod tests {
             "{}",
             wgsl.composition
         );
-        let smooth = BlendWgsl::new(&BlendTree::SmoothUnion {
-            width: 0.3,
-            of: vec![BlendTree::Group(0), BlendTree::Group(1)],
-        });
+        let smooth = BlendWgsl::new(
+            &BlendTree::SmoothUnion {
+                width: 0.3,
+                of: vec![BlendTree::Group(0), BlendTree::Group(1)],
+            },
+            2,
+        );
         assert!(
             smooth.composition.contains("Composed(groups[0], false)"),
             "{}",
             smooth.composition
         );
-        let sum = BlendWgsl::new(&BlendTree::Sum(vec![
-            BlendTree::Group(0),
-            BlendTree::Group(1),
-        ]));
+        let sum = BlendWgsl::new(
+            &BlendTree::Sum(vec![BlendTree::Group(0), BlendTree::Group(1)]),
+            2,
+        );
         assert!(!sum.composition.contains("false"), "{}", sum.composition);
     }
 }

@@ -3,8 +3,8 @@
 //!
 //! The GPU evaluates every primitive — point blobs, distance and SCALIS segments, planes, boxes,
 //! rounded boxes, tori, cylinders and HRBF terms — in up to [`MAX_GROUPS`] groups under any
-//! blend tree (compiled to WGSL: [`BlendWgsl`]). Scenes with more groups are refused with a
-//! message, and the caller falls back to the CPU tracer.
+//! blend tree (compiled to WGSL with the scene's group count: [`BlendWgsl`]). Scenes with more
+//! groups are refused with a message, and the caller falls back to the CPU tracer.
 
 use crate::ray_bvh::RayBvh;
 use bytemuck::{Pod, Zeroable};
@@ -308,7 +308,7 @@ impl PackedScene {
         let program = &compiled.program;
         let groups = program.group_count();
         Self::check(program)?;
-        let blend = BlendWgsl::new(program.blend());
+        let blend = BlendWgsl::new(program.blend(), groups);
         let occluding = occluding_groups(program.blend(), groups);
         let mut primitives = Vec::with_capacity(program.primitives().len());
         let mut boxes = Vec::new();
@@ -499,6 +499,43 @@ mod tests {
 
     fn groups(n: u32) -> Vec<BlendTree> {
         (0..n).map(BlendTree::Group).collect()
+    }
+
+    /// Generated blobs in `groups` groups under a max.
+    fn blobs_in_groups(groups: usize) -> std::sync::Arc<Compiled> {
+        use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+        let options = GenerateOptions {
+            seed: 9,
+            size: Some(2 * groups),
+            groups: Some(groups),
+            ..GenerateOptions::default()
+        };
+        let scene = generate(GeneratorKind::Blobs, &options).unwrap_or_else(|e| panic!("{e}"));
+        skeletrace_core::compile(&scene)
+    }
+
+    /// The shaders hold one slot per group of the scene, up to [`MAX_GROUPS`]; past it the
+    /// scene is refused with the limit and its own count.
+    #[test]
+    fn shaders_hold_a_slot_per_group_up_to_the_limit() {
+        for groups in [1, 3, 9, MAX_GROUPS] {
+            let packed =
+                PackedScene::new(&blobs_in_groups(groups)).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(packed.blend.groups as usize, groups);
+            assert_eq!(
+                packed.blend.groups_constant(),
+                format!("const GROUPS: u32 = {groups}u;\n")
+            );
+        }
+        let too_many = MAX_GROUPS + 1;
+        let refused = PackedScene::new(&blobs_in_groups(too_many))
+            .err()
+            .unwrap_or_else(|| panic!("{too_many} groups packed"));
+        assert!(
+            refused.contains(&format!("at most {MAX_GROUPS} groups"))
+                && refused.contains(&format!("this scene has {too_many}")),
+            "{refused}"
+        );
     }
 
     /// Occluders are kept for the groups that bound the blend from below, and only those.

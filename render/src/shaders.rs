@@ -291,8 +291,9 @@ impl GpuMethod {
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
         format!(
-            "{}{}\nconst RESUMABLE: bool = {};\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
+            "{}{}{}\nconst RESUMABLE: bool = {};\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
             wgsl_constants(),
+            blend.groups_constant(),
             kinds.wgsl(),
             self.resumable(),
             blend.values
@@ -523,7 +524,10 @@ mod tests {
 
     /// The blend of a scene without one: the sum of its groups.
     fn summed(groups: u32) -> BlendWgsl {
-        BlendWgsl::new(&BlendTree::Sum((0..groups).map(BlendTree::Group).collect()))
+        BlendWgsl::new(
+            &BlendTree::Sum((0..groups).map(BlendTree::Group).collect()),
+            groups as usize,
+        )
     }
 
     /// Every method's shader with the default blend, for every kind and for each kind alone
@@ -561,7 +565,7 @@ mod tests {
         for method in [GpuMethod::QuadraticMixed, GpuMethod::Sphere] {
             validate(
                 method.name(),
-                &method.source(&BlendWgsl::new(&every), KindSet::ALL),
+                &method.source(&BlendWgsl::new(&every, 3), KindSet::ALL),
             );
         }
         validate("binning", &binning_source());

@@ -9,8 +9,11 @@ use skeletrace_core::cpu::renderer::MAX_BOUNCES;
 use skeletrace_core::field::quadrature::{GaussLegendre, SCALIS_ORDER};
 use skeletrace_core::frame::{self as shading, TURBO};
 
-/// Most groups the GPU blends (per-pixel group slots in the shaders).
-pub const MAX_GROUPS: usize = 8;
+/// Most groups the GPU backend takes. A scene's shaders hold one slot per group of its own
+/// (`GROUPS`, emitted with its blend tree: [`crate::blend_wgsl::BlendWgsl`]) in every ray's
+/// private memory, three arrays of them in the inclusion marches; past this count a hardware GPU
+/// would spill them to slow memory at every step, and such scenes trace on the CPU.
+pub const MAX_GROUPS: usize = 64;
 
 /// `Primitive.kind`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -279,7 +282,6 @@ pub fn wgsl_constants() -> String {
     ] {
         u32_const(&mut out, name, bound as u32);
     }
-    u32_const(&mut out, "MAX_GROUPS", MAX_GROUPS as u32);
     u32_const(&mut out, "DEPTH_BANDS", crate::tile_binning::DEPTH_BANDS);
     u32_const(&mut out, "SECONDARY_SHADOW_RAYS", secondary::SHADOW_RAYS);
     u32_const(&mut out, "SECONDARY_PATHS", secondary::PATHS);

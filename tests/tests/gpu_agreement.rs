@@ -619,6 +619,50 @@ fn blend_trees_match_the_cpu_tracer() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
+/// Scenes of more groups than the eight slots the shaders held before: each scene's shaders
+/// hold one per group (`GROUPS`, emitted with the blend tree), so the max of twelve and of
+/// forty sums of blobs agrees with the CPU, in the methods that blend values, jets and the
+/// groups' inclusions.
+#[test]
+fn scenes_of_many_groups_match_the_cpu_tracer() {
+    let Some(mut gpu) = gpu_or_skip("scenes_of_many_groups_match_the_cpu_tracer") else {
+        return;
+    };
+    let methods = [
+        GpuMethod::Segment,
+        GpuMethod::QuadraticTaylor,
+        GpuMethod::BottomUpQuadratic,
+        GpuMethod::QuadraticMixed,
+    ];
+    let mut failures = Vec::new();
+    for (groups, seed) in [(12, 71), (40, 72)] {
+        let options = skeletrace_core::model::generate::GenerateOptions {
+            seed,
+            size: Some(10 * groups),
+            groups: Some(groups),
+            ..Default::default()
+        };
+        let scene = skeletrace_core::model::generate::generate(
+            skeletrace_core::model::generate::GeneratorKind::Blobs,
+            &options,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.groups.len(), groups);
+        let label = format!("blobs in {groups} groups");
+        let hits = check_methods_agreement(
+            &mut gpu,
+            &label,
+            &scene,
+            &[scene.camera],
+            &methods,
+            &mut failures,
+        );
+        eprintln!("{label}: {hits} pixels hit");
+        assert!(hits > SIZE * SIZE / 10, "{label}: {hits} pixels hit");
+    }
+    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
 /// The operator nodes in `blend`.
 fn count_operators(blend: &Blend) -> usize {
     match blend {
