@@ -3,7 +3,9 @@
 //! has left its idle clock), on the CPU tracer or the GPU backend, with the adapter name. On the
 //! GPU, where the adapter has timestamp queries, also the GPU's own time for the trace pass and
 //! the tile binning: the wall-clock frame holds the readback and the conversion to frames as
-//! well; and the size of the frame's tile lists, which a scene of many primitives fills first.
+//! well; the size of the frame's tile lists, which a scene of many primitives fills first; and
+//! the method's first frame, which holds its pipelines' compilation (what a new blend tree or
+//! primitive kind costs the editor before its first GPU frame).
 //! With `--after-edits`, the frames that follow vertex edits on the CPU, which copies the
 //! tiles and rays an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
 
@@ -26,14 +28,17 @@ use skeletrace::backends::Backends;
 /// where 40 frames read 2.0 ms.
 const WARM_UP: std::time::Duration = std::time::Duration::from_millis(500);
 
-/// Renders untimed frames until [`WARM_UP`] has passed (at least one).
-fn warm_up<E>(mut frame: impl FnMut() -> Result<(), E>) -> Result<(), E> {
+/// Renders untimed frames until [`WARM_UP`] has passed (at least one); returns the first
+/// frame's milliseconds, which on the GPU hold the method's pipeline compilation (and, for the
+/// first method, the scene's upload).
+fn warm_up<E>(mut frame: impl FnMut() -> Result<(), E>) -> Result<f64, E> {
     let start = Instant::now();
     frame()?;
+    let first_ms = start.elapsed().as_secs_f64() * 1e3;
     while start.elapsed() < WARM_UP {
         frame()?;
     }
-    Ok(())
+    Ok(first_ms)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -50,6 +55,8 @@ struct Row {
     passes: Option<(f64, f64)>,
     /// The last timed frame's tile lists (GPU).
     tile_lists: Option<TileLists>,
+    /// Milliseconds of the method's first frame, untimed above (not after edits).
+    first_frame_ms: Option<f64>,
     /// After edits: what the frames copied, and their spread.
     edits: Option<AfterEdits>,
 }
@@ -161,6 +168,7 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
         frame_ms: median(times),
         passes: None,
         tile_lists: None,
+        first_frame_ms: None,
         edits: Some(edits),
     })
 }
@@ -213,7 +221,8 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             continue;
         }
         let fail = |e: BackendError| format!("{method} on {device}: {e}");
-        warm_up(|| backend.render(&compiled, &request).map(drop)).map_err(fail)?;
+        let first_frame_ms =
+            warm_up(|| backend.render(&compiled, &request).map(drop)).map_err(fail)?;
         let mut times = Vec::with_capacity(frames);
         let (mut trace, mut binning) = (Vec::new(), Vec::new());
         for _ in 0..frames {
@@ -233,6 +242,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             frame_ms: median(times),
             passes: (!trace.is_empty()).then(|| (median(trace), median(binning))),
             tile_lists: backend.last_tile_lists(),
+            first_frame_ms: Some(first_frame_ms),
             edits: None,
         });
     }
@@ -250,6 +260,9 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                     )
                 });
                 let passes = passes
+                    + &row.first_frame_ms.map_or(String::new(), |ms| {
+                        format!(", \"first_frame_ms\": {ms:.3}")
+                    })
                     + &row.edits.as_ref().map_or(String::new(), |e| {
                         format!(
                             ", \"tiles_reused\": {:.4}, \"pixels_reused\": {:.4}, \"mean_ms\": {:.3}, \"slowest_ms\": {:.3}, \"edits\": {}, \"traced_in_full\": {}",
@@ -288,7 +301,12 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                     lists.bytes() as f64 / 1e6,
                     lists.tile_edge
                 )
-            }) + &row.edits.as_ref().map_or(String::new(), |e| {
+            }) + &row
+                .passes
+                .and(row.first_frame_ms)
+                .map_or(String::new(), |ms| {
+                    format!("   (first frame {ms:.0} ms, pipelines compiled)")
+                }) + &row.edits.as_ref().map_or(String::new(), |e| {
                 format!(
                     "   ({:.1} % of tiles copied whole, {:.1} % of pixels copied; mean {:.2} ms, slowest {:.2} ms, {} of {} edits traced in full)",
                     100.0 * e.tiles,

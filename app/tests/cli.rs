@@ -545,7 +545,8 @@ fn trace_ray_reports_the_heat_maps_step_counts_and_a_consistent_step_log() {
 
 /// Issue 22: `bench --backend gpu` reports the size of the frame's tile lists, the first limit a
 /// scene of many primitives meets: at 4-pixel tiles, and growing with the frame (the same
-/// supports over four times as many tiles). Skipped without an adapter, unless
+/// supports over four times as many tiles); and the first frame's time, which holds the
+/// pipelines' compilation (a duration, not compared with anything: timings vary). Skipped without an adapter, unless
 /// `SKELETRACE_REQUIRE_GPU=1` (CI) makes that a failure.
 #[test]
 fn bench_on_the_gpu_reports_the_tile_lists() {
@@ -571,7 +572,7 @@ fn bench_on_the_gpu_reports_the_tile_lists() {
         return;
     }
     let large = bench("64x64");
-    let number = |o: &std::process::Output, key: &str| -> u64 {
+    let number = |o: &std::process::Output, key: &str| -> f64 {
         assert!(o.status.success(), "{}", text(&o.stderr));
         let out = text(&o.stdout);
         out.split(&format!("\"{key}\": "))
@@ -579,14 +580,16 @@ fn bench_on_the_gpu_reports_the_tile_lists() {
             .and_then(|s| s.split(['}', ',']).next()?.trim().parse().ok())
             .unwrap_or_else(|| panic!("{key} missing from {out}"))
     };
-    assert_eq!(number(&small, "tile_edge"), 4);
-    assert_eq!(number(&large, "tile_edge"), 4);
+    assert_eq!(number(&small, "tile_edge"), 4.0);
+    assert_eq!(number(&large, "tile_edge"), 4.0);
+    let first = number(&small, "first_frame_ms");
+    assert!(first.is_finite() && first > 0.0, "first frame {first} ms");
     let (few, many) = (
         number(&small, "tile_list_items"),
         number(&large, "tile_list_items"),
     );
     assert!(
-        few > 0 && many > few,
+        few > 0.0 && many > few,
         "{few} items at 32x32, {many} at 64x64"
     );
 }
