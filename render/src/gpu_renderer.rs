@@ -21,11 +21,12 @@ use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
+use crate::blend_wgsl::BlendWgsl;
 use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
 use crate::gpu_stats::{GpuStatsRay, RayCrossings, RayLists, STATS_ROW, UploadedRayLists};
 use crate::ray_bvh::RayBvh;
 use crate::shaders::GpuMethod;
-use crate::shared::secondary;
+use crate::shared::{KindSet, secondary};
 use crate::tile_binning::{DEPTH_BANDS, FrameGeometry, TILE, TileBinning};
 
 /// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
@@ -242,6 +243,20 @@ struct MethodConstants {
     gauss_norm: f32,
 }
 
+/// A trace pipeline compiled on a thread of its own, for the blend tree and primitive kinds
+/// of the scene it was asked for.
+struct PendingPipeline {
+    blend: BlendWgsl,
+    kinds: KindSet,
+    compiled: std::thread::JoinHandle<wgpu::ComputePipeline>,
+}
+
+impl PendingPipeline {
+    fn is_for(&self, scene: &PackedScene) -> bool {
+        self.blend == scene.blend && self.kinds == scene.kinds
+    }
+}
+
 /// A GPU device with the pipelines built so far and the current scene.
 pub struct GpuRenderer {
     device: wgpu::Device,
@@ -252,6 +267,9 @@ pub struct GpuRenderer {
     errors: Arc<Mutex<Vec<String>>>,
     binning: TileBinning,
     trace_pipelines: HashMap<GpuMethod, wgpu::ComputePipeline>,
+    /// Trace pipelines being compiled on threads of their own
+    /// ([`GpuRenderer::pipelines_compiling`]).
+    pending_pipelines: HashMap<GpuMethod, PendingPipeline>,
     /// The same shaders' `trace_rays` entry (`stats --backend gpu`).
     ray_pipelines: HashMap<GpuMethod, wgpu::ComputePipeline>,
     scene: Option<SceneBuffers>,
@@ -575,6 +593,7 @@ impl GpuRenderer {
             errors,
             binning,
             trace_pipelines: HashMap::new(),
+            pending_pipelines: HashMap::new(),
             ray_pipelines: HashMap::new(),
             scene: None,
             uploaded_bytes: 0,
@@ -1111,16 +1130,74 @@ impl GpuRenderer {
         }
         if let Some(scene) = &self.scene {
             for &m in methods {
-                self.trace_pipelines.entry(m).or_insert_with(|| {
+                if self.trace_pipelines.contains_key(&m) {
+                    continue;
+                }
+                // One compiled in the background for this scene is waited for, not compiled
+                // again.
+                let background = self
+                    .pending_pipelines
+                    .remove(&m)
+                    .filter(|p| p.is_for(&scene.packed))
+                    .and_then(|p| p.compiled.join().ok());
+                let compiled = background.unwrap_or_else(|| {
                     pipeline(
                         &self.device,
                         &m.source(&scene.packed.blend, scene.packed.kinds),
                         "trace_pixels",
                     )
                 });
+                self.trace_pipelines.insert(m, compiled);
             }
         }
         Ok(compiled)
+    }
+
+    /// Whether the trace pipelines of `methods` for the uploaded scene are still being
+    /// compiled, each on a thread of its own: starts those not started (the driver takes
+    /// seconds per pipeline, `bench`'s first frame, which the editor's window must not wait
+    /// for) and keeps those done. A frame encoded before this answers `false` waits for the
+    /// rest ([`GpuRenderer::encode_frame`]). A pipeline started for an earlier blend tree or
+    /// set of primitive kinds is left to finish and dropped.
+    pub fn pipelines_compiling(&mut self, methods: &[GpuMethod]) -> bool {
+        let Some(scene) = &self.scene else {
+            return false;
+        };
+        let mut compiling = false;
+        for &m in methods {
+            if self.trace_pipelines.contains_key(&m) {
+                continue;
+            }
+            match self.pending_pipelines.remove(&m) {
+                Some(p) if p.is_for(&scene.packed) && p.compiled.is_finished() => {
+                    // A thread that panicked leaves the pipeline to the frame, which compiles
+                    // it and reports the error as any other.
+                    if let Ok(done) = p.compiled.join() {
+                        self.trace_pipelines.insert(m, done);
+                    }
+                }
+                Some(p) if p.is_for(&scene.packed) => {
+                    self.pending_pipelines.insert(m, p);
+                    compiling = true;
+                }
+                _ => {
+                    let device = self.device.clone();
+                    let source = m.source(&scene.packed.blend, scene.packed.kinds);
+                    let compiled =
+                        std::thread::spawn(move || pipeline(&device, &source, "trace_pixels"));
+                    self.pending_pipelines.insert(
+                        m,
+                        PendingPipeline {
+                            blend: scene.packed.blend.clone(),
+                            kinds: scene.packed.kinds,
+                            compiled,
+                        },
+                    );
+                    compiling = true;
+                }
+            }
+        }
+        compiling
     }
 
     /// Fills the tile lists, runs one trace pass per method (each marching method in

@@ -64,6 +64,9 @@ pub struct ViewportPainter {
     last: Option<ViewportFrame>,
     traced: u64,
     failure: Option<String>,
+    /// The frame asked for waits for its pipelines, compiled off the window's thread; the last
+    /// frame stays on screen meanwhile.
+    compiling: bool,
 }
 
 /// Bytes of the blit's uniforms (viewport_blit.wgsl `Blit`).
@@ -133,6 +136,7 @@ impl ViewportPainter {
             last: None,
             traced: 0,
             failure: None,
+            compiling: false,
         })
     }
 
@@ -164,6 +168,23 @@ impl ViewportPainter {
         }
         let same = self.last.as_ref().is_some_and(|l| l.same_as(frame));
         if !same || self.bind_group.is_none() {
+            // A new blend tree or primitive kind, or a method not shown before, needs
+            // pipelines, which the driver takes seconds to compile: they are compiled on
+            // threads of their own, and the window keeps drawing the last frame (with its own
+            // uniforms) instead of waiting for them.
+            match self.pipelines_compiling(frame) {
+                Ok(true) => {
+                    self.compiling = true;
+                    return;
+                }
+                Ok(false) => self.compiling = false,
+                Err(e) => {
+                    self.compiling = false;
+                    self.failure = Some(e.to_string());
+                    self.bind_group = None;
+                    return;
+                }
+            }
             self.bind_group = None;
             self.last = None;
             match self.trace(queue, encoder, frame) {
@@ -206,12 +227,9 @@ impl ViewportPainter {
         }
     }
 
-    fn trace(
-        &mut self,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &ViewportFrame,
-    ) -> Result<(), BackendError> {
+    /// Uploads `frame`'s scene where it is not the one on the device, and whether its methods'
+    /// pipelines are still being compiled ([`GpuRenderer::pipelines_compiling`]).
+    fn pipelines_compiling(&mut self, frame: &ViewportFrame) -> Result<bool, BackendError> {
         let uploaded = self
             .renderer
             .scene()
@@ -219,6 +237,15 @@ impl ViewportPainter {
         if !uploaded {
             self.renderer.set_scene(&frame.compiled)?;
         }
+        Ok(self.renderer.pipelines_compiling(&frame.methods))
+    }
+
+    fn trace(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &ViewportFrame,
+    ) -> Result<(), BackendError> {
         self.renderer.encode_frame(
             encoder,
             &frame.methods,
@@ -292,11 +319,19 @@ impl ViewportPainter {
         (published, current)
     }
 
-    /// Whether a frame's tile lists are still to be checked: the window should draw again
-    /// soon, for a frame that missed part of them is traced again.
+    /// Whether a frame's tile lists are still to be checked, or the frame asked for waits for
+    /// its pipelines: the window should draw again soon, for a frame that missed part of its
+    /// lists is traced again, and a waiting one is traced once they are compiled.
     #[must_use]
     pub fn settling(&self) -> bool {
-        self.renderer.tile_lists_unchecked()
+        self.renderer.tile_lists_unchecked() || self.compiling
+    }
+
+    /// Whether the frame asked for last waits for its pipelines (the last frame stays on
+    /// screen meanwhile).
+    #[must_use]
+    pub fn compiling(&self) -> bool {
+        self.compiling
     }
 
     /// Frames traced so far (a frame whose key did not change is not traced again).

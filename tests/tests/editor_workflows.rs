@@ -699,19 +699,53 @@ fn gpu_viewport_harness(mut editor: Editor, ppp: f32) -> Harness<'static, Editor
         .build_ui_state(|ui, editor: &mut Editor| editor.ui(ui), editor)
 }
 
-/// Draws the window until the GPU viewport has checked its last frame's tile lists (tracing it
-/// again if they were cut short); the window's image then. A frame that lavapipe takes longer
-/// than kittest's 10 s wait to trace is waited for by the next draws.
+/// Draws the window until the GPU viewport has its frame's pipelines (compiled off the
+/// window's thread, up to tens of seconds each on lavapipe: draws meanwhile return at once)
+/// and has checked its last frame's tile lists (tracing it again if they were cut short); the
+/// window's image then. A frame that lavapipe takes longer than kittest's 10 s wait to trace
+/// is waited for by the next draws.
 fn settle_gpu_viewport(h: &mut Harness<'static, Editor>) -> image::RgbaImage {
-    for _ in 0..30 {
+    draw_until(h, "the GPU viewport settled", |h, image| {
+        (!h.state().gpu_viewport_settling()).then_some(image)
+    })
+}
+
+/// Draws the window until `done` gives an answer from the state and the image drawn, for at
+/// most ten minutes; waits 50 ms between draws while pipelines compile, and prints the longest
+/// of those draws (the window's thread does not wait for the driver).
+fn draw_until<T>(
+    h: &mut Harness<'static, Editor>,
+    what: &str,
+    mut done: impl FnMut(&mut Harness<'static, Editor>, image::RgbaImage) -> Option<T>,
+) -> T {
+    use std::time::{Duration, Instant};
+    let deadline = Instant::now() + Duration::from_secs(600);
+    let (mut waits, mut longest) = (0, Duration::ZERO);
+    while Instant::now() < deadline {
+        let compiling = h.state().gpu_viewport_compiling();
+        let start = Instant::now();
         h.step();
-        if let Ok(image) = h.render()
-            && !h.state().gpu_viewport_settling()
+        let image = h.render();
+        if compiling {
+            waits += 1;
+            longest = longest.max(start.elapsed());
+        }
+        if let Ok(image) = image
+            && let Some(answer) = done(h, image)
         {
-            return image;
+            if waits > 0 {
+                eprintln!(
+                    "{what}: {waits} draws while pipelines compiled, the longest {} ms",
+                    longest.as_millis()
+                );
+            }
+            return answer;
+        }
+        if h.state().gpu_viewport_compiling() {
+            std::thread::sleep(Duration::from_millis(50));
         }
     }
-    panic!("the GPU viewport never settled")
+    panic!("never: {what}")
 }
 
 /// Every third pixel each way of the GPU viewport: the colour of the same view read back from
@@ -968,16 +1002,12 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
     let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
     // A frame traces and records the copy, the next maps it, a later one reads it.
     let current = |h: &mut Harness<'static, Editor>| {
-        for _ in 0..20 {
-            h.step();
-            if let Ok(image) = h.render()
-                && let Some((s, true)) = h.state().gpu_grid_statistics()
-                && !h.state().gpu_viewport_settling()
-            {
-                return (s, image);
+        draw_until(h, "the grid's statistics came back", |h, image| {
+            match h.state().gpu_grid_statistics() {
+                Some((s, true)) if !h.state().gpu_viewport_settling() => Some((s, image)),
+                _ => None,
             }
-        }
-        panic!("the grid's statistics never came back")
+        })
     };
     let (stats, image) = current(&mut h);
     assert!(

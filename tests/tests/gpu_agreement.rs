@@ -663,6 +663,54 @@ fn scenes_of_many_groups_match_the_cpu_tracer() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
+/// The editor's GPU viewport compiles a new scene's pipelines on threads of their own
+/// (`GpuRenderer::pipelines_compiling`) so that its window does not wait for the driver: the
+/// frame traced with them is the frame traced with pipelines compiled in place, and a new blend
+/// tree starts new ones instead of using the old tree's.
+#[test]
+fn pipelines_compiled_in_the_background_trace_the_same_frames() {
+    let Some(mut gpu) = gpu_or_skip("pipelines_compiled_in_the_background_trace_the_same_frames")
+    else {
+        return;
+    };
+    let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
+    let mut scene = load("operators");
+    let frames_of = |gpu: &mut GpuRenderer, scene: &Scene, background: bool| {
+        let compiled = compile(scene);
+        gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+        if background {
+            assert!(
+                gpu.pipelines_compiling(&methods),
+                "a new tree's pipelines are compiled in the background"
+            );
+            let deadline = std::time::Instant::now() + std::time::Duration::from_secs(600);
+            while gpu.pipelines_compiling(&methods) {
+                assert!(std::time::Instant::now() < deadline, "still compiling");
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+        }
+        shaded_frames(
+            gpu,
+            &methods,
+            &scene.camera,
+            &compiled.settings,
+            "background",
+        )
+    };
+    for blend in [None, Some(Blend::Sum((0..3).map(Blend::Group).collect()))] {
+        if blend.is_some() {
+            scene.blend = blend;
+        }
+        let background = frames_of(&mut gpu, &scene, true);
+        let mut fresh = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+        let in_place = frames_of(&mut fresh, &scene, false);
+        for (b, p) in background.iter().zip(&in_place) {
+            assert_eq!(b.steps, p.steps, "{:?}", scene.blend);
+            assert_eq!(b.colour, p.colour, "{:?}", scene.blend);
+        }
+    }
+}
+
 /// The operator nodes in `blend`.
 fn count_operators(blend: &Blend) -> usize {
     match blend {

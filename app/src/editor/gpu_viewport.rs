@@ -132,10 +132,18 @@ impl Editor {
     }
 
     /// Whether the GPU viewport is still checking its last frame's tile lists (and may trace
-    /// it again).
+    /// it again), or compiling the pipelines of the frame asked for.
     #[must_use]
     pub fn gpu_viewport_settling(&self) -> bool {
         self.with_viewport_painter(ViewportPainter::settling)
+            .unwrap_or(false)
+    }
+
+    /// Whether the GPU viewport waits for the pipelines of the frame asked for, compiled off
+    /// the window's thread (the last frame stays on screen meanwhile).
+    #[must_use]
+    pub fn gpu_viewport_compiling(&self) -> bool {
+        self.with_viewport_painter(ViewportPainter::compiling)
             .unwrap_or(false)
     }
 
@@ -205,7 +213,8 @@ impl Editor {
     }
 
     /// Adds the paint callback of `frame` over `area`, panel `k` drawn into `panels[k]`; asks
-    /// for another frame while the last one's tile lists are being checked.
+    /// for another frame while the last one's tile lists are being checked, and every 50 ms
+    /// while its pipelines compile.
     pub(super) fn paint_gpu_viewport(
         &self,
         painter: &egui::Painter,
@@ -214,7 +223,11 @@ impl Editor {
         panels: Vec<egui::Rect>,
         (scale, probe): (StepScale, Option<(u32, u32)>),
     ) {
-        if self.gpu_viewport_settling() {
+        if self.gpu_viewport_compiling() {
+            painter
+                .ctx()
+                .request_repaint_after(std::time::Duration::from_millis(50));
+        } else if self.gpu_viewport_settling() {
             painter.ctx().request_repaint();
         }
         painter.add(egui_wgpu::Callback::new_paint_callback(

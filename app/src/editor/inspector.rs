@@ -735,6 +735,10 @@ impl Editor {
                 ui.monospace(format!(
                     "{what} on the window's GPU ({traced} frames traced, no frame read back)"
                 ));
+                if self.gpu_viewport_compiling() {
+                    ui.separator();
+                    ui.label("compiling its pipelines: the last frame stays on screen");
+                }
                 ui.separator();
                 ui.weak(adapter);
             } else if let Some(shown) = &self.frames.shown {
