@@ -1157,8 +1157,11 @@ impl GpuRenderer {
     /// compiled, each on a thread of its own: starts those not started (the driver takes
     /// seconds per pipeline, `bench`'s first frame, which the editor's window must not wait
     /// for) and keeps those done. A frame encoded before this answers `false` waits for the
-    /// rest ([`GpuRenderer::encode_frame`]). A pipeline started for an earlier blend tree or
-    /// set of primitive kinds is left to finish and dropped.
+    /// rest ([`GpuRenderer::encode_frame`]). One compiles per method at a time: a pipeline
+    /// started for an earlier blend tree or set of primitive kinds (a driver's compilation
+    /// cannot be cancelled) is left to finish and dropped before this scene's starts, so that
+    /// a slider dragged over a blend's width or Ricci exponent, which are in the shader's code,
+    /// does not start one compilation per value it passes.
     pub fn pipelines_compiling(&mut self, methods: &[GpuMethod]) -> bool {
         let Some(scene) = &self.scene else {
             return false;
@@ -1169,17 +1172,18 @@ impl GpuRenderer {
                 continue;
             }
             match self.pending_pipelines.remove(&m) {
-                Some(p) if p.is_for(&scene.packed) && p.compiled.is_finished() => {
+                Some(p) if !p.compiled.is_finished() => {
+                    self.pending_pipelines.insert(m, p);
+                    compiling = true;
+                }
+                Some(p) if p.is_for(&scene.packed) => {
                     // A thread that panicked leaves the pipeline to the frame, which compiles
                     // it and reports the error as any other.
                     if let Ok(done) = p.compiled.join() {
                         self.trace_pipelines.insert(m, done);
                     }
                 }
-                Some(p) if p.is_for(&scene.packed) => {
-                    self.pending_pipelines.insert(m, p);
-                    compiling = true;
-                }
+                // None started, or one for an earlier scene, done: this scene's starts.
                 _ => {
                     let device = self.device.clone();
                     let source = m.source(&scene.packed.blend, scene.packed.kinds);

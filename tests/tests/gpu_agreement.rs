@@ -666,7 +666,8 @@ fn scenes_of_many_groups_match_the_cpu_tracer() {
 /// The editor's GPU viewport compiles a new scene's pipelines on threads of their own
 /// (`GpuRenderer::pipelines_compiling`) so that its window does not wait for the driver: the
 /// frame traced with them is the frame traced with pipelines compiled in place, and a new blend
-/// tree starts new ones instead of using the old tree's.
+/// tree starts new ones instead of using the old tree's — also when it replaces a tree whose
+/// pipelines are still compiling (they finish first, then the new tree's start).
 #[test]
 fn pipelines_compiled_in_the_background_trace_the_same_frames() {
     let Some(mut gpu) = gpu_or_skip("pipelines_compiled_in_the_background_trace_the_same_frames")
@@ -674,7 +675,11 @@ fn pipelines_compiled_in_the_background_trace_the_same_frames() {
         return;
     };
     let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
-    let mut scene = load("operators");
+    let ricci = load("operators");
+    let summed = Scene {
+        blend: Some(Blend::Sum((0..3).map(Blend::Group).collect())),
+        ..ricci.clone()
+    };
     let frames_of = |gpu: &mut GpuRenderer, scene: &Scene, background: bool| {
         let compiled = compile(scene);
         gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
@@ -697,13 +702,14 @@ fn pipelines_compiled_in_the_background_trace_the_same_frames() {
             "background",
         )
     };
-    for blend in [None, Some(Blend::Sum((0..3).map(Blend::Group).collect()))] {
-        if blend.is_some() {
-            scene.blend = blend;
-        }
-        let background = frames_of(&mut gpu, &scene, true);
+    // The Ricci tree's pipelines start, and the sum replaces it before they are done.
+    gpu.set_scene(&compile(&ricci))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(gpu.pipelines_compiling(&methods));
+    for scene in [&summed, &ricci] {
+        let background = frames_of(&mut gpu, scene, true);
         let mut fresh = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
-        let in_place = frames_of(&mut fresh, &scene, false);
+        let in_place = frames_of(&mut fresh, scene, false);
         for (b, p) in background.iter().zip(&in_place) {
             assert_eq!(b.steps, p.steps, "{:?}", scene.blend);
             assert_eq!(b.colour, p.colour, "{:?}", scene.blend);
