@@ -24,7 +24,7 @@ use skeletrace_core::methods::{MethodId, TraceMode};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Camera, Group, Scene};
-use skeletrace_core::{FieldProgram, Interval, Ray};
+use skeletrace_core::{FieldProgram, Interval, Jet, Ray};
 
 fn same_bits(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits()
@@ -466,4 +466,94 @@ fn tile_rays_tangent_to_blobs_are_answered_as_by_the_program() {
     }
     eprintln!("{nonzero_near_tangency} non-zero values just outside the supports");
     assert_no_failures(&failures, "tile rays tangent to blobs");
+}
+
+/// A camera ray's field takes a tile's SCALIS segments with the tile's own tests (the support
+/// sphere-cone seen from the tile's origin, `ConeFromOrigin`, and the cone grown by the zero
+/// test's margin for the tile's farthest reach): on rays tangent to segments' supports — at
+/// the lateral surface and at the poles of the end balls — offset outward and inward by 10⁻¹⁵
+/// to 10⁻² of the local support radius, each the only ray of a tile about it, the field
+/// answers point questions and jets over spans about the tangency as the program does, bit
+/// for bit, for every kernel.
+#[test]
+fn tile_rays_tangent_to_scalis_supports_are_answered_as_by_the_program() {
+    let mut rng = SplitMix64::new(13);
+    let mut failures = Vec::new();
+    let mut nonzero_near_tangency = 0;
+    for kernel in KERNELS {
+        for _ in 0..12 {
+            let mut g = group(kernel);
+            add_primitive(&mut g, Kind::ScalisSegment, &mut rng);
+            let compiled = compile(&scene(vec![g], None));
+            let program = &compiled.program;
+            let Primitive::Scalis(segment) = program.primitives()[0] else {
+                panic!("a SCALIS segment was added");
+            };
+            let cone = segment.support(program.kernel_of(0));
+            // Where the surface touches the ball at `s`: the outward normal leans back along
+            // the axis by the cone's slope; the poles' normals are the axis itself.
+            let (u, v) = cone.axis.any_orthonormal_pair();
+            let angle = rng.range(0.0, std::f64::consts::TAU);
+            let radial = u * angle.cos() + v * angle.sin();
+            let s = rng.range(0.1, 0.9) * cone.length;
+            let lean = cone.slope;
+            let lateral = (1.0 - lean * lean).sqrt() * radial - lean * cone.axis;
+            let contacts = [
+                (
+                    cone.start + s * cone.axis,
+                    cone.radius + cone.slope * s,
+                    lateral,
+                ),
+                (cone.start, cone.radius, -cone.axis),
+                (cone.end(), cone.end_radius(), cone.axis),
+            ];
+            for (centre, radius, normal) in contacts {
+                let touch = centre + radius * normal;
+                let (a, b) = normal.any_orthonormal_pair();
+                let turn = rng.range(0.0, std::f64::consts::TAU);
+                let direction = a * turn.cos() + b * turn.sin();
+                for relative in [
+                    -1e-2, -1e-9, -1e-15, 1e-15, 1e-13, 1e-11, 1e-9, 1e-7, 1e-5, 1e-2,
+                ] {
+                    let reach = 4.0 * radius * rng.range(1.0, 20.0);
+                    let origin = touch + relative * radius * normal - reach * direction;
+                    let ray = Ray::new(origin, direction);
+                    let span = Interval::new(0.0, 2.0 * reach);
+                    let (a, b) = ray.direction.any_orthonormal_pair();
+                    let corners = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
+                        .map(|(x, y)| ray.direction + 3e-7 * (x * a + y * b));
+                    let tile = TileCandidates::gather(program, origin, corners, span);
+                    let field = RayField::from_tile(program, &ray, span, &tile);
+                    for sample in 0..150 {
+                        let closeness = 10f64.powi(-(sample % 15));
+                        let t = reach + radius * closeness * rng.range(-1.0, 1.0);
+                        let (got, want) =
+                            (field.value_gradient(t), program.value_gradient(ray.at(t)));
+                        let bits =
+                            |(v, g): (f64, DVec3)| (v.to_bits(), g.to_array().map(f64::to_bits));
+                        if bits(got) != bits(want) {
+                            failures.push(format!(
+                                "{kernel:?} at {relative:e}, t = {t}: {got:?} vs {want:?}"
+                            ));
+                            break;
+                        }
+                        nonzero_near_tangency += usize::from(relative > 0.0 && want.0 != 0.0);
+                        let around = Interval::new(t, t + radius * closeness);
+                        let (got, want) = (field.jet(around), program.ray_jet(&ray, around));
+                        let jet_bits = |j: Jet| {
+                            [j.value, j.d1, j.d2].map(|i| (i.lo.to_bits(), i.hi.to_bits()))
+                        };
+                        if jet_bits(got) != jet_bits(want) {
+                            failures.push(format!(
+                                "{kernel:?} at {relative:e}, jet on {around:?}: {got:?} vs {want:?}"
+                            ));
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("{nonzero_near_tangency} non-zero values just outside the supports");
+    assert_no_failures(&failures, "tile rays tangent to SCALIS supports");
 }

@@ -257,45 +257,99 @@ impl SphereCone {
         }
     }
 
-    /// Whether the ray's line passes outside the sphere-cone by more than `margin` relative to
-    /// the local radius plus `absolute`: it misses the cone with its radii grown so.
+    /// The sphere-cone with its radii grown by `margin` relative to the local radius plus
+    /// `absolute`, if it is still one (slope below 1): a line that misses it passes outside
+    /// this cone by more than that.
     #[must_use]
-    pub fn line_misses_by(&self, ray: &Ray, margin: f64, absolute: f64) -> bool {
+    pub fn grown_by(&self, margin: f64, absolute: f64) -> Option<Self> {
         let grown = Self {
             radius: self.radius * (1.0 + margin) + absolute,
             slope: self.slope * (1.0 + margin),
             ..*self
         };
-        grown.slope < 1.0 && grown.ray_interval(ray).is_none()
+        (grown.slope < 1.0).then_some(grown)
     }
 
     /// Exact parameter interval where the ray is inside the sphere-cone: the hull of the two
     /// end balls and the points of the lateral cone tangent to both.
     #[must_use]
     pub fn ray_interval(&self, ray: &Ray) -> Option<Interval> {
+        self.seen_from(ray.origin).ray_interval(ray.direction)
+    }
+
+    /// What [`SphereCone::ray_interval`] computes alike for every ray from `origin` (issue 18:
+    /// the rays of a tile share their origin).
+    #[must_use]
+    pub fn seen_from(&self, origin: DVec3) -> ConeFromOrigin {
+        let d = self.slope;
+        let w0 = origin - self.start;
+        let a0 = w0.dot(self.axis);
+        let b0 = w0.length_squared() - a0 * a0;
+        let e = 1.0 - d * d;
+        let y0 = self.radius + d * a0;
+        let end = origin - self.end();
+        let end_radius = self.end_radius();
+        ConeFromOrigin {
+            axis: self.axis,
+            length: self.length,
+            radius: self.radius,
+            slope: d,
+            w0,
+            start_c: w0.length_squared() - self.radius * self.radius,
+            end,
+            end_c: end.length_squared() - end_radius * end_radius,
+            a0,
+            e,
+            y0,
+            qc: e * b0 - y0 * y0,
+        }
+    }
+}
+
+/// A [`SphereCone`] seen from a ray origin `o`: the terms of [`ConeFromOrigin::ray_interval`]
+/// that do not depend on the ray's direction.
+#[derive(Clone, Copy, Debug)]
+pub struct ConeFromOrigin {
+    axis: DVec3,
+    length: f64,
+    radius: f64,
+    slope: f64,
+    /// `o − start`, and `|o − start|² − r₀²`: the start ball's [`ball_interval_from`] terms.
+    w0: DVec3,
+    start_c: f64,
+    /// `o − end`, and `|o − end|² − r₁²`: the end ball's.
+    end: DVec3,
+    end_c: f64,
+    /// The lateral surface's: the origin's axial coordinate `a₀`, `e = 1 − δ²`,
+    /// `y₀ = r₀ + δ·a₀`, and the quadratic's constant term.
+    a0: f64,
+    e: f64,
+    y0: f64,
+    qc: f64,
+}
+
+impl ConeFromOrigin {
+    /// [`SphereCone::ray_interval`] of the ray from the origin along `direction`.
+    #[must_use]
+    pub fn ray_interval(&self, direction: DVec3) -> Option<Interval> {
         let mut hull: Option<Interval> = None;
         let mut add = |i: Interval| hull = Some(hull.map_or(i, |h| h.hull(i)));
-        if let Some(i) = ball_interval(ray, self.start, self.radius) {
+        if let Some(i) = ball_interval_from(self.w0, self.start_c, direction) {
             add(i);
         }
-        if let Some(i) = ball_interval(ray, self.end(), self.end_radius()) {
+        if let Some(i) = ball_interval_from(self.end, self.end_c, direction) {
             add(i);
         }
         // Lateral surface: (1 − δ²)·b²(t) = (r₀ + δ·a(t))², a = axial coordinate,
         // b = distance to the axis; valid where the tangent skeleton point
         // s* = (a + δ r₀)/(1 − δ²) lies on the segment.
-        let d = self.slope;
-        let w0 = ray.origin - self.start;
-        let (a0, a1) = (w0.dot(self.axis), ray.direction.dot(self.axis));
-        let b0 = w0.length_squared() - a0 * a0;
-        let b1 = 2.0 * (w0.dot(ray.direction) - a0 * a1);
+        let (d, a0, e, y0) = (self.slope, self.a0, self.e, self.y0);
+        let a1 = direction.dot(self.axis);
+        let b1 = 2.0 * (self.w0.dot(direction) - a0 * a1);
         let b2 = 1.0 - a1 * a1;
-        let e = 1.0 - d * d;
-        let y0 = self.radius + d * a0;
         let qa = e * b2 - d * d * a1 * a1;
         let qb = e * b1 - 2.0 * d * a1 * y0;
-        let qc = e * b0 - y0 * y0;
-        if let Some((r1, r2)) = quadratic_roots(qa, qb, qc) {
+        if let Some((r1, r2)) = quadratic_roots(qa, qb, self.qc) {
             for t in [r1, r2] {
                 let a = a0 + a1 * t;
                 let s = (a + d * self.radius) / e;

@@ -14,7 +14,8 @@
 //! the arrays are recycled from ray to ray on each thread, so that a ray allocates nothing.
 //! Camera rays take their candidates from their screen tile's list ([`TileCandidates`]), which
 //! holds what the tile's rays share: the differences between their origin and each box's
-//! corners and each point blob's centre, so that a ray's tests are a few products each.
+//! corners, each point blob's centre and each segment's sphere-cone (its end balls' and lateral
+//! surface's terms), so that a ray's tests are a few products each.
 //!
 //! The answers are bit for bit those of the program's own queries: the list keeps the BVH's
 //! depth-first order (which every program query follows), a point query keeps exactly the items
@@ -34,7 +35,8 @@ use glam::DVec3;
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::bvh::{Beam, NearRay, near_slab_interval};
 use crate::field::geometry::{
-    Aabb, RELATIVE_SUPPORT_MARGIN, Ray, ball_interval_from, rounding_margin, slab_interval,
+    Aabb, ConeFromOrigin, RELATIVE_SUPPORT_MARGIN, Ray, ball_interval_from, rounding_margin,
+    slab_interval,
 };
 use crate::field::kernel::KernelProfile;
 use crate::field::primitives::{PointBlob, Primitive};
@@ -164,6 +166,8 @@ pub struct TileCandidates {
     span: Interval,
     origin: DVec3,
     items: Vec<TileItem>,
+    /// The segments' sphere-cones ([`TileSupport::Cone`]).
+    cones: Vec<TileCone>,
 }
 
 /// One primitive of a tile's list, with what every ray from the tile's origin computes alike
@@ -177,8 +181,62 @@ struct TileItem {
     near: (DVec3, DVec3),
     /// `bounds.min − o`, `bounds.max − o`: the unwidened slab test's differences.
     line: (DVec3, DVec3),
-    /// A point blob's support ball, seen from the origin.
-    ball: Option<TileBall>,
+    /// The support, seen from the origin, where it is a ball or a sphere-cone.
+    support: TileSupport,
+}
+
+/// A tile item's support seen from the tile's origin, for the per-ray tests of
+/// [`RayField::from_tile`].
+#[derive(Debug)]
+enum TileSupport {
+    /// A point blob's support ball.
+    Ball(TileBall),
+    /// A segment's: the index of its [`TileCone`] in the tile's `cones` (kept apart, so that
+    /// the items stay small).
+    Cone(u32),
+    /// Another primitive's: the per-ray tests of [`Sieve::kept`].
+    Other,
+}
+
+/// A segment's support sphere-cone seen from a tile's origin, and for a SCALIS segment the cone
+/// grown by the margin of [`crate::field::primitives::ScalisSegment::line_misses_support`] for
+/// the tile's farthest reach (as [`TileBall::miss_sq`]); `grown` is `None` where the primitive
+/// is never left out (a distance segment, or a grown cone past the sphere-cone limit).
+#[derive(Debug)]
+struct TileCone {
+    support: ConeFromOrigin,
+    grown: Option<ConeFromOrigin>,
+}
+
+impl TileCone {
+    fn new(origin: DVec3, primitive: &Primitive, k: &KernelProfile, t_max: f64) -> Option<Self> {
+        match primitive {
+            Primitive::Distance(segment) => Some(Self {
+                support: segment.support(k).seen_from(origin),
+                grown: None,
+            }),
+            Primitive::Scalis(segment) => Some(Self {
+                support: segment.support(k).seen_from(origin),
+                grown: segment
+                    .support_grown_for_reach(origin, k, 2.0 * t_max)
+                    .map(|cone| cone.seen_from(origin)),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The support's interval on the line along `direction`, and whether the primitive is
+    /// kept: `None` where the line misses the grown cone (as [`Sieve::kept`]).
+    #[inline]
+    fn kept(&self, direction: DVec3) -> Option<Option<Interval>> {
+        let on_line = self.support.ray_interval(direction);
+        let misses = || {
+            self.grown
+                .as_ref()
+                .is_some_and(|g| g.ray_interval(direction).is_none())
+        };
+        (on_line.is_some() || !misses()).then_some(on_line)
+    }
 }
 
 /// A point blob's support ball (centre `c`, radius `r`) seen from a tile's origin `o`.
@@ -259,6 +317,7 @@ impl TileCandidates {
         };
         let pad = pad_of(program);
         let mut items = Vec::new();
+        let mut cones = Vec::new();
         program
             .lookup_parts()
             .0
@@ -266,27 +325,28 @@ impl TileCandidates {
                 if zero_on_tile(i) {
                     return;
                 }
-                let ball = match &program.primitives()[i as usize] {
-                    Primitive::Point(blob) => Some(TileBall::new(
-                        origin,
-                        blob,
-                        program.kernel_of(i),
-                        reach_length,
-                    )),
-                    _ => None,
+                let (primitive, k) = (&program.primitives()[i as usize], program.kernel_of(i));
+                let support = if let Primitive::Point(blob) = primitive {
+                    TileSupport::Ball(TileBall::new(origin, blob, k, reach_length))
+                } else if let Some(cone) = TileCone::new(origin, primitive, k, reach_length) {
+                    cones.push(cone);
+                    TileSupport::Cone(cones.len() as u32 - 1)
+                } else {
+                    TileSupport::Other
                 };
                 items.push(TileItem {
                     primitive: i,
                     bounds: *bounds,
                     near: NearRay::offsets(origin, pad, bounds),
                     line: (bounds.min - origin, bounds.max - origin),
-                    ball,
+                    support,
                 });
             });
         Self {
             span,
             origin,
             items,
+            cones,
         }
     }
 
@@ -494,12 +554,13 @@ impl<'a> RayField<'a> {
             let Some(near) = near_slab_interval(low * inv, high * inv, reach) else {
                 continue;
             };
-            let kept = match &item.ball {
-                Some(ball) => {
+            let kept = match &item.support {
+                TileSupport::Ball(ball) => {
                     let on_line = ball.interval(ray.direction);
                     (on_line.is_some() || !ball.line_misses(ray.direction)).then_some(on_line)
                 }
-                None => sieve.kept(item.primitive),
+                TileSupport::Cone(cone) => tile.cones[*cone as usize].kept(ray.direction),
+                TileSupport::Other => sieve.kept(item.primitive),
             };
             let Some(on_line) = kept else {
                 continue;

@@ -182,15 +182,25 @@ impl ScalisSegment {
     /// sum unchanged) and the gradient a zero vector.
     #[must_use]
     pub fn line_misses_support(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
-        let c = &self.cone;
         let reach = t_max * ray.direction.abs().element_sum();
-        let absolute = rounding_margin(ray.origin, c.start, reach).max(rounding_margin(
-            ray.origin,
-            c.end(),
-            reach,
-        ));
-        self.support(k)
-            .line_misses_by(ray, RELATIVE_SUPPORT_MARGIN, absolute)
+        self.support_grown_for_reach(ray.origin, k, reach)
+            .is_some_and(|grown| grown.ray_interval(ray).is_none())
+    }
+
+    /// The support grown by the margin of [`Self::line_misses_support`] for lines through
+    /// `origin` that reach `reach` from it (`t_max·|u|₁`), or `None` where the grown cone is no
+    /// longer a sphere-cone (slope 1 or more: the test then never leaves the segment out).
+    #[must_use]
+    pub fn support_grown_for_reach(
+        &self,
+        origin: DVec3,
+        k: &KernelProfile,
+        reach: f64,
+    ) -> Option<SphereCone> {
+        let c = &self.cone;
+        let absolute =
+            rounding_margin(origin, c.start, reach).max(rounding_margin(origin, c.end(), reach));
+        self.support(k).grown_by(RELATIVE_SUPPORT_MARGIN, absolute)
     }
 
     /// Enclosures of `f`, `f′`, `f″` over `span`.
