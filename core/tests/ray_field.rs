@@ -407,10 +407,9 @@ fn primitives_left_out_of_a_ray_are_zero_on_it() {
 }
 
 /// A camera ray's field takes a tile's blobs with the tile's own zero test (`TileBall`, its
-/// margin computed once for the tile's farthest reach): on rays tangent to blobs' supports,
-/// offset outward and inward by 10⁻¹⁵ to 10⁻² of the support radius, each the only ray of a
-/// tile about it, the field answers every point question as the program does, bit for bit,
-/// sampled uniformly and ever closer around the point of tangency, for every kernel.
+/// margin computed once for the tile's farthest reach): on rays tangent to blobs' supports
+/// ([`check_rays_tangent_at`]), the field answers point questions and jets as the program
+/// does, bit for bit, for every kernel.
 #[test]
 fn tile_rays_tangent_to_blobs_are_answered_as_by_the_program() {
     let mut rng = SplitMix64::new(12);
@@ -427,41 +426,13 @@ fn tile_rays_tangent_to_blobs_are_answered_as_by_the_program() {
             };
             let radius = blob.support_radius(program.kernel_of(0));
             let normal = DVec3::from(rng.direction());
-            let touch = blob.center + radius * normal;
-            let (u, v) = normal.any_orthonormal_pair();
-            let angle = rng.range(0.0, std::f64::consts::TAU);
-            let direction = u * angle.cos() + v * angle.sin();
-            for relative in [
-                -1e-2, -1e-9, -1e-15, 1e-15, 1e-13, 1e-11, 1e-9, 1e-7, 1e-5, 1e-2,
-            ] {
-                let reach = 4.0 * radius * rng.range(1.0, 20.0);
-                let origin = touch + relative * radius * normal - reach * direction;
-                let ray = Ray::new(origin, direction);
-                let span = Interval::new(0.0, 2.0 * reach);
-                // A tile of directions about the ray's, a few 10⁻⁷ radians wide.
-                let (a, b) = ray.direction.any_orthonormal_pair();
-                let corners = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
-                    .map(|(x, y)| ray.direction + 3e-7 * (x * a + y * b));
-                let tile = TileCandidates::gather(program, origin, corners, span);
-                let field = RayField::from_tile(program, &ray, span, &tile);
-                for sample in 0..300 {
-                    let t = if sample < 60 {
-                        rng.range(span.lo, span.hi)
-                    } else {
-                        let closeness = 10f64.powi(-(sample % 15));
-                        reach + radius * closeness * rng.range(-1.0, 1.0)
-                    };
-                    let (got, want) = (field.value_gradient(t), program.value_gradient(ray.at(t)));
-                    let bits = |(v, g): (f64, DVec3)| (v.to_bits(), g.to_array().map(f64::to_bits));
-                    if bits(got) != bits(want) {
-                        failures.push(format!(
-                            "{kernel:?} at {relative:e}, t = {t}: {got:?} vs {want:?}"
-                        ));
-                        break;
-                    }
-                    nonzero_near_tangency += usize::from(relative > 0.0 && want.0 != 0.0);
-                }
-            }
+            let (found, nonzero) = check_rays_tangent_at(
+                program,
+                (blob.center + radius * normal, normal, radius),
+                &mut rng,
+            );
+            failures.extend(found.into_iter().map(|f| format!("{kernel:?} {f}")));
+            nonzero_near_tangency += nonzero;
         }
     }
     eprintln!("{nonzero_near_tangency} non-zero values just outside the supports");
@@ -470,11 +441,9 @@ fn tile_rays_tangent_to_blobs_are_answered_as_by_the_program() {
 
 /// A camera ray's field takes a tile's SCALIS segments with the tile's own tests (the support
 /// sphere-cone seen from the tile's origin, `ConeFromOrigin`, and the cone grown by the zero
-/// test's margin for the tile's farthest reach): on rays tangent to segments' supports — at
-/// the lateral surface and at the poles of the end balls — offset outward and inward by 10⁻¹⁵
-/// to 10⁻² of the local support radius, each the only ray of a tile about it, the field
-/// answers point questions and jets over spans about the tangency as the program does, bit
-/// for bit, for every kernel.
+/// test's margin for the tile's farthest reach): on rays tangent to segments' supports at the
+/// lateral surface and at the poles of the end balls ([`check_rays_tangent_at`]), the field
+/// answers point questions and jets as the program does, bit for bit, for every kernel.
 #[test]
 fn tile_rays_tangent_to_scalis_supports_are_answered_as_by_the_program() {
     let mut rng = SplitMix64::new(13);
@@ -508,52 +477,70 @@ fn tile_rays_tangent_to_scalis_supports_are_answered_as_by_the_program() {
                 (cone.end(), cone.end_radius(), cone.axis),
             ];
             for (centre, radius, normal) in contacts {
-                let touch = centre + radius * normal;
-                let (a, b) = normal.any_orthonormal_pair();
-                let turn = rng.range(0.0, std::f64::consts::TAU);
-                let direction = a * turn.cos() + b * turn.sin();
-                for relative in [
-                    -1e-2, -1e-9, -1e-15, 1e-15, 1e-13, 1e-11, 1e-9, 1e-7, 1e-5, 1e-2,
-                ] {
-                    let reach = 4.0 * radius * rng.range(1.0, 20.0);
-                    let origin = touch + relative * radius * normal - reach * direction;
-                    let ray = Ray::new(origin, direction);
-                    let span = Interval::new(0.0, 2.0 * reach);
-                    let (a, b) = ray.direction.any_orthonormal_pair();
-                    let corners = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
-                        .map(|(x, y)| ray.direction + 3e-7 * (x * a + y * b));
-                    let tile = TileCandidates::gather(program, origin, corners, span);
-                    let field = RayField::from_tile(program, &ray, span, &tile);
-                    for sample in 0..150 {
-                        let closeness = 10f64.powi(-(sample % 15));
-                        let t = reach + radius * closeness * rng.range(-1.0, 1.0);
-                        let (got, want) =
-                            (field.value_gradient(t), program.value_gradient(ray.at(t)));
-                        let bits =
-                            |(v, g): (f64, DVec3)| (v.to_bits(), g.to_array().map(f64::to_bits));
-                        if bits(got) != bits(want) {
-                            failures.push(format!(
-                                "{kernel:?} at {relative:e}, t = {t}: {got:?} vs {want:?}"
-                            ));
-                            break;
-                        }
-                        nonzero_near_tangency += usize::from(relative > 0.0 && want.0 != 0.0);
-                        let around = Interval::new(t, t + radius * closeness);
-                        let (got, want) = (field.jet(around), program.ray_jet(&ray, around));
-                        let jet_bits = |j: Jet| {
-                            [j.value, j.d1, j.d2].map(|i| (i.lo.to_bits(), i.hi.to_bits()))
-                        };
-                        if jet_bits(got) != jet_bits(want) {
-                            failures.push(format!(
-                                "{kernel:?} at {relative:e}, jet on {around:?}: {got:?} vs {want:?}"
-                            ));
-                            break;
-                        }
-                    }
-                }
+                let (found, nonzero) = check_rays_tangent_at(
+                    program,
+                    (centre + radius * normal, normal, radius),
+                    &mut rng,
+                );
+                failures.extend(found.into_iter().map(|f| format!("{kernel:?} {f}")));
+                nonzero_near_tangency += nonzero;
             }
         }
     }
     eprintln!("{nonzero_near_tangency} non-zero values just outside the supports");
     assert_no_failures(&failures, "tile rays tangent to SCALIS supports");
+}
+
+/// Rays tangent to a support at `touch` (outward `normal`, local support radius `radius`),
+/// offset outward and inward by 10⁻¹⁵ to 10⁻² of it, each the only ray of a tile about it (a
+/// few 10⁻⁷ radians wide): the tile field's point values and gradients, sampled uniformly and
+/// ever closer around the point of tangency, and its jets there, must be the program's bit for
+/// bit. Returns the differences and how many values just outside the support were not zero.
+fn check_rays_tangent_at(
+    program: &FieldProgram,
+    (touch, normal, radius): (DVec3, DVec3, f64),
+    rng: &mut SplitMix64,
+) -> (Vec<String>, usize) {
+    let (mut failures, mut nonzero) = (Vec::new(), 0);
+    let (u, v) = normal.any_orthonormal_pair();
+    let angle = rng.range(0.0, std::f64::consts::TAU);
+    let direction = u * angle.cos() + v * angle.sin();
+    let jet_bits = |j: Jet| [j.value, j.d1, j.d2].map(|i| (i.lo.to_bits(), i.hi.to_bits()));
+    let bits = |(v, g): (f64, DVec3)| (v.to_bits(), g.to_array().map(f64::to_bits));
+    for relative in [
+        -1e-2, -1e-9, -1e-15, 1e-15, 1e-13, 1e-11, 1e-9, 1e-7, 1e-5, 1e-2,
+    ] {
+        let reach = 4.0 * radius * rng.range(1.0, 20.0);
+        let origin = touch + relative * radius * normal - reach * direction;
+        let ray = Ray::new(origin, direction);
+        let span = Interval::new(0.0, 2.0 * reach);
+        let (a, b) = ray.direction.any_orthonormal_pair();
+        let corners = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
+            .map(|(x, y)| ray.direction + 3e-7 * (x * a + y * b));
+        let tile = TileCandidates::gather(program, origin, corners, span);
+        let field = RayField::from_tile(program, &ray, span, &tile);
+        for sample in 0..300 {
+            let closeness = 10f64.powi(-(sample % 15));
+            let t = if sample < 60 {
+                rng.range(span.lo, span.hi)
+            } else {
+                reach + radius * closeness * rng.range(-1.0, 1.0)
+            };
+            let (got, want) = (field.value_gradient(t), program.value_gradient(ray.at(t)));
+            if bits(got) != bits(want) {
+                failures.push(format!("at {relative:e}, t = {t}: {got:?} vs {want:?}"));
+                break;
+            }
+            nonzero += usize::from(relative > 0.0 && want.0 != 0.0);
+            let around = Interval::new(t, t + radius * closeness);
+            let (got, want) = (field.jet(around), program.ray_jet(&ray, around));
+            if jet_bits(got) != jet_bits(want) {
+                failures.push(format!(
+                    "at {relative:e}, jet on {around:?}: {got:?} vs {want:?}"
+                ));
+                break;
+            }
+        }
+    }
+    (failures, nonzero)
 }
