@@ -256,6 +256,11 @@ impl<'a> Renderer<'a> {
                     let copied = pixels.len();
                     return Some((pixels, listed, true, copied));
                 }
+                // A tile that lists no primitive, in a scene without unbounded ones (planes):
+                // its rays' fields are empty, so every method's trace is empty (no support,
+                // no part, no step) and the rays are background.
+                let nothing_to_meet =
+                    candidates.is_empty() && self.program.lookup_parts().1.is_empty();
                 let mut copied = 0;
                 for y in y0..y1 {
                     for x in x0..x1 {
@@ -265,6 +270,14 @@ impl<'a> Renderer<'a> {
                         {
                             copy(&mut pixels, earlier.frame, x, y);
                             copied += 1;
+                            continue;
+                        }
+                        if nothing_to_meet {
+                            pixels.push((
+                                background(ray.direction).as_vec3().to_array(),
+                                f64::INFINITY,
+                                0,
+                            ));
                             continue;
                         }
                         // The field gives the crossing's normal and material, then is
