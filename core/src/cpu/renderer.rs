@@ -213,11 +213,7 @@ impl<'a> Renderer<'a> {
         };
         let span = Interval::new(0.0, context.far);
         let (columns, rows) = (w.div_ceil(TILE), h.div_ceil(TILE));
-        // Tile `k`'s pixel columns `x0..x1` and rows `y0..y1`.
-        let tile_pixels = |k: usize| {
-            let (x0, y0) = ((k % columns) * TILE, (k / columns) * TILE);
-            ((x0, (x0 + TILE).min(w)), (y0, (y0 + TILE).min(h)))
-        };
+        let tile_pixels = |k: usize| tile_pixels(k, w, h);
         let earlier = earlier.filter(|e| {
             (e.frame.width, e.frame.height) == (w, h) && e.tile_primitives.len() == columns * rows
         });
@@ -513,8 +509,121 @@ impl<'a> Renderer<'a> {
     }
 }
 
+/// Tile `k`'s pixel columns `x0..x1` and rows `y0..y1` in a `w × h` frame (row-major tiles).
+fn tile_pixels(k: usize, w: usize, h: usize) -> ((usize, usize), (usize, usize)) {
+    let columns = w.div_ceil(TILE);
+    let (x0, y0) = ((k % columns) * TILE, (k / columns) * TILE);
+    ((x0, (x0 + TILE).min(w)), (y0, (y0 + TILE).min(h)))
+}
+
 /// Sky gradient behind the surface.
 fn background(direction: DVec3) -> DVec3 {
     let up = 0.5 * (direction.y + 1.0);
     DVec3::new(0.16, 0.17, 0.20).lerp(DVec3::new(0.42, 0.47, 0.55), up)
+}
+
+#[cfg(test)]
+mod tests {
+    //! The tile path ([`Renderer::render`]: candidates gathered once per tile, empty tiles
+    //! given the background without a trace) shades every pixel as [`Renderer::radiance`]
+    //! does for the same ray traced alone through the BVH: colour, depth and steps, bit for bit.
+    use super::*;
+    use crate::compile;
+    use crate::methods::MethodId;
+    use crate::model::generate::{GenerateOptions, GeneratorKind, generate};
+    use crate::model::scene::Scene;
+
+    /// Pixels of `scene`'s frame (`width × height`, with shadows) that differ from their ray
+    /// traced alone, per method, as messages.
+    fn differences(scene: &Scene, name: &str, (width, height): (usize, usize)) -> Vec<String> {
+        let compiled = compile(scene);
+        let options = RenderOptions {
+            width,
+            height,
+            shadows: true,
+            shading: FieldShading::default(),
+        };
+        let pinhole = PinholeCamera::new(&scene.camera);
+        let context = FrameContext {
+            options,
+            far: far_distance(&compiled.program, &scene.camera),
+        };
+        let mut failures = Vec::new();
+        for id in MethodId::ALL {
+            let method = id.method();
+            if id == MethodId::Reference || method.supports(&compiled.program).is_err() {
+                continue;
+            }
+            let tracer = method.prepare(&compiled.program, compiled.settings);
+            let renderer = Renderer::new(&compiled, tracer.as_ref(), compiled.settings);
+            let frame = renderer.render(&scene.camera, options);
+            let differing = (0..width * height)
+                .filter(|&i| {
+                    let ray = pinhole.ray(i % width, i / width, width, height);
+                    let mut steps = 0;
+                    let (colour, depth) = renderer.radiance(&ray, 0, &context, &mut steps);
+                    colour.as_vec3().to_array() != frame.colour[i]
+                        || depth.to_bits() != frame.depth[i].to_bits()
+                        || steps != frame.steps[i]
+                })
+                .count();
+            if differing > 0 {
+                failures.push(format!("{name}: {}: {differing} pixels differ", id.name()));
+            }
+        }
+        failures
+    }
+
+    fn asset(name: &str) -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../assets/scenes")
+            .join(name);
+        Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The tree has tiles that list nothing and no plane (the empty-tile shortcut); the
+    /// creature has a ground plane (no shortcut) and shadows; random skeletons and blob sets
+    /// of random seeds and sizes, seen from their generated cameras, have both kinds of tile.
+    #[test]
+    fn tile_frames_shade_every_pixel_as_its_ray_traced_alone() {
+        let mut scenes = vec![
+            ("tree.ron".to_owned(), asset("tree.ron")),
+            ("creature.ron".to_owned(), asset("creature.ron")),
+        ];
+        for seed in 0..3 {
+            for kind in [GeneratorKind::RandomSkeleton, GeneratorKind::Blobs] {
+                let options = GenerateOptions {
+                    seed: 1_000 + seed,
+                    size: Some(6 + 9 * seed as usize),
+                    ..GenerateOptions::default()
+                };
+                let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+                scenes.push((format!("{} seed {}", kind.name(), options.seed), scene));
+            }
+        }
+        let failures: Vec<String> = scenes
+            .par_iter()
+            .flat_map_iter(|(name, scene)| differences(scene, name, (27, 19)))
+            .collect();
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// The check above does exercise the shortcut: some of the tree's tiles list nothing.
+    #[test]
+    fn the_tree_has_tiles_that_list_nothing() {
+        let scene = asset("tree.ron");
+        let compiled = compile(&scene);
+        let pinhole = PinholeCamera::new(&scene.camera);
+        let span = Interval::new(0.0, far_distance(&compiled.program, &scene.camera));
+        let (w, h): (usize, usize) = (27, 19);
+        let empty = (0..w.div_ceil(TILE) * h.div_ceil(TILE))
+            .filter(|&k| {
+                let (columns, rows) = tile_pixels(k, w, h);
+                let corners = pinhole.tile_corners(columns, rows, w, h);
+                TileCandidates::gather(&compiled.program, pinhole.origin(), corners, span)
+                    .is_empty()
+            })
+            .count();
+        assert!(empty > 0 && compiled.program.lookup_parts().1.is_empty());
+    }
 }
