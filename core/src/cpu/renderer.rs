@@ -213,7 +213,6 @@ impl<'a> Renderer<'a> {
         };
         let span = Interval::new(0.0, context.far);
         let (columns, rows) = (w.div_ceil(TILE), h.div_ceil(TILE));
-        let tile_pixels = |k: usize| tile_pixels(k, w, h);
         let earlier = earlier.filter(|e| {
             (e.frame.width, e.frame.height) == (w, h) && e.tile_primitives.len() == columns * rows
         });
@@ -230,7 +229,7 @@ impl<'a> Renderer<'a> {
                 if cancel.is_cancelled() {
                     return None;
                 }
-                let ((x0, x1), (y0, y1)) = tile_pixels(tile);
+                let ((x0, x1), (y0, y1)) = tile_pixels(tile, w, h);
                 let corners = pinhole.tile_corners((x0, x1), (y0, y1), w, h);
                 let candidates =
                     TileCandidates::gather(self.program, pinhole.origin(), corners, span);
@@ -299,7 +298,7 @@ impl<'a> Renderer<'a> {
         let mut depth = vec![f64::INFINITY; w * h];
         let mut steps = vec![0; w * h];
         for (tile, (pixels, ..)) in tiles.iter().enumerate() {
-            let ((x0, x1), (y0, _)) = tile_pixels(tile);
+            let ((x0, x1), (y0, _)) = tile_pixels(tile, w, h);
             for (k, pixel) in pixels.iter().enumerate() {
                 let i = (y0 + k / (x1 - x0)) * w + x0 + k % (x1 - x0);
                 (colour[i], depth[i], steps[i]) = *pixel;
