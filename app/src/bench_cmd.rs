@@ -16,7 +16,7 @@ use skeletrace_core::backend::{
 };
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::frame::{FieldShading, View};
-use skeletrace_core::methods::{MethodId, TraceSettings};
+use skeletrace_core::methods::{MethodId, TraceMode, TraceSettings};
 use skeletrace_core::{Scene, compile};
 
 use crate::cli::BenchArgs;
@@ -181,7 +181,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     let (width, height) = parse_size(&args.size)?;
     let compiled = compile(scene);
     let frames = args.frames.max(1);
-    let chosen = crate::chosen_methods(&args.methods, &compiled.program)?;
+    let chosen = crate::chosen_methods(&args.methods, &compiled.program, TraceMode::Opaque)?;
     let mut backends = Backends::open(args.backend);
     if args.backend == BackendChoice::Gpu
         && let Err(why) = &backends.gpu

@@ -145,22 +145,34 @@ fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {
 
 /// The methods named by `list` (`all`: every method that applies to the scene, the others
 /// reported on standard error).
-fn chosen_methods(list: &str, program: &FieldProgram) -> Result<Vec<MethodId>, String> {
+fn chosen_methods(
+    list: &str,
+    program: &FieldProgram,
+    mode: TraceMode,
+) -> Result<Vec<MethodId>, String> {
+    // What keeps a method out, and why.
+    let applies = |id: MethodId| {
+        let method = id.method();
+        method
+            .supports(program)
+            .map_err(|why| ("does not apply to this scene", why))?;
+        method
+            .traces(mode)
+            .map_err(|why| ("cannot trace transparent rays", why))
+    };
     if list == "all" {
         let mut out = Vec::new();
         for id in MethodId::ALL {
-            match id.method().supports(program) {
+            match applies(id) {
                 Ok(()) => out.push(id),
-                Err(why) => eprintln!("skeletrace: skipping {id}: {why}"),
+                Err((_, why)) => eprintln!("skeletrace: skipping {id}: {why}"),
             }
         }
         return Ok(out);
     }
     let ids = MethodId::parse_list(list)?;
     for &id in &ids {
-        id.method()
-            .supports(program)
-            .map_err(|why| format!("method '{id}' does not apply to this scene: {why}"))?;
+        applies(id).map_err(|(what, why)| format!("method '{id}' {what}: {why}"))?;
     }
     Ok(ids)
 }
@@ -193,7 +205,12 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let scene = load(Some(&args.scene))?;
     let compiled = std::sync::Arc::new(skeletrace_core::compile(&scene));
     let program = &compiled.program;
-    let chosen: Vec<Box<dyn Method>> = chosen_methods(&args.methods, program)?
+    let mode = if args.transparent {
+        TraceMode::Transparent
+    } else {
+        TraceMode::Opaque
+    };
+    let chosen: Vec<Box<dyn Method>> = chosen_methods(&args.methods, program, mode)?
         .into_iter()
         .map(MethodId::method)
         .collect();
@@ -208,11 +225,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         rays: args.rays.max(6),
         seed: args.seed,
         protocol: args.protocol,
-        mode: if args.transparent {
-            TraceMode::Transparent
-        } else {
-            TraceMode::Opaque
-        },
+        mode,
     };
     let on_gpu = match args.backend {
         BackendChoice::Cpu => None,

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameRequest};
 use skeletrace_core::frame::{FieldShading, Frame, StepScale, View as FrameView};
-use skeletrace_core::methods::{MethodId, TraceSettings};
+use skeletrace_core::methods::{MethodId, TraceMode, TraceSettings};
 use skeletrace_core::{Scene, compile};
 
 use crate::cli::{RenderArgs, Scale, View};
@@ -50,7 +50,7 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
         .as_deref()
         .or(args.method.as_deref())
         .unwrap_or(DEFAULT_METHOD.name());
-    let methods = crate::chosen_methods(list, &compiled.program)?;
+    let methods = crate::chosen_methods(list, &compiled.program, TraceMode::Opaque)?;
     if methods.is_empty() {
         return Err(format!("no method of '{list}' applies to this scene"));
     }

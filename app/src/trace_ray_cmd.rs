@@ -5,7 +5,7 @@
 
 use skeletrace::ray_probe::RayProbe;
 use skeletrace_core::json::{self, number};
-use skeletrace_core::methods::{MethodId, Trace};
+use skeletrace_core::methods::{MethodId, Trace, TraceMode};
 use skeletrace_core::{Scene, compile};
 
 use crate::cli::TraceRayArgs;
@@ -17,7 +17,7 @@ pub fn run(args: &TraceRayArgs, scene: &Scene) -> Result<(), String> {
     let (x, y) = parse_pixel(&args.pixel, width, height)?;
     let compiled = compile(scene);
     let program = &compiled.program;
-    let methods = crate::chosen_methods(&args.methods, program)?;
+    let methods = crate::chosen_methods(&args.methods, program, TraceMode::Opaque)?;
     let probe = RayProbe::new(&compiled, &scene.camera, (x, y), (width, height), &methods);
     let (ray, span, traces) = (probe.ray, probe.span, &probe.traces);
     if args.json {

@@ -294,6 +294,40 @@ fn stats_runs_each_protocol_opaque_and_transparent() {
     assert!(text(&bad.stderr).contains("unknown protocol 'paper-1999'"));
 }
 
+/// Field inversion steps towards a ray's first entry and stops there: `stats --transparent`
+/// leaves it out with its reason instead of counting every exit it never looks for as missed,
+/// and naming it is one clear error. Opaque rays still run it.
+#[test]
+fn stats_leaves_first_crossing_methods_out_of_transparent_rays() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/molecule.ron");
+    let scene = scene.to_str().unwrap_or_default();
+    let stats = |extra: &[&str]| {
+        let mut args = vec!["stats", scene, "--rays", "6", "--json"];
+        args.extend_from_slice(extra);
+        skeletrace(&args)
+    };
+    let opaque = stats(&["--methods", "field-inversion,quadratic-taylor"]);
+    assert!(opaque.status.success(), "{}", text(&opaque.stderr));
+    assert!(text(&opaque.stdout).contains("\"name\": \"field-inversion\""));
+    let all = stats(&["--methods", "all", "--transparent"]);
+    assert!(all.status.success(), "{}", text(&all.stderr));
+    let (out, err) = (text(&all.stdout), text(&all.stderr));
+    assert!(!out.contains("\"name\": \"field-inversion\""), "{out}");
+    assert!(out.contains("\"name\": \"quadratic-taylor\""), "{out}");
+    assert!(
+        err.contains("skipping field-inversion: field inversion finds the first crossing only"),
+        "{err}"
+    );
+    let named = stats(&["--methods", "field-inversion", "--transparent"]);
+    assert!(!named.status.success());
+    let err = text(&named.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("method 'field-inversion' cannot trace transparent rays"),
+        "{err}"
+    );
+}
+
 #[test]
 fn render_compare_and_stats_json_work_on_every_asset() {
     let dir = temp_dir("compare");

@@ -82,6 +82,16 @@ impl Method for FieldInversion {
         gaussian_blobs(program).map(|_| ())
     }
 
+    fn traces(&self, mode: TraceMode) -> Result<(), String> {
+        match mode {
+            TraceMode::Opaque => Ok(()),
+            TraceMode::Transparent => Err(
+                "field inversion finds the first crossing only (Bruckner 2019 steps towards entries, never exits)"
+                    .to_owned(),
+            ),
+        }
+    }
+
     fn scene_inputs(&self, program: &FieldProgram) -> Vec<f64> {
         let (sigma, radius, norm) = gaussian_blobs(program).unwrap_or((1.0, 1.0, 1.0));
         vec![sigma, radius, norm]

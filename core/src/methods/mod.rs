@@ -202,6 +202,16 @@ pub trait Method: Sync {
         Ok(())
     }
 
+    /// `Err` with a reason when the method cannot trace rays in `mode`: every method finds a
+    /// ray's first crossing (opaque rays); one that stops there cannot trace transparent rays.
+    ///
+    /// # Errors
+    /// A message saying what the method finds instead.
+    fn traces(&self, mode: TraceMode) -> Result<(), String> {
+        let _ = mode;
+        Ok(())
+    }
+
     /// What a ray's trace takes from the scene beyond the primitives among its candidates,
     /// the program's globals (isovalue, kernels, blend, groups, bounds) and the settings (none
     /// for a method whose march is the ray's own). The CPU backend traces again only the
