@@ -25,6 +25,10 @@ use skeletrace_core::{FieldProgram, Scene};
 /// Newton steps that move a surface-nets vertex onto the surface.
 const NEWTON_STEPS: usize = 8;
 
+/// Grid cells along the longest side that [`extract`] accepts: coarser grids lose whole
+/// primitives; past 1 024 the grid's samples (a billion) take minutes and gigabytes.
+pub const RESOLUTIONS: std::ops::RangeInclusive<usize> = 8..=1024;
+
 /// The distance estimate `|f − c| / |∇f|` every exported vertex satisfies, as a fraction of
 /// the support's diagonal (vertices that cannot reach it stay where surface nets put them
 /// and are counted in [`Extracted::off_surface`]).
@@ -54,7 +58,7 @@ pub struct Extracted {
 /// gets the fraction of the field sampled so far.
 ///
 /// # Errors
-/// A field without bounded primitives cannot be meshed.
+/// A field without bounded primitives cannot be meshed; a resolution outside [`RESOLUTIONS`].
 pub fn extract(
     scene: &Scene,
     resolution: usize,
@@ -67,7 +71,13 @@ pub fn extract(
     if extent.max_element().is_nan() || extent.max_element() <= 0.0 {
         return Err("the field has no bounded primitive: nothing to mesh".into());
     }
-    let resolution = resolution.clamp(8, 1024);
+    if !RESOLUTIONS.contains(&resolution) {
+        return Err(format!(
+            "a resolution of {resolution} cells is outside {} to {}",
+            RESOLUTIONS.start(),
+            RESOLUTIONS.end()
+        ));
+    }
     let cell = extent.max_element() / resolution as f64;
     // One padding cell on each side, so the surface never touches the grid's border.
     let origin = lo - DVec3::splat(cell);

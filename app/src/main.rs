@@ -201,6 +201,27 @@ fn gpu_methods(
     Ok(out)
 }
 
+/// Most rays `stats` traces per method on the CPU, which keeps every ray's outcome until the
+/// method's tally (about 200 bytes a ray: 2 GB here), and on the GPU, which keeps every ray's
+/// step count (4 bytes). The papers trace 10⁷.
+const MAX_STATS_RAYS: (usize, usize) = (10_000_000, 100_000_000);
+
+/// `Err` when `stats --rays` is below one ray per axis direction or past [`MAX_STATS_RAYS`].
+fn check_stats_rays(rays: usize, on_gpu: bool) -> Result<(), String> {
+    let (most, backend) = if on_gpu {
+        (MAX_STATS_RAYS.1, "GPU")
+    } else {
+        (MAX_STATS_RAYS.0, "CPU")
+    };
+    if (6..=most).contains(&rays) {
+        Ok(())
+    } else {
+        Err(format!(
+            "--rays {rays}: expected from 6 (one per axis direction) to {most} on the {backend}"
+        ))
+    }
+}
+
 fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let scene = load(Some(&args.scene))?;
     let compiled = std::sync::Arc::new(skeletrace_core::compile(&scene));
@@ -222,7 +243,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     };
     let name = args.scene.display().to_string();
     let setup = stats::StatsSetup {
-        rays: args.rays.max(6),
+        rays: args.rays,
         seed: args.seed,
         protocol: args.protocol,
         mode,
@@ -234,6 +255,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
             .ok()
             .filter(|g| g.device_kind() == DeviceKind::HardwareGpu),
     };
+    check_stats_rays(args.rays, on_gpu.is_some())?;
     let stats = match on_gpu {
         None => stats::run(program, &name, &chosen, setup, &progress),
         Some(mut gpu) => {

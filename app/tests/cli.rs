@@ -294,6 +294,73 @@ fn stats_runs_each_protocol_opaque_and_transparent() {
     assert!(text(&bad.stderr).contains("unknown protocol 'paper-1999'"));
 }
 
+/// Requests too small to mean anything or too large to finish (rays, mesh cells, generated
+/// scenes) are refused in one line that says the range, instead of being clamped in silence
+/// or running out of memory.
+#[test]
+fn out_of_range_requests_get_one_line_with_the_range() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
+    let scene = scene.to_str().unwrap_or_default();
+    let dir = temp_dir("ranges");
+    let mesh = dir.join("mesh.glb");
+    let mesh = mesh.to_str().unwrap_or_default();
+    let one_line_error = |args: &[&str], expected: &str| {
+        let o = skeletrace(args);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        let err = text(&o.stderr);
+        assert!(
+            err.contains(expected),
+            "{args:?}: {err:?} lacks {expected:?}"
+        );
+        err
+    };
+    for rays in ["0", "5", "10000001", "18446744073709551615"] {
+        let err = one_line_error(
+            &["stats", scene, "--methods", "segment", "--rays", rays],
+            "expected from 6 (one per axis direction) to 10000000 on the CPU",
+        );
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+    for cells in ["0", "7", "1025"] {
+        one_line_error(
+            &["export", scene, "-o", mesh, "--resolution", cells],
+            "expected a number of grid cells from 8 to 1024",
+        );
+    }
+    assert!(!Path::new(mesh).exists());
+    // The estimate's size in MB, not a saturated product.
+    let tree = dir.join("tree.ron");
+    let err = one_line_error(
+        &[
+            "generate",
+            "tree",
+            "--size",
+            "40",
+            "--output",
+            tree.to_str().unwrap_or_default(),
+        ],
+        "primitives (about ",
+    );
+    let number_before = |tail: &str| -> f64 {
+        let head = &err[..err.find(tail).unwrap_or(0)];
+        let digits: String = head
+            .chars()
+            .rev()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        digits
+            .chars()
+            .rev()
+            .collect::<String>()
+            .parse()
+            .unwrap_or(f64::NAN)
+    };
+    let (primitives, megabytes) = (number_before(" primitives"), number_before(" MB"));
+    let per_primitive = megabytes * 1e6 / primitives;
+    assert!((399.0..401.0).contains(&per_primitive), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Field inversion steps towards a ray's first entry and stops there: `stats --transparent`
 /// leaves it out with its reason instead of counting every exit it never looks for as missed,
 /// and naming it is one clear error. Opaque rays still run it.

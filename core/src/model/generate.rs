@@ -148,10 +148,10 @@ pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Result<Scene,
     if estimate > MAX_PRIMITIVES && !options.allow_large {
         let size = options.size.unwrap_or_else(|| default_size(kind));
         return Err(format!(
-            "{} of size {size} would build up to {estimate} primitives (about {} MB), over the \
+            "{} of size {size} would build up to {estimate} primitives (about {:.0} MB), over the \
              limit of {MAX_PRIMITIVES}; choose a smaller --size or pass --allow-large",
             kind.name(),
-            estimate.saturating_mul(BYTES_PER_PRIMITIVE) / 1_000_000
+            estimate as f64 * BYTES_PER_PRIMITIVE as f64 / 1e6
         ));
     }
     Ok(build(kind, options))
