@@ -137,6 +137,17 @@ const BROKEN: &[(&str, &str, usize, &[&str])] = &[
         14,
         &["arm", "zero-length"],
     ),
+    (
+        "edges: [(0, 1)]",
+        "edges: [(0, 1), (1, 0)]",
+        14,
+        &[
+            "arm",
+            "edge 1 (1, 0)",
+            "repeats edge 0 (0, 1)",
+            "count twice",
+        ],
+    ),
     ("scale: 2.0", "scale: 1.0", 5, &["σ = 1", "> 1"]),
     ("degree: 6", "degree: 5", 5, &["degree 5", "even"]),
     (

@@ -388,10 +388,20 @@ impl TryFrom<SkeletonFile> for Skeleton {
 }
 
 impl Skeleton {
-    /// Edge indices in range, no zero-length segment.
+    /// Edge indices in range, no zero-length segment, no edge joining two vertices already
+    /// joined (its segment would count twice in the field: the editor refuses it too).
     fn check_edges(&self) -> Result<(), String> {
         let n = self.vertices.len();
+        let mut joined = std::collections::HashMap::with_capacity(self.edges.len());
         for (i, &[a, b]) in self.edges.iter().enumerate() {
+            if let Some(first) = joined.insert((a.min(b), a.max(b)), i) {
+                let [fa, fb] = self.edges[first];
+                return Err(format!(
+                    "skeleton '{}', edge {i} ({a}, {b}): repeats edge {first} ({fa}, {fb}): two \
+                     segments between the same vertices count twice in the field",
+                    self.name
+                ));
+            }
             for v in [a, b] {
                 if v as usize >= n {
                     return Err(format!(
