@@ -790,13 +790,19 @@ fn value_difference(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
 }
 
 // The Ricci blend R = (Σ max(fᵢ, 0)^p)^(1/p) with ∇R = Σ (fᵢ/R)^(p−1) ∇fᵢ over the positive
-// operands: the terms of the sum, its root (0 when nothing is positive), the gradient's terms.
-fn ricci_power(f: vec4<f32>, p: f32) -> f32 {
-    return select(0.0, pow(f.x, p), f.x > 0.0);
+// operands: the largest operand value m, the terms (fᵢ/m)^p of the sum, its root m·(Σ)^(1/p)
+// (0 when nothing is positive), the gradient's terms. Relative to m the powers neither overflow
+// nor underflow f32 (with a plain sum, 0.01^32 is 0 and 16^32 infinite: blend.rs p_norm).
+fn ricci_scale(largest: f32, f: vec4<f32>) -> f32 {
+    return max(largest, f.x);
 }
 
-fn ricci_root(sum: f32, p: f32) -> f32 {
-    return select(0.0, pow(sum, 1.0 / p), sum > 0.0);
+fn ricci_power(f: vec4<f32>, scale: f32, p: f32) -> f32 {
+    return select(0.0, pow(f.x / scale, p), f.x > 0.0);
+}
+
+fn ricci_root(sum: f32, scale: f32, p: f32) -> f32 {
+    return select(0.0, scale * pow(sum, 1.0 / p), sum > 0.0);
 }
 
 fn ricci_slope(f: vec4<f32>, root: f32, p: f32) -> vec3<f32> {

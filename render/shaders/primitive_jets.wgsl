@@ -445,13 +445,33 @@ fn ricci_part(f: Jet) -> Jet {
     return Jet(vec2<f32>(0.0, f.value.y), hull_with(f.d1, 0.0), hull_with(f.d2, 0.0));
 }
 
-fn ricci_ends_add(acc: RicciEnds, f: Jet, p: f32) -> RicciEnds {
+// A p-norm's terms relative to its largest term `scale` and its root, so that p-th powers of
+// values far from 1 neither overflow nor underflow f32 (blend.rs p_norm): a term is 0 where
+// every term is 0, the root infinite where a term is.
+fn p_norm_term(x: f32, scale: f32, p: f32) -> f32 {
+    return select(0.0, pow_end(x / scale, p), scale > 0.0 && scale < INF);
+}
+
+fn p_norm_root(sum: f32, scale: f32, p: f32) -> f32 {
+    if scale >= INF {
+        return INF;
+    }
+    return mul_ends(scale, pow_end(sum, 1.0 / p));
+}
+
+// The largest ends of the clamped values gᵢ, the scales of the two p-norms below.
+fn ricci_scale_add(scale: vec2<f32>, f: Jet) -> vec2<f32> {
+    return max(scale, vec2<f32>(max(f.value.x, 0.0), f.value.y));
+}
+
+fn ricci_ends_add(acc: RicciEnds, f: Jet, p: f32, scale: vec2<f32>) -> RicciEnds {
     if f.value.y <= 0.0 {
         return acc;
     }
     let g = ricci_part(f);
     return RicciEnds(acc.positive + 1u, f, jet_add(acc.sum, jet_max(f, jet_constant(0.0))),
-                     acc.lo + pow_end(g.value.x, p), acc.hi + pow_end(g.value.y, p));
+                     acc.lo + p_norm_term(g.value.x, scale.x, p),
+                     acc.hi + p_norm_term(g.value.y, scale.y, p));
 }
 
 // The second pass: the blend's value range, the weights uᵢ^(p−1) on the operands' slopes and
@@ -463,8 +483,9 @@ struct RicciWeights {
     curvature: f32,
 };
 
-fn ricci_weights_start(ends: RicciEnds, p: f32) -> RicciWeights {
-    return RicciWeights(vec2<f32>(pow_end(ends.lo, 1.0 / p), pow_end(ends.hi, 1.0 / p)),
+fn ricci_weights_start(ends: RicciEnds, p: f32, scale: vec2<f32>) -> RicciWeights {
+    return RicciWeights(vec2<f32>(p_norm_root(ends.lo, scale.x, p),
+                                  p_norm_root(ends.hi, scale.y, p)),
                         vec2<f32>(0.0), vec2<f32>(0.0), 0.0);
 }
 

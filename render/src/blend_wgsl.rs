@@ -166,7 +166,7 @@ fn fold_names(
 }
 
 /// How the value and the jet programs write a node: the two have one shape, each operator a
-/// helper of its own, and their own two-pass Ricci rule.
+/// helper of its own, and their own Ricci rule in passes over the operands.
 struct Vocabulary {
     /// The node function itself, for the operands.
     node: Node,
@@ -195,12 +195,16 @@ const VALUES: Vocabulary = Vocabulary {
     smooth_max: |a, b, w| format!("smooth_max({a}, {b}, {w})"),
     smooth_min: |a, b, w| format!("-smooth_max(-{a}, -{b}, {w})"),
     ricci: |names, p, body| {
-        // Σ max(fᵢ, 0)^p, its root R, then Σ (fᵢ/R)^(p−1) ∇fᵢ.
+        // The largest fᵢ, m; Σ max(fᵢ/m, 0)^p, its root R, then Σ (fᵢ/R)^(p−1) ∇fᵢ.
+        let mut scale = "0.0".to_owned();
+        for n in names {
+            scale = body.bind(&format!("ricci_scale({scale}, {n})"));
+        }
         let mut sum = "0.0".to_owned();
         for n in names {
-            sum = body.bind(&format!("{sum} + ricci_power({n}, {p})"));
+            sum = body.bind(&format!("{sum} + ricci_power({n}, {scale}, {p})"));
         }
-        let root = body.bind(&format!("ricci_root({sum}, {p})"));
+        let root = body.bind(&format!("ricci_root({sum}, {scale}, {p})"));
         let mut gradient = "vec3<f32>(0.0)".to_owned();
         for n in names {
             gradient = body.bind(&format!("{gradient} + ricci_slope({n}, {root}, {p})"));
@@ -220,12 +224,17 @@ const JETS: Vocabulary = Vocabulary {
     smooth_max: |a, b, w| format!("jet_smooth_max({a}, {b}, {w})"),
     smooth_min: |a, b, w| format!("jet_neg(jet_smooth_max(jet_neg({a}), jet_neg({b}), {w}))"),
     ricci: |names, p, body| {
-        // Two passes (blend.rs ricci_jet): the operands' value ends, then their weights.
+        // Three passes (blend.rs ricci_jet): the largest value ends, the operands' value ends
+        // relative to them, then their weights.
+        let mut scale = "vec2<f32>(0.0)".to_owned();
+        for n in names {
+            scale = body.bind(&format!("ricci_scale_add({scale}, {n})"));
+        }
         let mut ends = "ricci_ends_start()".to_owned();
         for n in names {
-            ends = body.bind(&format!("ricci_ends_add({ends}, {n}, {p})"));
+            ends = body.bind(&format!("ricci_ends_add({ends}, {n}, {p}, {scale})"));
         }
-        let mut weights = body.bind(&format!("ricci_weights_start({ends}, {p})"));
+        let mut weights = body.bind(&format!("ricci_weights_start({ends}, {p}, {scale})"));
         for n in names {
             weights = body.bind(&format!("ricci_weights_add({weights}, {n}, {p})"));
         }
@@ -283,12 +292,17 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
             format!("{a} + {b}")
         }),
         Operator::Ricci(p, v) => {
-            // The p-norm of the operands' bounds (Hölder).
+            // The p-norm of the operands' bounds (Hölder), relative to the largest.
             let p = float(p);
-            let sum = fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
-                format!("{a} + pow_end({b}, {p})")
+            let names: Vec<String> = v.iter().map(|c| lipschitz_node(c, body)).collect();
+            let mut scale = "0.0".to_owned();
+            for n in &names {
+                scale = body.bind(&max(&scale, n));
+            }
+            let sum = fold_names(names, body, Some("0.0"), |a, b| {
+                format!("{a} + p_norm_term({b}, {scale}, {p})")
             });
-            sum.map(|s| body.bind(&format!("pow_end({s}, 1.0 / {p})")))
+            sum.map(|s| body.bind(&format!("p_norm_root({s}, {scale}, {p})")))
         }
         Operator::Difference(a, b) => {
             let names = vec![lipschitz_node(a, body), lipschitz_node(b, body)];
@@ -389,13 +403,15 @@ mod tests {
     let n1 = values[1];
     let n2 = value_difference(n0, n1);
     let n3 = values[2];
-    let n4 = 0.0 + ricci_power(n2, 4.0);
-    let n5 = n4 + ricci_power(n3, 4.0);
-    let n6 = ricci_root(n5, 4.0);
-    let n7 = vec3<f32>(0.0) + ricci_slope(n2, n6, 4.0);
-    let n8 = n7 + ricci_slope(n3, n6, 4.0);
-    let n9 = vec4<f32>(n6, n8);
-    return n9;
+    let n4 = ricci_scale(0.0, n2);
+    let n5 = ricci_scale(n4, n3);
+    let n6 = 0.0 + ricci_power(n2, n5, 4.0);
+    let n7 = n6 + ricci_power(n3, n5, 4.0);
+    let n8 = ricci_root(n7, n5, 4.0);
+    let n9 = vec3<f32>(0.0) + ricci_slope(n2, n8, 4.0);
+    let n10 = n9 + ricci_slope(n3, n8, 4.0);
+    let n11 = vec4<f32>(n8, n10);
+    return n11;
 }
 "
         );

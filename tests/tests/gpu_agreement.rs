@@ -619,6 +619,45 @@ fn blend_trees_match_the_cpu_tracer() {
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
 
+/// The operators asset's Ricci blend at exponents whose p-th powers leave f32's range: p = 32 at
+/// isovalue 0.05 (the fields scale with the isovalue, so the operands near the surface are about
+/// 0.05 and 0.05³² underflows: the blend was 0 there and the surface gone) and p = 200 (the
+/// Lipschitz bounds' 200th powers overflow: segment tracing stepped by 0). The shaders take the
+/// p-norms relative to their largest term as the CPU does (`blend.rs` `p_norm`), in the values,
+/// the jets and the Lipschitz bound: sphere, segment and quadratic Taylor tracing.
+#[test]
+fn ricci_blends_past_f32_powers_match_the_cpu_tracer() {
+    let Some(mut gpu) = gpu_or_skip("ricci_blends_past_f32_powers_match_the_cpu_tracer") else {
+        return;
+    };
+    let methods = [
+        GpuMethod::Sphere,
+        GpuMethod::Segment,
+        GpuMethod::QuadraticTaylor,
+    ];
+    let mut failures = Vec::new();
+    for (p, isovalue) in [(32.0, 0.05), (200.0, 1.0)] {
+        let mut scene = load("operators");
+        let Some(Blend::Ricci { of, .. }) = scene.blend.take() else {
+            panic!("the operators asset is a Ricci blend");
+        };
+        scene.blend = Some(Blend::Ricci { p, of });
+        scene.isovalue = isovalue;
+        let label = format!("operators, Ricci p = {p}, isovalue {isovalue}");
+        let hits = check_methods_agreement(
+            &mut gpu,
+            &label,
+            &scene,
+            &[scene.camera],
+            &methods,
+            &mut failures,
+        );
+        eprintln!("{label}: {hits} pixels hit");
+        assert!(hits > 100, "{label}: {hits} pixels hit");
+    }
+    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
 /// Scenes of more groups than the eight slots the shaders held before: each scene's shaders
 /// hold one per group (`GROUPS`, emitted with the blend tree), so the max of twelve and of
 /// forty sums of blobs agrees with the CPU, in the methods that blend values, jets and the

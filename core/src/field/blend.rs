@@ -131,8 +131,7 @@ impl BlendOperand for f64 {
         self.max(0.0)
     }
     fn ricci(parts: &[Self], p: f64) -> Self {
-        let s: f64 = parts.iter().map(|f| f.powf(p)).sum();
-        if s <= 0.0 { 0.0 } else { s.powf(1.0 / p) }
+        p_norm(parts.iter().copied(), p)
     }
     fn smooth_max(self, o: Self, width: f64) -> Self {
         smooth_max_value(self, o, width).1
@@ -160,11 +159,10 @@ impl BlendOperand for (f64, DVec3) {
         )
     }
     fn ricci(parts: &[Self], p: f64) -> Self {
-        let s: f64 = parts.iter().map(|(f, _)| f.powf(p)).sum();
-        if s <= 0.0 {
+        let value = p_norm(parts.iter().map(|&(f, _)| f), p);
+        if value <= 0.0 {
             return Self::ZERO;
         }
-        let value = s.powf(1.0 / p);
         let grad = parts.iter().fold(DVec3::ZERO, |acc, (f, g)| {
             acc + (f / value).powf(p - 1.0) * *g
         });
@@ -173,6 +171,29 @@ impl BlendOperand for (f64, DVec3) {
     fn smooth_max(self, o: Self, width: f64) -> Self {
         smooth_max(self, o, width)
     }
+}
+
+/// `(Σ xᵢ^p)^(1/p)` of non-negative terms (0 when every term is 0), the Ricci blend's p-norm.
+/// Where the plain sum of powers is a finite normal number, its root (moderate `p`, terms not far
+/// from 1: every scene the fingerprints hold). Where it overflows, or underflows to a subnormal
+/// or to 0 with a term positive (a large `p`, or terms far from 1 such as those near a small
+/// isovalue), the terms are scaled by the largest first, `m·(Σ (xᵢ/m)^p)^(1/p)`, whose sum lies
+/// in `[1, n]`: with `p = 1000` the plain sum made the field 0 or infinite wherever an operand
+/// was below or above 1, and the reference tracer took millions of steps.
+pub(crate) fn p_norm(terms: impl Iterator<Item = f64> + Clone, p: f64) -> f64 {
+    let plain: f64 = terms.clone().map(|x| x.powf(p)).sum();
+    if plain.is_finite() && plain >= f64::MIN_POSITIVE {
+        return plain.powf(1.0 / p);
+    }
+    let largest = terms.clone().fold(0.0, f64::max);
+    if largest <= 0.0 || largest.is_infinite() {
+        return largest.max(0.0);
+    }
+    largest
+        * terms
+            .map(|x| (x / largest).powf(p))
+            .sum::<f64>()
+            .powf(1.0 / p)
 }
 
 /// Value and gradient of `b` from the groups' values and gradients.
@@ -357,8 +378,7 @@ pub fn lipschitz(b: &BlendTree, groups: &[f64]) -> f64 {
         BlendTree::Sum(v) => v.iter().map(|c| lipschitz(c, groups)).sum(),
         BlendTree::Ricci { p, of } => {
             // |R′| = |Σ uᵢ^(p−1) gᵢ′| ≤ ‖(Lᵢ)‖_p by Hölder, since Σ (uᵢ^(p−1))^(p/(p−1)) = 1.
-            let sum: f64 = of.iter().map(|c| lipschitz(c, groups).powf(*p)).sum();
-            sum.powf(1.0 / p)
+            p_norm(of.iter().map(|c| lipschitz(c, groups)), *p)
         }
         BlendTree::Max(v)
         | BlendTree::Min(v)
@@ -433,13 +453,7 @@ pub fn ricci_jet(p: f64, operands: &[Jet]) -> Jet {
 
 /// [`ricci_jet`] of several clamped parts `gᵢ`, `p > 1`.
 fn ricci_of_parts(p: f64, parts: &[Jet]) -> Jet {
-    let norm = |end: fn(&Interval) -> f64| {
-        parts
-            .iter()
-            .map(|g| end(&g.value).powf(p))
-            .sum::<f64>()
-            .powf(1.0 / p)
-    };
+    let norm = |end: fn(&Interval) -> f64| p_norm(parts.iter().map(|g| end(&g.value)), p);
     let value = Interval {
         lo: norm(|v| v.lo),
         hi: norm(|v| v.hi),
@@ -493,6 +507,35 @@ mod tests {
             d1: Interval::new(d1.0, d1.1),
             d2: Interval::new(d2.0, d2.1),
         }
+    }
+
+    /// The p-norm keeps the plain sum's bits where it is a normal number and, scaled, stays
+    /// between the largest term and `n^(1/p)` times it for any exponent and scale.
+    #[test]
+    fn p_norms_neither_overflow_nor_underflow() {
+        let terms = [0.3, 1.7, 0.9];
+        for p in [1.0, 1.5, 4.0, 32.0] {
+            let plain: f64 = terms
+                .iter()
+                .map(|x: &f64| x.powf(p))
+                .sum::<f64>()
+                .powf(1.0 / p);
+            assert_eq!(p_norm(terms.iter().copied(), p).to_bits(), plain.to_bits());
+        }
+        for p in [4.0, 300.0, 1e4, 1e12] {
+            for scale in [1e-300, 1e-3, 1.0, 1e3, 1e300] {
+                let scaled = terms.map(|x| x * scale);
+                let norm = p_norm(scaled.iter().copied(), p);
+                let largest = 1.7 * scale;
+                assert!(
+                    norm >= largest * (1.0 - 1e-15)
+                        && norm <= largest * 3f64.powf(1.0 / p) * (1.0 + 1e-15),
+                    "p = {p}, scale {scale}: {norm} for the largest term {largest}"
+                );
+            }
+        }
+        assert_eq!(p_norm([0.0, 0.0].into_iter(), 1e4), 0.0);
+        assert_eq!(p_norm([2.0, f64::INFINITY].into_iter(), 8.0), f64::INFINITY);
     }
 
     #[test]
