@@ -335,7 +335,7 @@ mod tests {
             let options = GenerateOptions {
                 seed: s as u64,
                 size: Some(size),
-                groups: Some(2),
+                groups: (kind == GeneratorKind::Blobs).then_some(2),
                 ..GenerateOptions::default()
             };
             let start = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));

@@ -144,6 +144,7 @@ pub fn default_size(kind: GeneratorKind) -> usize {
 /// One line with the estimate and the limit when [`estimated_primitives`] exceeds
 /// [`MAX_PRIMITIVES`] and `options.allow_large` is not set; nothing is built then.
 pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Result<Scene, String> {
+    check_options(kind, options)?;
     let estimate = estimated_primitives(kind, options);
     if estimate > MAX_PRIMITIVES && !options.allow_large {
         let size = options.size.unwrap_or_else(|| default_size(kind));
@@ -155,6 +156,43 @@ pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Result<Scene,
         ));
     }
     Ok(build(kind, options))
+}
+
+/// `Err` naming the option where `options` asks for what `kind` does not build: a size of 0
+/// (a foam of no cell was an empty scene), blob groups beyond the blobs (empty groups) or for
+/// another kind, varying radii where every radius is the generator's own, distance fields
+/// where there is no skeleton. Before, each was ignored or clamped in silence.
+fn check_options(kind: GeneratorKind, options: &GenerateOptions) -> Result<(), String> {
+    if options.size == Some(0) {
+        return Err(format!("{}: --size 0: expected at least 1", kind.name()));
+    }
+    let size = options.size.unwrap_or_else(|| default_size(kind));
+    match (kind, options.groups) {
+        (GeneratorKind::Blobs, Some(groups)) if groups == 0 || groups > size => {
+            return Err(format!(
+                "blobs: --groups {groups}: expected 1 to {size}, the number of blobs (each group \
+                 holds at least one)"
+            ));
+        }
+        (GeneratorKind::Blobs, _) | (_, None) => {}
+        (_, Some(_)) => return Err(format!("{}: --groups applies to blobs only", kind.name())),
+    }
+    if options.varying_radii && !matches!(kind, GeneratorKind::RandomSkeleton | GeneratorKind::Foam)
+    {
+        return Err(format!(
+            "{}: --radii varying applies to random-skeleton and foam only",
+            kind.name()
+        ));
+    }
+    if options.field == Some(SkeletonField::Distance)
+        && matches!(kind, GeneratorKind::Blobs | GeneratorKind::Molecule)
+    {
+        return Err(format!(
+            "{}: --field distance applies to skeletons (tree, random-skeleton, foam, truss)",
+            kind.name()
+        ));
+    }
+    Ok(())
 }
 
 fn build(kind: GeneratorKind, options: &GenerateOptions) -> Scene {
@@ -202,7 +240,7 @@ fn build(kind: GeneratorKind, options: &GenerateOptions) -> Scene {
             )],
             None,
         ),
-        GeneratorKind::Blobs => blobs(&mut rng, size, options.groups.unwrap_or(4).max(1)),
+        GeneratorKind::Blobs => blobs(&mut rng, size, options.groups.unwrap_or(4).min(size)),
         GeneratorKind::Molecule => (vec![molecule(&mut rng, size)], None),
     };
     Scene {
@@ -773,6 +811,96 @@ fn molecule(rng: &mut SplitMix64, atoms: usize) -> Group {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each option a kind does not use, and sizes and group counts that would build empty
+    /// scenes or groups, are refused naming the option; the defaults always build.
+    #[test]
+    fn options_a_kind_does_not_use_are_refused() {
+        let refused = |kind: GeneratorKind, options: GenerateOptions, expected: &str| {
+            let err = generate(kind, &options).err().unwrap_or_default();
+            assert!(
+                err.contains(expected),
+                "{kind:?} {options:?}: {err:?} lacks {expected:?}"
+            );
+        };
+        let none = GenerateOptions::default();
+        for (kind, _) in GeneratorKind::ALL {
+            refused(
+                kind,
+                GenerateOptions {
+                    size: Some(0),
+                    ..none
+                },
+                "--size 0",
+            );
+            if kind != GeneratorKind::Blobs {
+                refused(
+                    kind,
+                    GenerateOptions {
+                        groups: Some(2),
+                        ..none
+                    },
+                    "--groups applies",
+                );
+            }
+        }
+        let blobs = GenerateOptions {
+            size: Some(5),
+            ..none
+        };
+        refused(
+            GeneratorKind::Blobs,
+            GenerateOptions {
+                groups: Some(0),
+                ..blobs
+            },
+            "1 to 5",
+        );
+        refused(
+            GeneratorKind::Blobs,
+            GenerateOptions {
+                groups: Some(6),
+                ..blobs
+            },
+            "1 to 5",
+        );
+        let built = generate(
+            GeneratorKind::Blobs,
+            &GenerateOptions {
+                groups: Some(5),
+                ..blobs
+            },
+        );
+        assert!(built.is_ok_and(|s| s.groups.iter().all(|g| g.blobs.len() == 1)));
+        let few = generate(
+            GeneratorKind::Blobs,
+            &GenerateOptions {
+                size: Some(2),
+                ..none
+            },
+        );
+        assert!(
+            few.is_ok_and(|s| s.groups.len() == 2),
+            "4 groups by default, at most one per blob"
+        );
+        let varying = GenerateOptions {
+            varying_radii: true,
+            ..none
+        };
+        refused(GeneratorKind::Tree, varying, "--radii varying applies");
+        refused(GeneratorKind::Truss, varying, "--radii varying applies");
+        let distance = GenerateOptions {
+            field: Some(SkeletonField::Distance),
+            ..none
+        };
+        refused(
+            GeneratorKind::Molecule,
+            distance,
+            "--field distance applies",
+        );
+        refused(GeneratorKind::Blobs, distance, "--field distance applies");
+        assert!(generate(GeneratorKind::Truss, &distance).is_ok());
+    }
 
     #[test]
     fn generators_are_deterministic_and_produce_valid_scenes() {
