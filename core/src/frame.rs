@@ -234,14 +234,15 @@ pub struct PinholeCamera {
 }
 
 impl PinholeCamera {
-    /// The scene camera.
+    /// The scene camera. A target on the eye looks along −z; an up along the view direction
+    /// gives way to any direction across it, so that the axes stay orthonormal.
     #[must_use]
     pub fn new(camera: &Camera) -> Self {
         let origin = DVec3::from_array(camera.position);
         let forward = (DVec3::from_array(camera.target) - origin).normalize_or(DVec3::NEG_Z);
         let right = forward
             .cross(DVec3::from_array(camera.up))
-            .normalize_or(DVec3::X);
+            .normalize_or(forward.any_orthonormal_vector());
         Self {
             origin,
             forward,
@@ -395,6 +396,32 @@ pub fn heat_colour(x: f64) -> [f32; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Cameras whose up lies along the view (here along x, where the old fallback right axis
+    /// was the view itself and every pixel's ray the same) or whose target is the eye.
+    #[test]
+    fn degenerate_cameras_keep_orthonormal_axes() {
+        let looking = |position: [f64; 3], target: [f64; 3], up: [f64; 3]| Camera {
+            position,
+            target,
+            up,
+            ..Camera::default()
+        };
+        for camera in [
+            looking([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+            looking([0.0, 0.0, 0.0], [0.0, -3.0, 0.0], [0.0, 1.0, 0.0]),
+            looking([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [0.0, 1.0, 0.0]),
+            looking([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [0.0, 0.0, 1.0]),
+        ] {
+            let (forward, right, up) = PinholeCamera::new(&camera).axes();
+            for (a, b) in [(forward, right), (right, up), (up, forward)] {
+                assert!(a.dot(b).abs() < 1e-12, "{camera:?}");
+            }
+            for axis in [forward, right, up] {
+                assert!((axis.length() - 1.0).abs() < 1e-12, "{camera:?}");
+            }
+        }
+    }
 
     /// On a 2048-step scale, 5 and 8 steps land in clearly different colours on the log scale
     /// (a tenth of the bar apart) where the linear one squeezes them into its first 0.4 %.
