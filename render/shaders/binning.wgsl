@@ -1,8 +1,9 @@
 // Screen-tile binning of primitive supports (the analogue of the scalis 2021 A-buffer, §7):
 // each primitive's support bounding sphere is projected to a rectangle of tiles; a first pass
 // counts the primitives per tile and stores each rectangle, a one-workgroup pass turns the
-// counts into ranges (exclusive prefix sum) and the total, a last pass writes the primitive
-// indices into the stored rectangles. Nothing is read back in between: the items buffer is as
+// counts into ranges (exclusive prefix sum) and the total, a fourth pass writes the primitive
+// indices into the stored rectangles (less the tiles whose beam misses the support, below) and
+// a last one ends each range where its list's writes stopped. Nothing is read back in between: the items buffer is as
 // large as the host last needed (tile_binning.rs); lists past its end are cut short, and the
 // host, reading the total later, grows it and traces again. Storing them matters: the two entry points are compiled separately and may round
 // the projection differently, and a rectangle one tile larger in the second pass would write
@@ -15,6 +16,26 @@
 // that depth, so a primitive whose support lies wholly beyond it (nearest point of its
 // bounding sphere farther away) cannot change the first crossing and is left out of the tile.
 // The blends for which this holds are decided in buffers.rs (sum, max, smooth union).
+//
+// Beams (the twin of the CPU's tile lists, core bvh.rs `Beam::misses_hull`): the rectangle of a
+// long, thin segment's bounding sphere holds many tiles its support never reaches. With
+// `hulls`, a pair is left out where the support — the hull of two balls, a point blob's ball or
+// a SCALIS segment's end balls — lies beyond one side of the pyramid of the tile's pixel rays
+// (from the eye, through its corner pixels' centres). Such a support meets none of the tile's
+// rays, so no ray's window changes. The count keeps pairs within a wider margin than the fill
+// (COUNT_SLACK > FILL_SLACK, both far above f32 rounding), so that two separately compiled
+// entry points never fill more than they counted; `close_tiles` then ends each range where its
+// fill stopped.
+
+// Margins of the beam test, relative to a ball's distance from the eye plus its radius.
+const FILL_SLACK: f32 = 1e-4;
+const COUNT_SLACK: f32 = 2e-4;
+
+// Twin of core `Primitive::support_hull`: two balls whose convex hull holds the support.
+struct Hull {
+    a: vec4<f32>,
+    b: vec4<f32>,
+};
 
 // Twin of `GpuBinning` (renderer.rs).
 struct Binning {
@@ -35,9 +56,9 @@ struct Binning {
     occluders: u32,            // 1 on, 0 off
     band_near: f32,            // depth bands (tile_binning.rs FrameGeometry): the first ends here,
     band_width: f32,           // the next ones are this deep
+    hulls: u32,                // 1: lists leave out the supports a tile's beam misses
     pad2: u32,
     pad3: u32,
-    pad4: u32,
 };
 
 // Twin of `GpuPrimitive` (only the bounding sphere is read here).
@@ -127,6 +148,66 @@ fn occluder_of(i: u32) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
+// The support's hull (buffers.rs packs the support radius in `c.z`); the bounding sphere for
+// the other kinds.
+fn support_hull(i: u32) -> Hull {
+    let p = primitives[i];
+    if p.kind == KIND_POINT {
+        let ball = vec4<f32>(p.a.xyz, p.a.w * p.c.z);
+        return Hull(ball, ball);
+    } else if p.kind == KIND_SCALIS_SEGMENT {
+        let end = p.a.xyz + p.b.w * p.b.xyz;
+        let end_radius = p.a.w + p.c.y * p.b.w;
+        return Hull(vec4<f32>(p.a.xyz, p.a.w * p.c.z), vec4<f32>(end, end_radius * p.c.z));
+    }
+    return Hull(p.bound, p.bound);
+}
+
+// Image-plane coordinate of a pixel centre's column or row, as prelude.wgsl pixel_ray.
+fn pixel_u(px: u32) -> f32 {
+    return (2.0 * (f32(px) + 0.5) / f32(binning.width) - 1.0) * binning.tan_half_fov * binning.aspect;
+}
+
+fn pixel_v(py: u32) -> f32 {
+    return (1.0 - 2.0 * (f32(py) + 0.5) / f32(binning.height)) * binning.tan_half_fov;
+}
+
+// Whether the ball (in view coordinates: right, up, forward from the eye) is beyond the side
+// plane n·p = 0 of a beam (inside: n·p ≥ 0) by more than `slack` of its distance and size.
+fn ball_beyond(n: vec3<f32>, ball: vec3<f32>, radius: f32, slack: f32) -> bool {
+    let margin = slack * (length(ball) + radius);
+    return dot(n, ball) < -(radius + margin) * length(n);
+}
+
+// Whether `hull` lies beyond one side of the pyramid of `tile`'s pixel rays: the rays through
+// pixel centres (u, v) reach the points (u·z, v·z, z), z ≥ 0, of view space, so the sides are
+// x = u₀z, x = u₁z, y = v₀z and y = v₁z of the corner pixels.
+fn beam_misses_hull(tile: u32, hull: Hull, slack: f32) -> bool {
+    if binning.hulls == 0u || hull.a.w < 0.0 {
+        return false;
+    }
+    let ts = binning.tile_size;
+    let x0 = (tile % binning.tiles_x) * ts;
+    let y0 = (tile / binning.tiles_x) * ts;
+    let x1 = min(x0 + ts, binning.width) - 1u;
+    let y1 = min(y0 + ts, binning.height) - 1u;
+    let view = mat3x3<f32>(binning.right, binning.up, binning.forward);
+    let a = (hull.a.xyz - binning.origin) * view;
+    let b = (hull.b.xyz - binning.origin) * view;
+    let sides = array<vec3<f32>, 4>(
+        vec3<f32>(1.0, 0.0, -pixel_u(x0)),
+        vec3<f32>(-1.0, 0.0, pixel_u(x1)),
+        vec3<f32>(0.0, 1.0, -pixel_v(y1)),
+        vec3<f32>(0.0, -1.0, pixel_v(y0)),
+    );
+    for (var k = 0u; k < 4u; k++) {
+        if ball_beyond(sides[k], a, hull.a.w, slack) && ball_beyond(sides[k], b, hull.b.w, slack) {
+            return true;
+        }
+    }
+    return false;
+}
+
 // Direction of the ray through the centre of pixel (px, py), as prelude.wgsl pixel_ray.
 fn pixel_direction(px: u32, py: u32) -> vec3<f32> {
     let u = (2.0 * (f32(px) + 0.5) / f32(binning.width) - 1.0) * binning.tan_half_fov * binning.aspect;
@@ -199,6 +280,7 @@ var<workgroup> area_ends: array<u32, GROUP>;
 // Per primitive of the group: its occluder ball (occlude pass), its nearest reach (the others).
 var<workgroup> group_balls: array<vec4<f32>, GROUP>;
 var<workgroup> group_reaches: array<f32, GROUP>;
+var<workgroup> group_hulls: array<Hull, GROUP>;
 
 fn rect_area(rect: vec4<i32>) -> u32 {
     if rect.x > rect.z || rect.y > rect.w {
@@ -283,20 +365,23 @@ fn count_tiles(
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
     var reach = 0.0;
+    var hull = Hull(vec4<f32>(0.0, 0.0, 0.0, -1.0), vec4<f32>(0.0, 0.0, 0.0, -1.0));
     if i < binning.primitive_count {
         rect = tile_rect(i);
         reach = nearest_reach(i);
+        hull = support_hull(i);
         if id.y == 0u {
             rects[i] = rect;
             nearest[i] = reach;
         }
     }
     group_reaches[lid] = reach;
+    group_hulls[lid] = hull;
     let total = share_rects(lid, rect);
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
         let reach = group_reaches[p.x];
-        if reach <= occluding_depth(p.y) {
+        if reach <= occluding_depth(p.y) && !beam_misses_hull(p.y, group_hulls[p.x], COUNT_SLACK) {
             atomicAdd(&tile_counts[band_list(p.y, reach)], 1u);
         }
     }
@@ -350,17 +435,20 @@ fn fill_tiles(
     let i = id.x;
     var rect = vec4<i32>(1, 1, 0, 0);
     var reach = 0.0;
+    var hull = Hull(vec4<f32>(0.0, 0.0, 0.0, -1.0), vec4<f32>(0.0, 0.0, 0.0, -1.0));
     if i < binning.primitive_count {
         rect = rects[i];
         reach = nearest[i];
+        hull = support_hull(i);
     }
     group_reaches[lid] = reach;
+    group_hulls[lid] = hull;
     let total = share_rects(lid, rect);
     let first = id.x - lid;
     for (var k = id.y * GROUP + lid; k < total; k += GROUP * slices.y) {
         let p = pair(k);
         let reach = group_reaches[p.x];
-        if reach > occluding_depth(p.y) {
+        if reach > occluding_depth(p.y) || beam_misses_hull(p.y, group_hulls[p.x], FILL_SLACK) {
             continue;
         }
         let list = band_list(p.y, reach);
@@ -370,5 +458,19 @@ fn fill_tiles(
         if at < range.y && at < arrayLength(&tile_items) {
             tile_items[at] = first + p.x;
         }
+    }
+}
+
+// Fifth pass: a list's range ends where its fill's cursor stopped (tile_counts), which the fill
+// left at or before the counted end (its beam test keeps fewer pairs; see the top).
+@compute @workgroup_size(64, 1, 1)
+fn close_tiles(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let lists = binning.tiles_x * binning.tiles_y * DEPTH_BANDS;
+    for (var t = id.x; t < lists; t += 64u * groups.x) {
+        let range = tile_ranges[t];
+        tile_ranges[t] = vec2<u32>(range.x, min(range.x + atomicLoad(&tile_counts[t]), range.y));
     }
 }

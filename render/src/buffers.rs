@@ -39,8 +39,9 @@ pub struct GpuPrimitive {
     /// Segment: unit axis and length; plane: radius in `x`; other shapes: the solid's
     /// dimensions ([`solid_dimensions`]).
     pub b: [f32; 4],
-    /// `x`: normalisation; segment: `y` radius slope; shapes but planes: `yzw` the local `y`
-    /// axis.
+    /// `x`: normalisation; segment: `y` radius slope; point blob and SCALIS segment: `z` the
+    /// kernel's support radius in radii (the tile binning's hull of the support, core
+    /// `Primitive::support_hull`); shapes but planes: `yzw` the local `y` axis.
     pub c: [f32; 4],
     /// Shapes but planes: the local `x` axis, and in `w` the frame's handedness (±1): the local
     /// `z` axis is `w·(x × y)`.
@@ -326,7 +327,7 @@ impl PackedScene {
                 Primitive::Point(x) => (
                     f4(x.center, x.radius),
                     [0.0; 4],
-                    [x.norm as f32, 0.0, 0.0, 0.0],
+                    [x.norm as f32, 0.0, k.support_radius() as f32, 0.0],
                     [0.0; 4],
                 ),
                 Primitive::Distance(x) => (
@@ -338,7 +339,12 @@ impl PackedScene {
                 Primitive::Scalis(x) => (
                     f4(x.cone.start, x.cone.radius),
                     f4(x.cone.axis, x.cone.length),
-                    [x.norm as f32, x.cone.slope as f32, 0.0, 0.0],
+                    [
+                        x.norm as f32,
+                        x.cone.slope as f32,
+                        k.support_radius() as f32,
+                        0.0,
+                    ],
                     [0.0; 4],
                 ),
                 Primitive::Shape(s) => match s.solid {

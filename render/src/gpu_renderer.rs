@@ -701,6 +701,13 @@ impl GpuRenderer {
         self.binning.occluders = on;
     }
 
+    /// Turns on (the default) or off the tile binning's test of point blob and SCALIS segment
+    /// supports against each tile's beam of pixel rays. Either way a ray's window holds the
+    /// same supports (those left out are ones its ray misses), so the frames are the same.
+    pub fn set_hull_culling(&mut self, on: bool) {
+        self.binning.hulls = on;
+    }
+
     /// (primitive, tile) pairs in the tile lists of the last frame.
     #[must_use]
     pub fn last_tile_items(&self) -> u64 {

@@ -392,7 +392,7 @@ mod tests {
             "Binning",
             rust_layout!(GpuBinning: origin, forward, tan_half_fov, right, aspect, up, tiles_x,
                 tiles_y, tile_size, primitive_count, width, height, occluders, band_near,
-                band_width),
+                band_width, hulls),
         );
         for source in [&trace, &binning] {
             check_twin(

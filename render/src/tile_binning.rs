@@ -69,8 +69,10 @@ pub struct GpuBinning {
     pub band_near: f32,
     /// Depth of each band past the first.
     pub band_width: f32,
+    /// 1: a tile's lists leave out the supports its pixel rays' beam misses.
+    pub hulls: u32,
     /// Padding.
-    pub pad2: [u32; 3],
+    pub pad2: [u32; 2],
 }
 
 /// The camera's frame of one render, shared by the binning and trace uniforms.
@@ -172,6 +174,7 @@ const INITIAL_ITEMS: u64 = 1 << 10;
 /// [`TileBinning::fill`] in the trace submission.
 pub struct TileLists {
     binning: wgpu::Buffer,
+    primitives: wgpu::Buffer,
     pub(crate) ranges: wgpu::Buffer,
     /// Binning workgroups: columns of 64 primitives × slices of their (primitive, tile) pairs.
     workgroups: (u32, u32),
@@ -196,11 +199,16 @@ pub struct TileBinning {
     count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     fill: wgpu::ComputePipeline,
+    close: wgpu::ComputePipeline,
     /// Workgroups the binning passes aim for in all: enough to fill a GPU; few on a CPU
     /// adapter, where each workgroup's shared prefix sum costs real time.
     workgroups: u32,
     /// Whether binning leaves out primitives behind occluders (binning.wgsl).
     pub occluders: bool,
+    /// Whether a tile's lists leave out the point blobs and SCALIS segments whose support
+    /// its pixel rays' beam misses (binning.wgsl `beam_misses_hull`), not only those whose
+    /// bounding sphere's screen rectangle misses it.
+    pub hulls: bool,
     buffers: Option<BinningBuffers>,
     /// The items of every tile's list.
     items: wgpu::Buffer,
@@ -227,8 +235,10 @@ impl TileBinning {
             count: pipeline(device, &source, "count_tiles"),
             scan: pipeline(device, &source, "scan_tiles"),
             fill: pipeline(device, &source, "fill_tiles"),
+            close: pipeline(device, &source, "close_tiles"),
             workgroups: if cpu_adapter { 64 } else { 4096 },
             occluders: true,
+            hulls: true,
             buffers: None,
             items: items_buffer(device, INITIAL_ITEMS),
             encoded: 0,
@@ -394,7 +404,8 @@ impl TileBinning {
                 occluders: u32::from(self.occluders),
                 band_near: band_near as f32,
                 band_width: band_width as f32,
-                pad2: [0; 3],
+                hulls: u32::from(self.hulls),
+                pad2: [0; 2],
             }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
@@ -451,12 +462,14 @@ impl TileBinning {
         self.encoded_capacity = self.capacity();
         Ok(TileLists {
             binning,
+            primitives: primitives.clone(),
             ranges: b.ranges.clone(),
             workgroups: (columns, slices),
         })
     }
 
-    /// Records the pass that fills `lists` (timestamps at index 1 of `queries`).
+    /// Records the pass that fills `lists`, then closes each list's range at what the fill
+    /// wrote (timestamps at index 1 of `queries`).
     pub fn fill(
         &self,
         device: &wgpu::Device,
@@ -470,6 +483,7 @@ impl TileBinning {
             layout: &self.fill.get_bind_group_layout(0),
             entries: &[
                 entry(0, &lists.binning),
+                entry(1, &lists.primitives),
                 entry(2, &b.counts),
                 entry(3, &lists.ranges),
                 entry(4, &self.items),
@@ -486,6 +500,21 @@ impl TileBinning {
         pass.set_pipeline(&self.fill);
         pass.set_bind_group(0, &fill_group, &[]);
         pass.dispatch_workgroups(lists.workgroups.0, lists.workgroups.1, 1);
+        // The fill leaves out pairs the count kept (binning.wgsl `close_tiles`): each range
+        // ends where its list's cursor stopped.
+        let close_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("close tiles"),
+            layout: &self.close.get_bind_group_layout(0),
+            entries: &[
+                entry(0, &lists.binning),
+                entry(2, &b.counts),
+                entry(3, &lists.ranges),
+            ],
+        });
+        let lists_count = b.shape.0 * DEPTH_BANDS;
+        pass.set_pipeline(&self.close);
+        pass.set_bind_group(0, &close_group, &[]);
+        pass.dispatch_workgroups(lists_count.div_ceil(64).clamp(1, self.workgroups), 1, 1);
         Ok(())
     }
 

@@ -1034,6 +1034,71 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
     }
 }
 
+/// Beam culling (binning.wgsl `beam_misses_hull`, the twin of the CPU tile lists' `Beam`): a
+/// tile's lists leave out the point blobs and SCALIS segments whose support lies beyond a side
+/// of its pixel rays' beam, not only those whose bounding sphere's rectangle misses the tile.
+/// A long, thin strut's rectangle holds many tiles its support never reaches, and a ball's
+/// rectangle is the square around the bounding sphere of its box, so the lists get much
+/// shorter; every support left out is one the tile's rays miss, so each ray's
+/// window, and with it every pixel, is the same bit for bit.
+#[test]
+fn beam_culling_shortens_the_tile_lists_and_changes_no_pixel() {
+    use skeletrace_core::model::generate::GeneratorKind;
+    let Some(mut gpu) = gpu_or_skip("beam_culling_shortens_the_tile_lists_and_changes_no_pixel")
+    else {
+        return;
+    };
+    let foam = generated(GeneratorKind::Foam, 3, 1000);
+    let blobs = generated(GeneratorKind::Blobs, 5, 400);
+    for (label, scene, methods) in [
+        (
+            "foam-1000",
+            &foam,
+            &[GpuMethod::QuadraticTaylor, GpuMethod::ScalisQuadratic][..],
+        ),
+        ("tree", &load("tree"), &[GpuMethod::ScalisQuadratic][..]),
+        (
+            "blobs-400",
+            &blobs,
+            &[GpuMethod::Segment, GpuMethod::QuadraticTaylor][..],
+        ),
+    ] {
+        let compiled = compile(scene);
+        gpu.set_scene(&compiled)
+            .unwrap_or_else(|e| panic!("{label}: {e}"));
+        let cameras = [
+            skeletrace_core::compile::framing_camera(&compiled),
+            orbit(&scene.camera, 35.0),
+        ];
+        for camera in &cameras {
+            let mut frames = |on| {
+                gpu.set_hull_culling(on);
+                let frames = shaded_frames(&mut gpu, methods, camera, &compiled.settings, label);
+                (frames, gpu.last_tile_items())
+            };
+            let (culled, culled_items) = frames(true);
+            let (open, open_items) = frames(false);
+            gpu.set_hull_culling(true);
+            eprintln!(
+                "{label}: {open_items} (primitive, tile) pairs by bounding spheres, \
+                 {culled_items} with beam culling"
+            );
+            // Measured: about a quarter kept on each scene.
+            assert!(
+                culled_items * 2 < open_items,
+                "{label}: beam culling kept {culled_items} of {open_items} pairs"
+            );
+            for ((method, a), b) in methods.iter().zip(&culled).zip(&open) {
+                let name = method.name();
+                assert_eq!(a.steps, b.steps, "{label} {name}: step counts differ");
+                let bits = |f: &Frame| f.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(a), bits(b), "{label} {name}: depths differ");
+                assert_eq!(a.colour, b.colour, "{label} {name}: colours differ");
+            }
+        }
+    }
+}
+
 /// Asserts that two GPU frames of one scene have the same hit mask and depths within 10⁻⁵ of
 /// the `diagonal`, where only the binning differed (their step counts may differ where an
 /// interval reaches past a tile's occluding depth).
