@@ -19,10 +19,11 @@
 //
 // Beams (the twin of the CPU's tile lists, core bvh.rs `Beam::misses_hull`): the rectangle of a
 // long, thin segment's bounding sphere holds many tiles its support never reaches. With
-// `hulls`, a pair is left out where the support — the hull of two balls, a point blob's ball or
-// a SCALIS segment's end balls — lies beyond one side of the pyramid of the tile's pixel rays
-// (from the eye, through its corner pixels' centres). Such a support meets none of the tile's
-// rays, so no ray's window changes. The count keeps pairs within a wider margin than the fill
+// `hulls`, a primitive's rectangle is that of its support's hull — two balls, a point blob's
+// ball or a SCALIS segment's end balls; other primitives' bounding sphere — and a pair is left
+// out where the hull lies beyond one side of the pyramid of the tile's pixel rays (from the eye,
+// through its corner pixels' centres). Such a support meets none of the tile's rays, so every
+// ray's window holds the same supports (docs/gpu.md "Beam culling"). The count keeps pairs within a wider margin than the fill
 // (COUNT_SLACK > FILL_SLACK, both far above f32 rounding), so that two separately compiled
 // entry points never fill more than they counted; `close_tiles` then ends each range where its
 // fill stopped.
@@ -93,10 +94,19 @@ struct Primitive {
 const INF: f32 = 3.0e38;
 
 // Inclusive tile rectangle (x0, y0, x1, y1) covered by primitive i; x0 > x1 when off screen.
+// A point blob's or SCALIS segment's is that of its support's hull (the rectangles of its two
+// balls: the projection of their convex hull is the convex hull of theirs).
 fn tile_rect(i: u32) -> vec4<i32> {
     let bound = primitives[i].bound;
     if bound.w < 0.0 {
         return vec4<i32>(0, 0, i32(binning.tiles_x) - 1, i32(binning.tiles_y) - 1);
+    }
+    let kind = primitives[i].kind;
+    if binning.hulls != 0u && (kind == KIND_POINT || kind == KIND_SCALIS_SEGMENT) {
+        let hull = support_hull(i);
+        let a = sphere_rect(hull.a);
+        let b = sphere_rect(hull.b);
+        return vec4<i32>(min(a.xy, b.xy), max(a.zw, b.zw));
     }
     return sphere_rect(bound);
 }
@@ -148,8 +158,8 @@ fn occluder_of(i: u32) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
-// The support's hull (buffers.rs packs the support radius in `c.z`); the bounding sphere for
-// the other kinds.
+// The support's hull (buffers.rs packs the support radius in `c.z`); the bounding sphere twice
+// for the other kinds, which is tested against the beams the same way.
 fn support_hull(i: u32) -> Hull {
     let p = primitives[i];
     if p.kind == KIND_POINT {
@@ -172,16 +182,18 @@ fn pixel_v(py: u32) -> f32 {
     return (1.0 - 2.0 * (f32(py) + 0.5) / f32(binning.height)) * binning.tan_half_fov;
 }
 
-// Whether the ball (in view coordinates: right, up, forward from the eye) is beyond the side
-// plane n·p = 0 of a beam (inside: n·p ≥ 0) by more than `slack` of its distance and size.
-fn ball_beyond(n: vec3<f32>, ball: vec3<f32>, radius: f32, slack: f32) -> bool {
-    let margin = slack * (length(ball) + radius);
-    return dot(n, ball) < -(radius + margin) * length(n);
+// `hull` in view coordinates (right, up, forward from the eye), once per primitive.
+fn view_hull(hull: Hull) -> Hull {
+    let view = mat3x3<f32>(binning.right, binning.up, binning.forward);
+    return Hull(
+        vec4<f32>((hull.a.xyz - binning.origin) * view, hull.a.w),
+        vec4<f32>((hull.b.xyz - binning.origin) * view, hull.b.w));
 }
 
-// Whether `hull` lies beyond one side of the pyramid of `tile`'s pixel rays: the rays through
-// pixel centres (u, v) reach the points (u·z, v·z, z), z ≥ 0, of view space, so the sides are
-// x = u₀z, x = u₁z, y = v₀z and y = v₁z of the corner pixels.
+// Whether `hull` (in view coordinates) lies beyond one side of the pyramid of `tile`'s pixel
+// rays by more than `slack` of each ball's distance and size: the rays through pixel centres
+// (u, v) reach the points (u·z, v·z, z), z ≥ 0, of view space, so the sides are x = u₀z,
+// x = u₁z, y = v₀z and y = v₁z of the corner pixels.
 fn beam_misses_hull(tile: u32, hull: Hull, slack: f32) -> bool {
     if binning.hulls == 0u || hull.a.w < 0.0 {
         return false;
@@ -191,17 +203,22 @@ fn beam_misses_hull(tile: u32, hull: Hull, slack: f32) -> bool {
     let y0 = (tile / binning.tiles_x) * ts;
     let x1 = min(x0 + ts, binning.width) - 1u;
     let y1 = min(y0 + ts, binning.height) - 1u;
-    let view = mat3x3<f32>(binning.right, binning.up, binning.forward);
-    let a = (hull.a.xyz - binning.origin) * view;
-    let b = (hull.b.xyz - binning.origin) * view;
+    let a = hull.a.xyz;
+    let b = hull.b.xyz;
+    // Each ball grown by `slack` of its distance and size.
+    let reach_a = hull.a.w + slack * (length(a) + hull.a.w);
+    let reach_b = hull.b.w + slack * (length(b) + hull.b.w);
     let sides = array<vec3<f32>, 4>(
         vec3<f32>(1.0, 0.0, -pixel_u(x0)),
         vec3<f32>(-1.0, 0.0, pixel_u(x1)),
         vec3<f32>(0.0, 1.0, -pixel_v(y1)),
         vec3<f32>(0.0, -1.0, pixel_v(y0)),
     );
+    // A ball is beyond the side n·p = 0 (the beam on n·p ≥ 0) where n·c < −reach·|n|.
     for (var k = 0u; k < 4u; k++) {
-        if ball_beyond(sides[k], a, hull.a.w, slack) && ball_beyond(sides[k], b, hull.b.w, slack) {
+        let n = sides[k];
+        let limit = -length(n);
+        if dot(n, a) < reach_a * limit && dot(n, b) < reach_b * limit {
             return true;
         }
     }
@@ -369,7 +386,7 @@ fn count_tiles(
     if i < binning.primitive_count {
         rect = tile_rect(i);
         reach = nearest_reach(i);
-        hull = support_hull(i);
+        hull = view_hull(support_hull(i));
         if id.y == 0u {
             rects[i] = rect;
             nearest[i] = reach;
@@ -439,7 +456,7 @@ fn fill_tiles(
     if i < binning.primitive_count {
         rect = rects[i];
         reach = nearest[i];
-        hull = support_hull(i);
+        hull = view_hull(support_hull(i));
     }
     group_reaches[lid] = reach;
     group_hulls[lid] = hull;

@@ -1039,12 +1039,14 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
 /// of its pixel rays' beam, not only those whose bounding sphere's rectangle misses the tile.
 /// A long, thin strut's rectangle holds many tiles its support never reaches, and a ball's
 /// rectangle is the square around the bounding sphere of its box, so the lists get much
-/// shorter; every support left out is one the tile's rays miss, so each ray's
-/// window, and with it every pixel, is the same bit for bit.
+/// shorter. Every support left out is one the tile's rays miss, so each ray's window holds
+/// the same supports: the same step counts and hits, and depths within the rounding of
+/// supports entering at the same depth (a vertex ball two struts share), whose order in the
+/// window is the tile list's, set by the fill's atomics.
 #[test]
-fn beam_culling_shortens_the_tile_lists_and_changes_no_pixel() {
+fn beam_culling_shortens_the_tile_lists_and_keeps_the_frames() {
     use skeletrace_core::model::generate::GeneratorKind;
-    let Some(mut gpu) = gpu_or_skip("beam_culling_shortens_the_tile_lists_and_changes_no_pixel")
+    let Some(mut gpu) = gpu_or_skip("beam_culling_shortens_the_tile_lists_and_keeps_the_frames")
     else {
         return;
     };
@@ -1091,9 +1093,36 @@ fn beam_culling_shortens_the_tile_lists_and_changes_no_pixel() {
             for ((method, a), b) in methods.iter().zip(&culled).zip(&open) {
                 let name = method.name();
                 assert_eq!(a.steps, b.steps, "{label} {name}: step counts differ");
-                let bits = |f: &Frame| f.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(a), bits(b), "{label} {name}: depths differ");
-                assert_eq!(a.colour, b.colour, "{label} {name}: colours differ");
+                // The same supports in each window; where two enter at the same depth (a
+                // vertex ball two struts share), their order is the tile list's, which the fill's
+                // atomics set, and the field adds them in that order: a few f32 roundings.
+                let (mut moved, mut worst) = (0, 0.0_f64);
+                for (x, y) in a.depth.iter().zip(&b.depth) {
+                    assert_eq!(
+                        x.is_finite(),
+                        y.is_finite(),
+                        "{label} {name}: hit masks differ"
+                    );
+                    if x != y {
+                        moved += 1;
+                        worst = worst.max((x - y).abs() / x.abs());
+                    }
+                }
+                let colour = a.colour.iter().zip(&b.colour).fold(0.0_f32, |m, (x, y)| {
+                    (0..3).fold(m, |m, c| m.max((x[c] - y[c]).abs()))
+                });
+                eprintln!(
+                    "{label} {name}: {moved} depths moved, by at most {worst:.1e} relative; \
+                     colours by at most {colour:.1e}"
+                );
+                assert!(
+                    worst <= 1e-6,
+                    "{label} {name}: a depth moved by {worst:.1e}"
+                );
+                assert!(
+                    colour <= 1e-4,
+                    "{label} {name}: a colour moved by {colour:.1e}"
+                );
             }
         }
     }
