@@ -22,8 +22,9 @@ pub const TILE: u32 = 4;
 
 /// The widest tile edge the binning falls back to, doubling from [`TILE`], when a frame's lists
 /// do not fit in one storage binding (a dense scene at a large frame: the 500 000-segment foam
-/// at 2048² needs 2.4 GB with 4-pixel tiles, and wgpu binds at most 2 GB): wider tiles make
-/// fewer (primitive, tile) pairs and longer lists per ray.
+/// at 2048² needed 2.4 GB with 4-pixel tiles before the beam culling of binning.wgsl, which
+/// keeps about a quarter of the pairs on smaller foams; wgpu binds at most 2 GB): wider tiles
+/// make fewer (primitive, tile) pairs and longer lists per ray.
 pub const MAX_TILE: u32 = 64;
 
 /// Depth bands per tile list (binning.wgsl): a tile lists its primitives band by band, by the
