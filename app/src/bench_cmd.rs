@@ -9,6 +9,7 @@
 //! With `--after-edits`, the frames that follow vertex edits on the CPU, which copies the
 //! tiles and rays an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
 
+use std::fmt::Write as _;
 use std::time::Instant;
 
 use skeletrace_core::backend::{
@@ -21,6 +22,7 @@ use skeletrace_core::{Scene, compile};
 
 use crate::cli::BenchArgs;
 use crate::render_cmd::parse_size;
+use crate::stdout::Skipped;
 use skeletrace::backends::Backends;
 
 /// Shortest warm-up per method. An idle H100 runs at 345 MHz and reaches its 1 980 MHz within
@@ -180,8 +182,9 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
 pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     let (width, height) = parse_size(&args.size)?;
     let compiled = compile(scene);
-    let frames = args.frames.max(1);
-    let chosen = crate::chosen_methods(&args.methods, &compiled.program, TraceMode::Opaque)?;
+    let frames = args.frames;
+    let (chosen, mut skipped) =
+        crate::chosen_methods(&args.methods, &compiled.program, TraceMode::Opaque)?;
     let mut backends = Backends::open(args.backend);
     if args.backend == BackendChoice::Gpu
         && let Err(why) = &backends.gpu
@@ -206,8 +209,12 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         };
         let backend = match backends.choose(args.backend, &compiled, method, &request) {
             Ok(backend) => backend,
-            Err(BackendError::Unsupported(why)) if args.methods == "all" => {
-                eprintln!("skeletrace: skipping {method}: {why}");
+            Err(BackendError::Unsupported(reason)) if args.methods == "all" => {
+                eprintln!("skeletrace: skipping {method}: {reason}");
+                skipped.push(Skipped {
+                    name: method.name(),
+                    reason,
+                });
                 continue;
             }
             Err(e) => return Err(e.to_string()),
@@ -248,39 +255,17 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     }
     let device = devices.join(" and ");
     if args.json {
-        let methods: Vec<String> = rows
-            .iter()
-            .map(|row| {
-                let passes = row.passes.map_or(String::new(), |(trace, binning)| {
-                    format!(", \"gpu_trace_ms\": {trace:.3}, \"gpu_binning_ms\": {binning:.3}")
-                }) + &row.tile_lists.map_or(String::new(), |lists| {
-                    format!(
-                        ", \"tile_list_items\": {}, \"tile_edge\": {}",
-                        lists.items, lists.tile_edge
-                    )
-                });
-                let passes = passes
-                    + &row.first_frame_ms.map_or(String::new(), |ms| {
-                        format!(", \"first_frame_ms\": {ms:.3}")
-                    })
-                    + &row.edits.as_ref().map_or(String::new(), |e| {
-                        format!(
-                            ", \"tiles_reused\": {:.4}, \"pixels_reused\": {:.4}, \"mean_ms\": {:.3}, \"slowest_ms\": {:.3}, \"edits\": {}, \"traced_in_full\": {}",
-                            e.tiles, e.pixels, e.mean_ms, e.slowest_ms, e.edits, e.traced_in_full
-                        )
-                    });
-                format!(
-                    "{{\"name\": \"{}\", \"ms_per_frame\": {:.3}{passes}}}",
-                    row.name, row.frame_ms
-                )
-            })
-            .collect();
-        println!(
-            "{{\"scene\": \"{}\", \"device\": \"{}\", \"width\": {width}, \"height\": {height}, \"frames\": {frames}, \"methods\": [{}]}}",
-            args.scene.display().to_string().replace('"', "'"),
-            device.replace('"', "'"),
-            methods.join(", ")
-        );
+        let scene = args.scene.display().to_string();
+        let methods = rows.iter().map(BenchMethod::of).collect();
+        crate::stdout::print_json(&BenchReport {
+            scene: &scene,
+            device: &device,
+            width,
+            height,
+            frames,
+            methods,
+            skipped,
+        })
     } else {
         let timed = if args.after_edits {
             "median of the frames after moving each skeleton vertex and point blob (at most 64)"
@@ -288,8 +273,8 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         } else {
             format!("median of {frames} frames")
         };
-        println!(
-            "{}: {width}x{height} on {device}, {timed}",
+        let mut text = format!(
+            "{}: {width}x{height} on {device}, {timed}\n",
             args.scene.display()
         );
         for row in rows {
@@ -317,8 +302,77 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                     e.edits
                 )
             });
-            println!("{:<28} {:>10.2} ms/frame{passes}", row.name, row.frame_ms);
+            let _ = writeln!(
+                text,
+                "{:<28} {:>10.2} ms/frame{passes}",
+                row.name, row.frame_ms
+            );
+        }
+        crate::stdout::print(&text)
+    }
+}
+
+/// `bench --json`.
+#[derive(serde::Serialize)]
+struct BenchReport<'a> {
+    scene: &'a str,
+    device: &'a str,
+    width: usize,
+    height: usize,
+    frames: usize,
+    methods: Vec<BenchMethod>,
+    /// Methods `all` left out, with the reason.
+    skipped: Vec<Skipped>,
+}
+
+/// One method of `bench --json`; the fields a backend or mode lacks are left out.
+#[derive(serde::Serialize)]
+struct BenchMethod {
+    name: &'static str,
+    ms_per_frame: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gpu_trace_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gpu_binning_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tile_list_items: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tile_edge: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    first_frame_ms: Option<f64>,
+    #[serde(flatten)]
+    edits: Option<EditsRecord>,
+}
+
+/// The `--after-edits` fields of a method.
+#[derive(serde::Serialize)]
+struct EditsRecord {
+    tiles_reused: f64,
+    pixels_reused: f64,
+    mean_ms: f64,
+    slowest_ms: f64,
+    edits: usize,
+    traced_in_full: usize,
+}
+
+impl BenchMethod {
+    fn of(row: &Row) -> Self {
+        Self {
+            name: row.name,
+            ms_per_frame: row.frame_ms,
+            gpu_trace_ms: row.passes.map(|p| p.0),
+            gpu_binning_ms: row.passes.map(|p| p.1),
+            tile_list_items: row.tile_lists.map(|l| l.items),
+            tile_edge: row.tile_lists.map(|l| l.tile_edge),
+            first_frame_ms: row.first_frame_ms,
+            edits: row.edits.as_ref().map(|e| EditsRecord {
+                tiles_reused: e.tiles,
+                pixels_reused: e.pixels,
+                mean_ms: e.mean_ms,
+                slowest_ms: e.slowest_ms,
+                edits: e.edits,
+                traced_in_full: e.traced_in_full,
+            }),
         }
     }
-    Ok(())
 }

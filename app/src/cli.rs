@@ -26,10 +26,7 @@ pub enum Command {
     /// Generate a scene (deterministic per seed).
     Generate(GenerateArgs),
     /// Validate a scene and print its counts, kernels and bounding box.
-    Info {
-        /// Scene file (.ron).
-        scene: PathBuf,
-    },
+    Info(InfoArgs),
     /// Ray statistics of the root-finding methods against the reference tracer.
     Stats(StatsArgs),
     /// Render a scene to PNG: shaded, or step-count heat maps of one or several methods.
@@ -41,6 +38,16 @@ pub enum Command {
     TraceRay(TraceRayArgs),
     /// Export the isosurface as a glTF mesh (.glb, or .gltf with a .bin beside it).
     Export(ExportArgs),
+}
+
+/// Arguments of `info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Scene file (.ron).
+    pub scene: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `export`.
@@ -71,8 +78,8 @@ pub struct BenchArgs {
     /// `all` (every method the backend runs on this scene) or a comma-separated list.
     #[arg(long, default_value = "all")]
     pub methods: String,
-    /// Timed frames per method (after untimed warm-up frames for at least 0.5 s).
-    #[arg(long, default_value_t = 5)]
+    /// Timed frames per method, 1 to 10 000 (after untimed warm-up frames for at least 0.5 s).
+    #[arg(long, default_value_t = 5, value_parser = parse_frames)]
     pub frames: usize,
     /// Settings profile: default, paper-2023 (forward inclusion), paper-2021 (SCALIS) or
     /// paper-2014 (numerical ray tracing notes).
@@ -133,8 +140,9 @@ pub struct RenderArgs {
     /// the method, the CPU otherwise).
     #[arg(long, value_parser = parse_backend_choice, default_value = "cpu")]
     pub backend: BackendChoice,
-    /// Top of the step-count colour scale (default: the largest count in the image).
-    #[arg(long)]
+    /// Top of the step-count colour scale, 1 to 10⁹ (default: the largest count in the
+    /// image).
+    #[arg(long, value_parser = parse_steps_max)]
     pub steps_max: Option<u32>,
     /// Step-count colour scale.
     #[arg(long, value_enum, default_value = "log")]
@@ -203,8 +211,8 @@ pub struct StatsArgs {
     #[arg(long, value_parser = parse_backend_choice, default_value = "cpu")]
     pub backend: BackendChoice,
     /// On the GPU: how many of the rays (the first ones) are compared with the reference
-    /// tracer, which runs on the CPU; missed and spurious count among them.
-    #[arg(long, default_value_t = 20_000)]
+    /// tracer, which runs on the CPU; missed and spurious count among them. 1 to 10⁷.
+    #[arg(long, default_value_t = 20_000, value_parser = parse_compared)]
     pub compared: usize,
 }
 
@@ -217,11 +225,12 @@ pub struct GenerateArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Size: tree depth, segments (random-skeleton), Voronoi cells (foam), lattice cells per
-    /// side (truss), blobs or atoms.
-    #[arg(long)]
+    /// side (truss), blobs or atoms; 1 to 10⁹ (sizes that would build more than a million
+    /// primitives are refused without --allow-large).
+    #[arg(long, value_parser = parse_generate_size)]
     pub size: Option<usize>,
-    /// Number of blob groups blended by max (blobs).
-    #[arg(long)]
+    /// Number of blob groups blended by max (blobs), 1 to 10⁶.
+    #[arg(long, value_parser = parse_groups)]
     pub groups: Option<usize>,
     /// Radii along skeletons (random-skeleton, foam).
     #[arg(long, value_enum, default_value_t = Radii::Constant)]
@@ -310,4 +319,42 @@ fn parse_resolution(text: &str) -> Result<usize, String> {
                 range.end()
             )
         })
+}
+
+/// A whole number in `range`, or a message stating the range.
+fn in_range<T>(text: &str, range: std::ops::RangeInclusive<T>) -> Result<T, String>
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display,
+{
+    text.trim()
+        .parse()
+        .ok()
+        .filter(|n| range.contains(n))
+        .ok_or_else(|| {
+            format!(
+                "expected a whole number from {} to {}",
+                range.start(),
+                range.end()
+            )
+        })
+}
+
+fn parse_frames(text: &str) -> Result<usize, String> {
+    in_range(text, 1..=10_000)
+}
+
+fn parse_steps_max(text: &str) -> Result<u32, String> {
+    in_range(text, 1..=1_000_000_000)
+}
+
+fn parse_compared(text: &str) -> Result<usize, String> {
+    in_range(text, 1..=10_000_000)
+}
+
+fn parse_generate_size(text: &str) -> Result<usize, String> {
+    in_range(text, 1..=1_000_000_000)
+}
+
+fn parse_groups(text: &str) -> Result<usize, String> {
+    in_range(text, 1..=1_000_000)
 }

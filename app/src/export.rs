@@ -20,6 +20,7 @@ use json::validation::Checked::Valid;
 use json::validation::USize64;
 use rayon::prelude::*;
 use skeletrace_core::field::geometry::Ray;
+use skeletrace_core::output::write_file;
 use skeletrace_core::{FieldProgram, Scene};
 
 /// Newton steps that move a surface-nets vertex onto the surface.
@@ -286,12 +287,20 @@ fn split_by_group(
     groups
 }
 
-/// Writes `mesh` to `path` (`.glb`, or `.gltf` with `NAME.bin` beside it), one mesh per group
-/// with its material; groups without triangles are left out.
+/// Writes `mesh` to `path` (`.glb`, or `.gltf` with its buffer `NAME.ID.bin` beside it), one
+/// mesh per group with its material; groups without triangles are left out. Never over one of
+/// `inputs` (`skeletrace_core::output`). A `.gltf`'s buffer has a name of its own for each
+/// write and is written before the `.gltf` that names it; the buffer of the `.gltf` it replaced
+/// is removed after, so that a `.gltf` never names a buffer it does not describe.
 ///
 /// # Errors
 /// An unknown extension, or a file that cannot be written (named in the message).
-pub fn write_gltf(scene: &Scene, mesh: &Extracted, path: &Path) -> Result<(), String> {
+pub fn write_gltf(
+    scene: &Scene,
+    mesh: &Extracted,
+    path: &Path,
+    inputs: &[&Path],
+) -> Result<(), String> {
     let binary = match path.extension().and_then(|e| e.to_str()) {
         Some(e) if e.eq_ignore_ascii_case("glb") => true,
         Some(e) if e.eq_ignore_ascii_case("gltf") => false,
@@ -302,7 +311,7 @@ pub fn write_gltf(scene: &Scene, mesh: &Extracted, path: &Path) -> Result<(), St
             ));
         }
     };
-    let bin_name = path.with_extension("bin");
+    let bin_name = buffer_name(path);
     let mut root = json::Root {
         asset: json::Asset {
             generator: Some(format!("skeletrace {}", env!("CARGO_PKG_VERSION"))),
@@ -480,16 +489,63 @@ pub fn write_gltf(scene: &Scene, mesh: &Extracted, path: &Path) -> Result<(), St
         };
         let mut out = Vec::new();
         glb.to_writer(&mut out).map_err(|e| e.to_string())?;
-        write_atomically(path, &out)
+        write_file(path, &out, inputs).map_err(|e| e.to_string())
     } else {
         let json_text = json::serialize::to_string_pretty(&root).map_err(|e| e.to_string())?;
-        write_atomically(&bin_name, &bytes)?;
-        write_atomically(path, json_text.as_bytes())
+        let old_buffers = buffers_named_by(path);
+        write_file(&bin_name, &bytes, inputs).map_err(|e| e.to_string())?;
+        if let Err(e) = write_file(path, json_text.as_bytes(), inputs) {
+            let _ = std::fs::remove_file(&bin_name);
+            return Err(e.to_string());
+        }
+        for old in old_buffers.into_iter().filter(|old| *old != bin_name) {
+            let _ = std::fs::remove_file(old);
+        }
+        Ok(())
     }
 }
 
+/// `NAME.ID.bin` beside `NAME.gltf`, with an ID no other write uses.
+fn buffer_name(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "mesh".into(), |s| s.to_string_lossy().into_owned());
+    path.with_file_name(format!(
+        "{stem}.{}.bin",
+        skeletrace_core::output::unique_id()
+    ))
+}
+
+/// The buffer files an existing `.gltf` at `path` names beside itself (plain file names of the
+/// form `NAME.*.bin` or `NAME.bin` written by this program): removed once a new `.gltf` replaced it.
+fn buffers_named_by(path: &Path) -> Vec<PathBuf> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Vec::new();
+    };
+    let Ok(root) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return Vec::new();
+    };
+    let stem = path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let buffers = root["buffers"].as_array().cloned().unwrap_or_default();
+    buffers
+        .iter()
+        .filter_map(|b| b["uri"].as_str())
+        .filter(|uri| {
+            !uri.contains(['/', '\\', ':'])
+                && uri.starts_with(&format!("{stem}."))
+                && uri.ends_with(".bin")
+        })
+        .map(|uri| path.with_file_name(uri))
+        .collect()
+}
+
 /// Appends `data` (padded to 4 bytes) to the buffer and an accessor over it.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one glTF accessor is these eight values; a struct would only rename them"
+)]
 fn push_accessor(
     root: &mut json::Root,
     bytes: &mut Vec<u8>,
@@ -536,16 +592,4 @@ fn bytemuck_f32(values: &[[f32; 3]]) -> Vec<u8> {
         .flatten()
         .flat_map(|v| v.to_le_bytes())
         .collect()
-}
-
-/// Writes through a temporary file in the same folder and renames it over `path`.
-fn write_atomically(path: &Path, data: &[u8]) -> Result<(), String> {
-    let mut temporary: PathBuf = path.to_path_buf();
-    temporary.set_extension(format!(
-        "{}.tmp",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("out")
-    ));
-    std::fs::write(&temporary, data)
-        .and_then(|()| std::fs::rename(&temporary, path))
-        .map_err(|e| format!("{}: cannot write the mesh: {e}", path.display()))
 }

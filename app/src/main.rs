@@ -6,6 +6,7 @@
 mod bench_cmd;
 mod cli;
 mod render_cmd;
+mod stdout;
 mod trace_ray_cmd;
 
 use std::io::IsTerminal;
@@ -14,13 +15,14 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use skeletrace_core::backend::{BackendChoice, DeviceKind};
-use skeletrace_core::cpu::stats;
 use skeletrace_core::methods::{Method, MethodId, Protocol, TraceMode};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::stats;
 use skeletrace_core::{FieldProgram, Scene};
 use skeletrace_render::{GpuMethod, GpuRenderer};
 
 use cli::{Cli, Command};
+use stdout::Skipped;
 
 use skeletrace::{DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 
@@ -39,9 +41,7 @@ fn main() -> ExitCode {
             load(Some(&args.scene)).and_then(|s| trace_ray_cmd::run(&args, &s))
         }
         Some(Command::Export(args)) => load(Some(&args.scene)).and_then(|s| run_export(&args, &s)),
-        Some(Command::Info { scene }) => {
-            load(Some(&scene)).map(|s| print_info(&scene.display().to_string(), &s))
-        }
+        Some(Command::Info(args)) => load(Some(&args.scene)).and_then(|s| print_info(&args, &s)),
         None => open_editor(cli.scene.as_deref()),
     };
     match result {
@@ -60,8 +60,33 @@ fn load(path: Option<&Path>) -> Result<Scene, String> {
     }
 }
 
-/// Opens the editor window (DESIGN.md, "Editor") on `path` or the embedded scene.
+/// The headless commands, as typed.
+const COMMANDS: [&str; 7] = [
+    "generate",
+    "info",
+    "stats",
+    "render",
+    "bench",
+    "trace-ray",
+    "export",
+];
+
+/// Opens the editor window (DESIGN.md, "Editor") on `path` or the embedded scene. A word that
+/// is no file and looks like a command (no extension, no folder) is answered as a mistyped
+/// command rather than a missing scene.
 fn open_editor(path: Option<&Path>) -> Result<(), String> {
+    if let Some(word) = path
+        .filter(|p| !p.exists() && p.extension().is_none() && p.components().count() == 1)
+        .and_then(|p| p.to_str())
+    {
+        let hint = skeletrace_core::model::names::nearest(word, &COMMANDS)
+            .map_or_else(String::new, |c| format!("; did you mean `{c}`?"));
+        return Err(format!(
+            "'{word}' is neither a command nor a scene file{hint} (commands: {}; \
+             `skeletrace --help` says more)",
+            COMMANDS.join(", ")
+        ));
+    }
     skeletrace::editor::run(path)
 }
 
@@ -85,7 +110,7 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
     if terminal {
         eprintln!();
     }
-    skeletrace::export::write_gltf(scene, &mesh, &args.output)?;
+    skeletrace::export::write_gltf(scene, &mesh, &args.output, &[&args.scene])?;
     let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
     if mesh.cut_at_box {
         eprintln!(
@@ -93,8 +118,8 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
             args.scene.display()
         );
     }
-    println!(
-        "{}: {} vertices, {} triangles in {} group meshes, cell {:.4}, {} vertices off the surface, {:.1} s",
+    stdout::print(&format!(
+        "{}: {} vertices, {} triangles in {} group meshes, cell {:.4}, {} vertices off the surface, {:.1} s\n",
         args.output.display(),
         mesh.positions.len(),
         triangles,
@@ -102,8 +127,7 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
         mesh.cell,
         mesh.off_surface,
         started.elapsed().as_secs_f64()
-    );
-    Ok(())
+    ))
 }
 
 fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {
@@ -133,23 +157,22 @@ fn run_generate(args: &cli::GenerateArgs) -> Result<(), String> {
         .save_with_comment(&args.output, &comment)
         .map_err(|e| e.to_string())?;
     let c = scene.counts();
-    println!(
-        "wrote {}: {} segments, {} blobs (seed {})",
+    stdout::print(&format!(
+        "wrote {}: {} segments, {} blobs (seed {})\n",
         args.output.display(),
         c.segments,
         c.blobs,
         args.seed
-    );
-    Ok(())
+    ))
 }
 
-/// The methods named by `list` (`all`: every method that applies to the scene, the others
-/// reported on standard error).
+/// The methods named by `list`, and those `all` left out with the reason (also reported on
+/// standard error).
 fn chosen_methods(
     list: &str,
     program: &FieldProgram,
     mode: TraceMode,
-) -> Result<Vec<MethodId>, String> {
+) -> Result<(Vec<MethodId>, Vec<Skipped>), String> {
     // What keeps a method out, and why.
     let applies = |id: MethodId| {
         let method = id.method();
@@ -161,20 +184,26 @@ fn chosen_methods(
             .map_err(|why| ("cannot trace transparent rays", why))
     };
     if list == "all" {
-        let mut out = Vec::new();
+        let (mut out, mut skipped) = (Vec::new(), Vec::new());
         for id in MethodId::ALL {
             match applies(id) {
                 Ok(()) => out.push(id),
-                Err((_, why)) => eprintln!("skeletrace: skipping {id}: {why}"),
+                Err((_, reason)) => {
+                    eprintln!("skeletrace: skipping {id}: {reason}");
+                    skipped.push(Skipped {
+                        name: id.name(),
+                        reason,
+                    });
+                }
             }
         }
-        return Ok(out);
+        return Ok((out, skipped));
     }
     let ids = MethodId::parse_list(list)?;
     for &id in &ids {
         applies(id).map_err(|(what, why)| format!("method '{id}' {what}: {why}"))?;
     }
-    Ok(ids)
+    Ok((ids, Vec::new()))
 }
 
 /// The GPU methods of `chosen` (`all`: those the GPU runs on this scene, the others reported on
@@ -184,6 +213,7 @@ fn gpu_methods(
     chosen: &[Box<dyn Method>],
     program: &FieldProgram,
     protocol: Protocol,
+    skipped: &mut Vec<Skipped>,
 ) -> Result<Vec<GpuMethod>, String> {
     let mut out = Vec::new();
     for method in chosen {
@@ -194,7 +224,13 @@ fn gpu_methods(
             .and_then(|g| g.follows(protocol).map(|()| g));
         match gpu {
             Ok(g) => out.push(g),
-            Err(why) if list == "all" => eprintln!("skeletrace: skipping {id} on the GPU: {why}"),
+            Err(why) if list == "all" => {
+                eprintln!("skeletrace: skipping {id} on the GPU: {why}");
+                skipped.push(Skipped {
+                    name: id.name(),
+                    reason: format!("on the GPU: {why}"),
+                });
+            }
             Err(why) => return Err(format!("method '{id}' does not run on the GPU: {why}")),
         }
     }
@@ -222,6 +258,17 @@ fn check_stats_rays(rays: usize, on_gpu: bool) -> Result<(), String> {
     }
 }
 
+/// `stats --json`: DESIGN.md's schema, and the methods left out with their reasons.
+#[derive(serde::Serialize)]
+struct StatsReport<'a> {
+    scene: &'a str,
+    rays: usize,
+    protocol: &'static str,
+    transparent: bool,
+    methods: &'a [stats::MethodStats],
+    skipped: Vec<Skipped>,
+}
+
 fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     let scene = load(Some(&args.scene))?;
     let compiled = std::sync::Arc::new(skeletrace_core::compile(&scene));
@@ -231,10 +278,8 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     } else {
         TraceMode::Opaque
     };
-    let chosen: Vec<Box<dyn Method>> = chosen_methods(&args.methods, program, mode)?
-        .into_iter()
-        .map(MethodId::method)
-        .collect();
+    let (chosen, mut skipped) = chosen_methods(&args.methods, program, mode)?;
+    let chosen: Vec<Box<dyn Method>> = chosen.into_iter().map(MethodId::method).collect();
     let terminal = std::io::stderr().is_terminal();
     let progress = |name: &str, fraction: f64| {
         if terminal {
@@ -257,9 +302,15 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
     };
     check_stats_rays(args.rays, on_gpu.is_some())?;
     let stats = match on_gpu {
-        None => stats::run(program, &name, &chosen, setup, &progress),
+        None => stats::run(program, &name, &chosen, setup, &progress)?,
         Some(mut gpu) => {
-            let methods = gpu_methods(&args.methods, &chosen, program, setup.protocol)?;
+            let methods = gpu_methods(
+                &args.methods,
+                &chosen,
+                program,
+                setup.protocol,
+                &mut skipped,
+            )?;
             eprintln!(
                 "skeletrace: {} rays per method on {}; the first {} compared with the reference on the CPU",
                 setup.rays,
@@ -281,67 +332,171 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         eprint!("\r{:40}\r", "");
     }
     if args.json {
-        print!("{}", stats.to_json());
+        stdout::print_json(&StatsReport {
+            scene: &stats.scene,
+            rays: stats.rays,
+            protocol: stats.protocol.name(),
+            transparent: stats.mode == TraceMode::Transparent,
+            methods: &stats.methods,
+            skipped,
+        })
     } else {
-        println!(
-            "{name}: {} {} rays per method, protocol {}",
+        stdout::print(&format!(
+            "{name}: {} {} rays per method, protocol {}\n{}",
             stats.rays,
             if args.transparent {
                 "transparent"
             } else {
                 "opaque"
             },
-            stats.protocol
-        );
-        print!("{}", stats.to_table());
+            stats.protocol,
+            stats.to_table()
+        ))
     }
-    Ok(())
 }
 
-fn print_info(name: &str, scene: &Scene) {
+/// `info --json`: what `info` prints, as a record.
+#[derive(serde::Serialize)]
+struct InfoReport {
+    scene: String,
+    version: u32,
+    isovalue: f64,
+    counts: InfoCounts,
+    primitives: usize,
+    groups: Vec<InfoGroup>,
+    /// The support box; `None` (`null`) when no primitive is bounded.
+    bounds: Option<InfoBox>,
+    unbounded_planes: bool,
+    /// The support box snapped to its grid, which trace tolerances follow.
+    scale_box: Option<InfoBox>,
+}
+
+#[derive(serde::Serialize)]
+struct InfoCounts {
+    groups: usize,
+    skeletons: usize,
+    vertices: usize,
+    segments: usize,
+    blobs: usize,
+    shapes: usize,
+    hrbf_points: usize,
+}
+
+#[derive(serde::Serialize)]
+struct InfoGroup {
+    name: String,
+    kernel: String,
+    colour: [f64; 3],
+    opacity: f64,
+}
+
+#[derive(serde::Serialize)]
+struct InfoBox {
+    min: [f64; 3],
+    max: [f64; 3],
+    diagonal: f64,
+}
+
+impl InfoBox {
+    fn of(aabb: skeletrace_core::Aabb) -> Self {
+        Self {
+            min: aabb.min.to_array(),
+            max: aabb.max.to_array(),
+            diagonal: aabb.diagonal(),
+        }
+    }
+}
+
+fn print_info(args: &cli::InfoArgs, scene: &Scene) -> Result<(), String> {
+    let name = args.scene.display().to_string();
     let c = scene.counts();
     let program = FieldProgram::new(scene);
     let bounds = program.support_bounds();
-    println!("scene      {name}");
-    println!("validation ok (version {})", scene.version);
-    println!("isovalue   {}", scene.isovalue);
-    println!(
+    let report = InfoReport {
+        scene: name,
+        version: scene.version,
+        isovalue: scene.isovalue,
+        counts: InfoCounts {
+            groups: c.groups,
+            skeletons: c.skeletons,
+            vertices: c.vertices,
+            segments: c.segments,
+            blobs: c.blobs,
+            shapes: c.shapes,
+            hrbf_points: c.hrbf_points,
+        },
+        primitives: program.primitives().len(),
+        groups: scene
+            .groups
+            .iter()
+            .map(|g| InfoGroup {
+                name: g.name.clone(),
+                kernel: format!("{:?}", g.kernel),
+                colour: g.material.color,
+                opacity: g.material.opacity,
+            })
+            .collect(),
+        bounds: (!bounds.is_empty()).then(|| InfoBox::of(bounds)),
+        unbounded_planes: program.has_unbounded_support(),
+        scale_box: (!bounds.is_empty()).then(|| InfoBox::of(program.scale_bounds())),
+    };
+    if args.json {
+        return stdout::print_json(&report);
+    }
+    stdout::print(&info_text(&report))
+}
+
+/// `info`'s lines.
+fn info_text(r: &InfoReport) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let c = &r.counts;
+    let _ = writeln!(out, "scene      {}", r.scene);
+    let _ = writeln!(out, "validation ok (version {})", r.version);
+    let _ = writeln!(out, "isovalue   {}", r.isovalue);
+    let _ = writeln!(
+        out,
         "counts     {} groups, {} skeletons, {} vertices, {} segments, {} blobs, {} shapes, \
          {} HRBF points",
         c.groups, c.skeletons, c.vertices, c.segments, c.blobs, c.shapes, c.hrbf_points
     );
-    println!(
+    let _ = writeln!(
+        out,
         "primitives {} (segments, end-point correctors, blobs, shapes, copies, HRBF terms)",
-        program.primitives().len()
+        r.primitives
     );
-    for (i, g) in scene.groups.iter().enumerate() {
-        println!(
-            "group {i}    '{}': {:?}, colour {:?}, opacity {}",
-            g.name, g.kernel, g.material.color, g.material.opacity
+    for (i, g) in r.groups.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "group {i}    '{}': {}, colour {:?}, opacity {}",
+            g.name, g.kernel, g.colour, g.opacity
         );
     }
-    if bounds.is_empty() {
-        println!("bounds     none (no bounded primitive)");
-    } else {
-        let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
-        println!(
-            "bounds     {} .. {} (diagonal {:.3}){}",
-            f(bounds.min.to_array()),
-            f(bounds.max.to_array()),
-            bounds.diagonal(),
-            if program.has_unbounded_support() {
-                ", plus unbounded planes"
-            } else {
-                ""
-            }
-        );
-        let scale = program.scale_bounds();
-        println!(
-            "scale box  {} .. {} (diagonal {:.3}): the bounds snapped to their grid, which \
-             the trace tolerances and the rays' reach follow",
-            f(scale.min.to_array()),
-            f(scale.max.to_array()),
-            scale.diagonal(),
-        );
+    let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+    match (&r.bounds, &r.scale_box) {
+        (Some(b), Some(scale)) => {
+            let _ = writeln!(
+                out,
+                "bounds     {} .. {} (diagonal {:.3}){}",
+                f(b.min),
+                f(b.max),
+                b.diagonal,
+                if r.unbounded_planes {
+                    ", plus unbounded planes"
+                } else {
+                    ""
+                }
+            );
+            let _ = writeln!(
+                out,
+                "scale box  {} .. {} (diagonal {:.3}): the bounds snapped to their grid, which \
+                 the trace tolerances and the rays' reach follow",
+                f(scale.min),
+                f(scale.max),
+                scale.diagonal,
+            );
+        }
+        _ => out.push_str("bounds     none (no bounded primitive)\n"),
     }
+    out
 }

@@ -2,8 +2,6 @@
 //! own typeface (egui's Ubuntu Light, rasterised with `ab_glyph`, antialiased), the step-count
 //! colour bar, and atomic PNG output.
 
-use std::fs;
-use std::io::BufWriter;
 use std::path::Path;
 use std::sync::LazyLock;
 
@@ -231,38 +229,22 @@ impl Canvas {
         }
     }
 
-    /// Writes the canvas as a PNG, atomically (temporary file, then rename).
+    /// Writes the canvas as a PNG through `skeletrace_core::output` (atomic, never over one of
+    /// `inputs`).
     ///
     /// # Errors
     /// A message naming the file.
-    pub fn save_png(&self, path: &Path) -> Result<(), String> {
+    pub fn save_png(&self, path: &Path, inputs: &[&Path]) -> Result<(), String> {
         let fail = |e: &dyn std::fmt::Display| format!("{}: cannot write: {e}", path.display());
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let name = path
-            .file_name()
-            .map_or_else(|| "image.png".into(), |n| n.to_string_lossy().into_owned());
-        let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let write = || -> Result<(), String> {
-            let file = fs::File::create(&temp).map_err(|e| fail(&e))?;
-            let mut out = BufWriter::new(file);
-            let mut encoder = png::Encoder::new(&mut out, self.width as u32, self.height as u32);
-            encoder.set_color(png::ColorType::Rgba);
-            encoder.set_depth(png::BitDepth::Eight);
-            let mut writer = encoder.write_header().map_err(|e| fail(&e))?;
-            let bytes: Vec<u8> = self.pixels.iter().flatten().copied().collect();
-            writer.write_image_data(&bytes).map_err(|e| fail(&e))?;
-            writer.finish().map_err(|e| fail(&e))?;
-            let file = out.into_inner().map_err(|e| fail(&e.error()))?;
-            file.sync_all().map_err(|e| fail(&e))
-        };
-        let result = write().and_then(|()| fs::rename(&temp, path).map_err(|e| fail(&e)));
-        if result.is_err() {
-            let _ = fs::remove_file(&temp);
-        }
-        result
+        let mut bytes = Vec::new();
+        let mut encoder = png::Encoder::new(&mut bytes, self.width as u32, self.height as u32);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header().map_err(|e| fail(&e))?;
+        let pixels: Vec<u8> = self.pixels.iter().flatten().copied().collect();
+        writer.write_image_data(&pixels).map_err(|e| fail(&e))?;
+        writer.finish().map_err(|e| fail(&e))?;
+        skeletrace_core::output::write_file(path, &bytes, inputs).map_err(|e| e.to_string())
     }
 }
 

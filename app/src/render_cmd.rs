@@ -50,7 +50,7 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
         .as_deref()
         .or(args.method.as_deref())
         .unwrap_or(DEFAULT_METHOD.name());
-    let methods = crate::chosen_methods(list, &compiled.program, TraceMode::Opaque)?;
+    let (methods, _) = crate::chosen_methods(list, &compiled.program, TraceMode::Opaque)?;
     if methods.is_empty() {
         return Err(format!("no method of '{list}' applies to this scene"));
     }
@@ -98,7 +98,7 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
             .map_err(|e| format!("{method} on {}: {e}", backend.describe()))?
             .pop()
             .ok_or_else(|| format!("{method}: the backend returned no frame"))?;
-        print_timing(method.name(), start.elapsed().as_secs_f64() * 1e3, &frame);
+        print_timing(method.name(), start.elapsed().as_secs_f64() * 1e3, &frame)?;
         frames.push((method.name(), frame));
     }
     if frames.is_empty() {
@@ -123,22 +123,21 @@ fn run_on(args: &RenderArgs, scene: &Scene, backends: &mut Backends) -> Result<(
         },
     };
     let picture = compose(&frames, panels);
-    picture.save_png(&args.output)?;
-    println!(
-        "wrote {} ({}x{})",
+    picture.save_png(&args.output, &[&args.scene])?;
+    crate::stdout::print(&format!(
+        "wrote {} ({}x{})\n",
         args.output.display(),
         picture.width,
         picture.height
-    );
-    Ok(())
+    ))
 }
 
-fn print_timing(name: &str, ms: f64, frame: &Frame) {
+fn print_timing(name: &str, ms: f64, frame: &Frame) -> Result<(), String> {
     let s = frame.step_summary();
-    println!(
-        "{name:<28} {ms:>8.1} ms   steps avg {:.2}, median {}, p95 {}, max {}",
+    crate::stdout::print(&format!(
+        "{name:<28} {ms:>8.1} ms   steps avg {:.2}, median {}, p95 {}, max {}\n",
         s.average, s.median, s.p95, s.max
-    );
+    ))
 }
 
 #[cfg(test)]

@@ -11,10 +11,10 @@ use std::path::Path;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use skeletrace_core::compile;
 use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
-use skeletrace_core::cpu::stats::protocol_rays;
 use skeletrace_core::frame::FieldShading;
 use skeletrace_core::methods::{self, MethodId, TraceMode, TraceSettings};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::stats::protocol_rays;
 use skeletrace_core::{FieldProgram, Scene};
 
 const RAYS: usize = 600;

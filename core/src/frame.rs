@@ -25,6 +25,10 @@ pub enum View {
 // ---- Field shading (2014 notes §12.4): the constants both backends use (cpu/shading.rs,
 // render/shaders/main.wgsl). ----
 
+/// Reflection and refraction depth of a pixel's path through transparent groups, on both
+/// backends.
+pub const MAX_BOUNCES: u32 = 4;
+
 /// Largest number of samples along a soft-shadow ray.
 pub const SOFT_SHADOW_STEPS: u32 = 32;
 /// Penumbra sharpness `k` of `min(k·e/t)`.

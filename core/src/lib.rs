@@ -10,8 +10,11 @@
 //! - [`field`]: kernels, primitives, blends, the BVH and the compiled [`field::program::FieldProgram`].
 //! - [`bounds`]: intervals, Taylor and bottom-up inclusions, affine forms (2023 paper §4–6).
 //! - [`methods`]: one file per root-finding method.
-//! - [`cpu`]: the CPU renderer, field shading, the statistics protocol, the CPU backend.
-//! - [`frame`], [`backend`]: what both backends share (frames, cameras, views, the trait).
+//! - [`output`]: the one writer of every output file (atomic, never over an input).
+//! - [`cpu`]: the CPU renderer, field shading, the CPU backend.
+//! - [`frame`], [`backend`], [`stats`]: what both backends share (frames, cameras, views,
+//!   the bounce limit, the trait and the one backend decision, the statistics protocol and
+//!   its records).
 
 pub mod backend;
 pub mod bounds;
@@ -19,10 +22,11 @@ pub mod compile;
 pub mod cpu;
 pub mod field;
 pub mod frame;
-pub mod json;
 pub mod methods;
 pub mod model;
+pub mod output;
 mod scratch;
+pub mod stats;
 
 pub use bounds::interval::{Interval, Jet};
 pub use compile::{Compiled, compile};

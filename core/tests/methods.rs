@@ -10,7 +10,6 @@ use common::{
 };
 use glam::DVec3;
 use rayon::prelude::*;
-use skeletrace_core::cpu::stats::{self, StatsSetup};
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::methods::{self, Method, MethodId, Protocol, TraceMode, TraceSettings};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
@@ -18,6 +17,7 @@ use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{
     Blend, Blob, Camera, Group, Material, Scene, Skeleton, SkeletonField, Vertex,
 };
+use skeletrace_core::stats::{self, StatsSetup};
 use skeletrace_core::{FieldProgram, Interval, Ray};
 
 fn blobs(kernel: Kernel, centers: &[[f64; 3]], radius: f64) -> FieldProgram {
@@ -373,7 +373,8 @@ fn quadratic_taylor_needs_at_most_six_tenths_of_published_segment_tracings_steps
             MethodId::SegmentOriginal.method(),
             MethodId::QuadraticTaylor.method(),
         ];
-        let result = stats::run(&program, "summed blobs", &chosen, setup, &|_, _| {});
+        let result = stats::run(&program, "summed blobs", &chosen, setup, &|_, _| {})
+            .unwrap_or_else(|e| panic!("{e}"));
         for m in &result.methods {
             assert_eq!((m.missed, m.spurious), (0, 0), "seed {seed}: {m:?}");
         }
@@ -413,7 +414,8 @@ fn transparent_statistics_match_the_reference_crossing_for_crossing() {
                 mode: TraceMode::Transparent,
                 ..StatsSetup::opaque(1200, 2)
             };
-            let result = stats::run(&program, "transparent", &chosen, setup, &|_, _| {});
+            let result = stats::run(&program, "transparent", &chosen, setup, &|_, _| {})
+                .unwrap_or_else(|e| panic!("{e}"));
             let opaque = stats::run(
                 &program,
                 "opaque",
@@ -423,7 +425,8 @@ fn transparent_statistics_match_the_reference_crossing_for_crossing() {
                     ..StatsSetup::opaque(1200, 2)
                 },
                 &|_, _| {},
-            );
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
             for (t, o) in result.methods.iter().zip(&opaque.methods) {
                 assert_eq!((t.missed, t.spurious), (0, 0), "{protocol}: {t:?}");
                 // Under the paper's profile the operator scene's Ricci blend stalls a few
@@ -457,7 +460,8 @@ fn statistics_count_the_rays_out_of_steps() {
         &chosen,
         StatsSetup::opaque(600, 1),
         &|_, _| {},
-    );
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let (sphere, taylor) = (&result.methods[0], &result.methods[1]);
     assert!(sphere.out_of_steps > 0, "{sphere:?}");
     assert!(
@@ -735,7 +739,8 @@ fn the_reference_finds_a_crossing_where_the_field_rounds_to_the_isovalue() {
         &[MethodId::Segment.method(), MethodId::LinearTaylor.method()],
         StatsSetup::opaque(600, 1),
         &|_, _| {},
-    );
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     for m in &stats.methods {
         assert_eq!((m.missed, m.spurious), (0, 0), "{m:?}");
     }
@@ -768,7 +773,8 @@ fn conservative_methods_stay_close_to_segment_tracing_on_the_operator_scene() {
         &chosen,
         StatsSetup::opaque(1200, 1),
         &|_, _| {},
-    );
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let segment = stats
         .methods
         .iter()

@@ -15,7 +15,6 @@ use glam::DVec3;
 use rayon::prelude::*;
 use skeletrace_core::compile;
 use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
-use skeletrace_core::cpu::stats::protocol_rays;
 use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::field::program::PrimitiveSlope;
 use skeletrace_core::field::ray_field::{RayField, TileCandidates};
@@ -24,6 +23,7 @@ use skeletrace_core::methods::{MethodId, TraceMode};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Camera, Group, Scene};
+use skeletrace_core::stats::protocol_rays;
 use skeletrace_core::{FieldProgram, Interval, Jet, Ray};
 
 fn same_bits(a: f64, b: f64) -> bool {

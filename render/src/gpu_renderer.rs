@@ -12,8 +12,8 @@ use rayon::prelude::*;
 use skeletrace_core::FieldProgram;
 use skeletrace_core::backend::{BackendError, DeviceKind, PassTimes};
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::cpu::renderer::MAX_BOUNCES;
 use skeletrace_core::field::primitives::Primitive;
+use skeletrace_core::frame::MAX_BOUNCES;
 use skeletrace_core::frame::{
     AO_SAMPLES, FieldShading, Frame, SOFT_SHADOW_STEPS, View, far_distance, shading_scale,
 };

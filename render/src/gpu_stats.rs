@@ -20,12 +20,12 @@ use glam::DVec3;
 use skeletrace_core::backend::BackendError;
 use skeletrace_core::bounds::interval::Interval;
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::cpu::stats::{
+use skeletrace_core::field::geometry::Ray;
+use skeletrace_core::methods::{Crossing, TraceMode, TraceSettings};
+use skeletrace_core::stats::{
     MethodStats, MethodTally, SceneStats, StatsSetup, ran_out_of_steps, rays_of_iter,
     reference_crossings,
 };
-use skeletrace_core::field::geometry::Ray;
-use skeletrace_core::methods::{Crossing, TraceMode, TraceSettings};
 
 use crate::buffers::GpuPrimitive;
 use crate::gpu_renderer::GpuRenderer;
@@ -203,7 +203,8 @@ pub fn run(
         .take(compared.min(setup.rays))
         .collect();
     progress("reference", 0.0);
-    let reference = reference_crossings(program, settings, &sample, setup.mode);
+    let reference = reference_crossings(program, settings, &sample, setup.mode)
+        .map_err(BackendError::Unsupported)?;
     // An opaque ray's first crossing enters the volume unless the ray starts inside it
     // (transparent rays bring each crossing's direction from the GPU).
     let entering: Vec<bool> = if transparent {

@@ -5,8 +5,8 @@
 
 use std::fmt::Write as _;
 
-use skeletrace_core::cpu::renderer::MAX_BOUNCES;
 use skeletrace_core::field::quadrature::{GaussLegendre, SCALIS_ORDER};
+use skeletrace_core::frame::MAX_BOUNCES;
 use skeletrace_core::frame::{self as shading, TURBO};
 
 /// Most groups the GPU backend takes. A scene's shaders hold one slot per group of its own

@@ -72,7 +72,7 @@ fn save_window_image(h: &mut Harness<'static, Editor>, path: &Path) {
     for (x, y, p) in image.enumerate_pixels() {
         canvas.put(x as usize, y as usize, p.0);
     }
-    canvas.save_png(path).unwrap_or_else(|e| panic!("{e}"));
+    canvas.save_png(path, &[]).unwrap_or_else(|e| panic!("{e}"));
 }
 
 fn hit_fraction(editor: &Editor) -> f64 {

@@ -1458,7 +1458,7 @@ fn statistics_disagreements(
     ),
     (methods, steps_tolerance): (&[skeletrace_core::methods::MethodId], f64),
 ) -> Vec<String> {
-    use skeletrace_core::cpu::stats::{self, StatsSetup};
+    use skeletrace_core::stats::{self, StatsSetup};
     let mut failures = Vec::new();
     let compiled = std::sync::Arc::new(compile(scene));
     let setup = StatsSetup {
@@ -1467,7 +1467,8 @@ fn statistics_disagreements(
         ..StatsSetup::opaque(3000, 5)
     };
     let chosen: Vec<_> = methods.iter().map(|m| m.method()).collect();
-    let cpu = stats::run(&compiled.program, name, &chosen, setup, &|_, _| {});
+    let cpu = stats::run(&compiled.program, name, &chosen, setup, &|_, _| {})
+        .unwrap_or_else(|e| panic!("{e}"));
     let gpu_methods: Vec<GpuMethod> = methods
         .iter()
         .map(|&m| GpuMethod::from_id(m).unwrap_or_else(|| panic!("{m}")))

@@ -164,7 +164,7 @@ impl Editor {
         let what = format!("mesh {}", path.display());
         self.write_in_background(ctx, what, move || {
             let mesh = crate::export::extract(&scene, 128, &|_| {})?;
-            crate::export::write_gltf(&scene, &mesh, &path)?;
+            crate::export::write_gltf(&scene, &mesh, &path, &[])?;
             let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
             Ok(format!(
                 "exported {} ({triangles} triangles)",

@@ -717,7 +717,7 @@ impl Editor {
                 }
             };
             let canvas: Canvas = compose(&named, panels);
-            canvas.save_png(&path)?;
+            canvas.save_png(&path, &[])?;
             Ok(format!(
                 "screenshot {} ({}x{})",
                 path.display(),

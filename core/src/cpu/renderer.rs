@@ -23,7 +23,7 @@ use crate::cpu::shading::{ambient_occlusion, soft_shadow};
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::{RayField, TileCandidates};
-use crate::frame::{FieldShading, Frame, PinholeCamera, far_distance, shading_scale};
+use crate::frame::{FieldShading, Frame, MAX_BOUNCES, PinholeCamera, far_distance, shading_scale};
 use crate::methods::{RayTracer, Trace, TraceMode, TraceSettings};
 use crate::model::scene::{Camera, Light, Material};
 use crate::scratch::ScratchPool;
@@ -37,9 +37,6 @@ type TileOutcome = (Vec<Pixel>, Vec<u32>, bool, usize);
 
 /// Side of the square screen tiles whose camera rays share one candidate list.
 const TILE: usize = 8;
-
-/// Reflection/refraction depth for transparent groups.
-pub const MAX_BOUNCES: u32 = 4;
 
 /// Options of a render.
 #[derive(Clone, Copy, Debug, PartialEq)]

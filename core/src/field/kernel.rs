@@ -65,6 +65,7 @@ impl Default for Kernel {
 
 /// The unvalidated shape of [`Kernel`] as read from a file.
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 enum KernelSpec {
     CompactPolynomial { degree: u32, scale: f64 },
     Cauchy { degree: u32, scale: f64 },

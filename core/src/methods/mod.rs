@@ -48,7 +48,7 @@ pub use linear_taylor::LinearTaylor;
 pub use protocol::{Protocol, ScalisStop};
 pub use quadratic_mixed::QuadraticMixed;
 pub use quadratic_taylor::QuadraticTaylor;
-pub use reference::Reference;
+pub use reference::{REFERENCE_STEP_BUDGET, Reference};
 pub use scalis_quadratic::ScalisQuadratic;
 pub use segment_original::SegmentOriginal;
 pub use segment_tracing::SegmentTracing;

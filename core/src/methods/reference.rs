@@ -20,6 +20,12 @@ use super::{
 /// `reference`.
 pub struct Reference;
 
+/// Most bisection steps the reference takes on one ray: a ray of a sound field needs far fewer
+/// (the depth of the bisection is `log2(span / resolution)`, about 24, times the intervals
+/// near the surface); one that spends them all is reported by the statistics instead of
+/// spinning for minutes.
+pub const REFERENCE_STEP_BUDGET: u32 = 1 << 22;
+
 struct Prepared<'a> {
     program: &'a FieldProgram,
     settings: TraceSettings,
@@ -50,7 +56,7 @@ impl Method for Reference {
         Box::new(Prepared {
             program,
             settings: TraceSettings {
-                max_steps: u32::MAX,
+                max_steps: REFERENCE_STEP_BUDGET,
                 ..settings
             },
             resolution: 1e-7 * diagonal,

@@ -124,6 +124,17 @@ pub fn estimated_primitives(kind: GeneratorKind, options: &GenerateOptions) -> u
     }
 }
 
+/// [`estimated_primitives`] in floating point, for messages about sizes past `u64`.
+fn estimated_primitives_f64(kind: GeneratorKind, size: usize) -> f64 {
+    let size = size.max(1) as f64;
+    match kind {
+        GeneratorKind::Tree => (3_f64.powf(size) - 1.0) / 2.0,
+        GeneratorKind::RandomSkeleton | GeneratorKind::Blobs | GeneratorKind::Molecule => size,
+        GeneratorKind::Foam => 16.0 * size,
+        GeneratorKind::Truss => 3.0 * size * (size + 1.0).powi(2) + 4.0 * size * size,
+    }
+}
+
 /// Default size of each kind.
 #[must_use]
 pub fn default_size(kind: GeneratorKind) -> usize {
@@ -148,11 +159,22 @@ pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Result<Scene,
     let estimate = estimated_primitives(kind, options);
     if estimate > MAX_PRIMITIVES && !options.allow_large {
         let size = options.size.unwrap_or_else(|| default_size(kind));
+        let count = estimated_primitives_f64(kind, size);
+        let (count, megabytes) = if estimate == u64::MAX || count >= 1e15 {
+            (
+                format!("{count:.1e}"),
+                format!("{:.1e}", count * BYTES_PER_PRIMITIVE as f64 / 1e6),
+            )
+        } else {
+            (
+                estimate.to_string(),
+                format!("{:.0}", estimate as f64 * BYTES_PER_PRIMITIVE as f64 / 1e6),
+            )
+        };
         return Err(format!(
-            "{} of size {size} would build up to {estimate} primitives (about {:.0} MB), over the \
-             limit of {MAX_PRIMITIVES}; choose a smaller --size or pass --allow-large",
+            "{} of size {size} would build up to {count} primitives (about {megabytes} MB), over \
+             the limit of {MAX_PRIMITIVES}; choose a smaller --size or pass --allow-large",
             kind.name(),
-            estimate as f64 * BYTES_PER_PRIMITIVE as f64 / 1e6
         ));
     }
     Ok(build(kind, options))

@@ -1,6 +1,8 @@
 //! The scene model: plain data the user edits and saves (`scene`), its validation and RON file
-//! format, and the scene generators (`generate`) with their seeded random numbers (`rng`).
+//! format, the scene generators (`generate`) with their seeded random numbers (`rng`), and the
+//! nearest-name suggestions of error messages (`names`).
 
 pub mod generate;
+pub mod names;
 pub mod rng;
 pub mod scene;

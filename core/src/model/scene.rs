@@ -11,11 +11,10 @@
 //! offending value; constraints between values (edge indices, segment lengths, the SCALIS slope
 //! limit, blend references) are checked when the enclosing item is complete and point at its
 //! end. [`Scene::validate`] checks the same rules (one [`Rule`] per kind of value) on a scene in
-//! memory, as the editor does after every edit. Saving is atomic: the text goes to a temporary file in the same folder, which is then
-//! renamed over the target.
+//! memory, as the editor does after every edit. Saving goes through [`crate::output`]: atomic,
+//! and never over a symlink, a device or another file's permissions.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::Path;
 
 use serde::de::Error as _;
@@ -68,6 +67,7 @@ pub enum SceneError {
 
 /// A complete scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Scene {
     /// File format version ([`SCENE_VERSION`]).
     #[serde(deserialize_with = "de_version")]
@@ -119,6 +119,7 @@ pub struct Group {
 /// passes through every point with the given outward normal. Its weights are solved when the
 /// scene is read and again whenever it is compiled, so they never go stale after an edit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Hrbf {
     /// Points with normals.
     pub points: Vec<HrbfPoint>,
@@ -126,6 +127,7 @@ pub struct Hrbf {
 
 /// A point of an HRBF set.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct HrbfPoint {
     /// Position on the surface.
     #[serde(deserialize_with = "de_finite3")]
@@ -143,6 +145,7 @@ pub const MAX_HRBF_POINTS: usize = 400;
 /// is invariant under a similarity, so it is applied to the primitives when a scene is compiled
 /// (no `det M` factor as for distance estimators).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[serde(default)]
 pub struct Transform {
     /// Translation.
@@ -185,6 +188,7 @@ pub const MAX_REPEAT_COPIES: u64 = 100_000;
 /// §11.4) tiles space with `X mod v`; a modelling tool wants a finite array, and finite copies
 /// keep every support bounded, so each copy is a set of primitives of its own.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Repeat {
     /// Copies along x, y and z (each ≥ 1).
     pub count: [u32; 3],
@@ -215,6 +219,7 @@ impl Repeat {
 }
 
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct GroupFile {
     #[serde(default)]
     name: String,
@@ -359,6 +364,7 @@ pub struct Skeleton {
 }
 
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct SkeletonFile {
     #[serde(default)]
     name: String,
@@ -428,6 +434,7 @@ impl Skeleton {
 
 /// A skeleton vertex.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Vertex {
     /// Position.
     #[serde(deserialize_with = "de_finite3")]
@@ -439,6 +446,7 @@ pub struct Vertex {
 
 /// A point blob.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Blob {
     /// Centre.
     #[serde(deserialize_with = "de_finite3")]
@@ -450,6 +458,7 @@ pub struct Blob {
 
 /// A distance-based primitive; `radius` is the distance from the solid to the surface.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Shape {
     /// Infinite plane `normal·p = offset`; the surface is a slab of half-width `radius`.
     Plane {
@@ -536,6 +545,7 @@ pub enum Shape {
 
 /// Surface material of a group.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Material {
     /// Base colour, linear RGB in `[0, 1]`.
     #[serde(deserialize_with = "de_color")]
@@ -560,6 +570,7 @@ impl Default for Material {
 
 /// Blend tree over groups.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Blend {
     /// A group's field (index into `groups`).
     Group(u32),
@@ -601,6 +612,7 @@ pub enum Blend {
 
 /// Pinhole camera.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Camera {
     /// Eye position.
     #[serde(deserialize_with = "de_finite3")]
@@ -629,6 +641,7 @@ impl Default for Camera {
 
 /// A light source.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Light {
     /// Light from a direction (towards the light).
     Directional {
@@ -813,15 +826,29 @@ fn check_hrbf_points(points: &[HrbfPoint]) -> Result<(), String> {
     Ok(())
 }
 
-/// A direction: three finite numbers, not all 0.
+/// A direction: three finite numbers whose length normalises them to unit length in `f64`
+/// (within [`DIRECTION_TOLERANCE`]). `(0, 0, 0)`, and lengths so small that their square
+/// underflows (`(0, 1e-300, 0)`), are refused instead of turning into NaN.
 fn check_direction(v: Vec3) -> Result<(), String> {
     FINITE3.check3(v)?;
-    if v.iter().any(|&x| x != 0.0) {
-        Ok(())
-    } else {
+    let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let unit = v.map(|x| x / length);
+    let unit_length = unit.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if v.iter().all(|&x| x == 0.0) {
         Err("a direction must not be (0, 0, 0)".to_owned())
+    } else if !length.is_normal() || (unit_length - 1.0).abs() > DIRECTION_TOLERANCE {
+        Err(format!(
+            "a direction must have a length that normalises it; ({}, {}, {}) is too short \
+             (length {length:e})",
+            v[0], v[1], v[2]
+        ))
+    } else {
+        Ok(())
     }
 }
+
+/// How far from 1 a direction divided by its length may be.
+pub const DIRECTION_TOLERANCE: f64 = 1e-9;
 
 fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     let v = u32::deserialize(d)?;
@@ -1001,15 +1028,17 @@ impl Scene {
     /// # Errors
     /// [`SceneError::Invalid`] with the position, item and value of the first problem.
     pub fn from_ron(text: &str, file: &str) -> Result<Self, SceneError> {
-        let scene: Self =
-            ron::Options::default()
-                .from_str(text)
-                .map_err(|e| SceneError::Invalid {
-                    file: file.to_owned(),
-                    line: e.span.start.line,
-                    column: e.span.start.col,
-                    message: e.code.to_string(),
-                })?;
+        // A byte-order mark, as some editors on Windows write one, is not part of the text.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let scene: Self = ron::Options::default()
+            .with_recursion_limit(RON_NESTING_LIMIT)
+            .from_str(text)
+            .map_err(|e| SceneError::Invalid {
+                file: file.to_owned(),
+                line: e.span.start.line,
+                column: e.span.start.col,
+                message: parse_error_message(&e.code),
+            })?;
         scene.validate_blend().map_err(|message| {
             let (line, column) = position_of(text, "blend");
             SceneError::Invalid {
@@ -1074,41 +1103,28 @@ impl Scene {
         self.write_atomically(path, comment, |_| Ok(()))
     }
 
-    /// The atomic write of [`Scene::save_with_comment`]; `before_rename` runs on the written,
-    /// flushed temporary file just before the rename (the tests make it fail there).
+    /// The write of [`Scene::save_with_comment`] through [`crate::output`]; `before_rename`
+    /// runs on the written, flushed temporary file just before the rename (the tests make it
+    /// fail there).
     fn write_atomically(
         &self,
         path: &Path,
         comment: &str,
         before_rename: impl FnOnce(&Path) -> std::io::Result<()>,
     ) -> Result<(), SceneError> {
-        let file = path.display().to_string();
-        let fail = |source| SceneError::Write {
-            file: file.clone(),
-            source,
-        };
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let name = path
-            .file_name()
-            .map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
-        let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let result = (|| {
-            let mut f = std::fs::File::create(&temp)?;
-            for line in comment.lines() {
-                writeln!(f, "// {line}")?;
-            }
-            f.write_all(self.to_ron().as_bytes())?;
-            f.sync_all()?;
-            before_rename(&temp)?;
-            std::fs::rename(&temp, path)
-        })();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&temp);
+        let mut text = String::new();
+        for line in comment.lines() {
+            text.push_str("// ");
+            text.push_str(line);
+            text.push('\n');
         }
-        result.map_err(fail)
+        text.push_str(&self.to_ron());
+        crate::output::write_file_with(path, text.as_bytes(), &[], before_rename).map_err(|e| {
+            SceneError::Write {
+                file: path.display().to_string(),
+                source: std::io::Error::other(e.reason),
+            }
+        })
     }
 
     /// Checks everything the file loader checks — every value within its rule, the constraints
@@ -1186,6 +1202,13 @@ impl Scene {
     /// parameters.
     fn validate_blend(&self) -> Result<(), String> {
         fn walk(b: &Blend, groups: usize, path: &mut String) -> Result<(), String> {
+            let depth = path.matches('[').count();
+            if depth > MAX_BLEND_DEPTH {
+                return Err(format!(
+                    "blend {path}: {depth} operators nested; a blend tree nests at most \
+                     {MAX_BLEND_DEPTH}"
+                ));
+            }
             match b {
                 Blend::Group(i) => {
                     if *i as usize >= groups {
@@ -1309,6 +1332,60 @@ fn position_of(text: &str, key: &str) -> (usize, usize) {
         }
     }
     (text.lines().count().max(1), 1)
+}
+
+/// Most operators nested in a blend tree (`docs/scene-format.md`): far deeper than a model
+/// needs, and shallow enough for the recursive walks of the tree on every thread's stack.
+pub const MAX_BLEND_DEPTH: usize = 64;
+
+/// The parser's nesting limit: a blend tree of [`MAX_BLEND_DEPTH`] operators, each of which
+/// takes up to three levels (the operator, its fields, its operand list), within the scene.
+const RON_NESTING_LIMIT: usize = 3 * MAX_BLEND_DEPTH + 16;
+
+/// A parse error in the project's words: an unknown field or variant names the nearest known
+/// one, too deep a nesting names the limit.
+fn parse_error_message(code: &ron::Error) -> String {
+    let inside = |outer: &Option<String>| {
+        outer
+            .as_ref()
+            .map_or_else(String::new, |o| format!(" in `{o}`"))
+    };
+    match code {
+        ron::Error::NoSuchStructField {
+            expected,
+            found,
+            outer,
+        } => format!(
+            "unknown field `{found}`{}{}",
+            inside(outer),
+            suggestion(found, expected)
+        ),
+        ron::Error::NoSuchEnumVariant {
+            expected,
+            found,
+            outer,
+        } => format!(
+            "unknown variant `{found}`{}{}",
+            inside(outer),
+            suggestion(found, expected)
+        ),
+        ron::Error::DuplicateStructField { field, outer } => {
+            format!("the field `{field}` is given twice{}", inside(outer))
+        }
+        ron::Error::ExceededRecursionLimit => {
+            format!("nested too deeply: a blend tree nests at most {MAX_BLEND_DEPTH} operators")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// `; did you mean `X`?` for the known name nearest `found`, else the list of known names.
+fn suggestion(found: &str, known: &[&str]) -> String {
+    match super::names::nearest(found, known) {
+        Some(k) => format!("; did you mean `{k}`?"),
+        None if known.is_empty() => String::new(),
+        None => format!("; expected one of {}", known.join(", ")),
+    }
 }
 
 #[cfg(test)]

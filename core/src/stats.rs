@@ -20,12 +20,12 @@ use rayon::prelude::*;
 use crate::bounds::interval::Interval;
 use crate::field::geometry::Ray;
 use crate::field::program::FieldProgram;
-use crate::json;
 use crate::methods::{self, Crossing, Method, Protocol, TraceMode, TraceSettings};
 use crate::model::rng::SplitMix64;
 
-/// Statistics of one method.
-#[derive(Clone, Debug, PartialEq)]
+/// Statistics of one method; serialised with DESIGN.md's field names (NaN and infinities as
+/// `null`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MethodStats {
     /// Method name.
     pub name: String,
@@ -229,16 +229,33 @@ impl MethodStats {
 }
 
 /// The reference tracer's crossings along `rays` (in parallel).
-#[must_use]
+///
+/// # Errors
+/// A ray on which the reference spent its whole step budget
+/// ([`methods::REFERENCE_STEP_BUDGET`]): its crossings would not be the truth the statistics
+/// compare with.
 pub fn reference_crossings(
     program: &FieldProgram,
     settings: TraceSettings,
     rays: &[(Ray, Interval)],
     mode: TraceMode,
-) -> Vec<Vec<Crossing>> {
+) -> Result<Vec<Vec<Crossing>>, String> {
     let tracer = methods::Reference.prepare(program, settings);
     rays.par_iter()
-        .map(|(ray, span)| tracer.trace(ray, *span, mode).crossings.into_vec())
+        .enumerate()
+        .map(|(k, (ray, span))| {
+            let trace = tracer.trace(ray, *span, mode);
+            if trace.steps >= methods::REFERENCE_STEP_BUDGET {
+                return Err(format!(
+                    "the reference tracer spent its budget of {} steps on ray {k} (from {:?} \
+                     along {:?}) without finishing; the field is degenerate along it",
+                    methods::REFERENCE_STEP_BUDGET,
+                    ray.origin.to_array(),
+                    ray.direction.to_array()
+                ));
+            }
+            Ok(trace.crossings.into_vec())
+        })
         .collect()
 }
 
@@ -260,19 +277,21 @@ pub fn ran_out_of_steps(mode: TraceMode, steps: u32, max_steps: u32, crossings: 
 
 /// Traces the protocol's rays with each method; `progress` is called with the method name and
 /// the fraction done.
-#[must_use]
+///
+/// # Errors
+/// As [`reference_crossings`].
 pub fn run(
     program: &FieldProgram,
     scene_name: &str,
     chosen: &[Box<dyn Method>],
     setup: StatsSetup,
     progress: &(dyn Fn(&str, f64) + Sync),
-) -> SceneStats {
+) -> Result<SceneStats, String> {
     let settings = TraceSettings::for_protocol(program, setup.protocol);
     let diagonal = program.scale_bounds().diagonal();
     let rays = rays_of(program, setup.protocol, setup.rays, setup.seed);
     progress("reference", 0.0);
-    let reference = reference_crossings(program, settings, &rays, setup.mode);
+    let reference = reference_crossings(program, settings, &rays, setup.mode)?;
     let mut out = Vec::new();
     for method in chosen {
         let tracer = method.prepare(program, settings);
@@ -322,13 +341,13 @@ pub fn run(
         progress(method.name(), 1.0);
         out.push(MethodStats::of(method.name(), tally, compared, diagonal));
     }
-    SceneStats {
+    Ok(SceneStats {
         scene: scene_name.to_owned(),
         rays: rays.len(),
         protocol: setup.protocol,
         mode: setup.mode,
         methods: out,
-    }
+    })
 }
 
 /// One ray's method crossings against the reference's.
@@ -398,47 +417,6 @@ fn percentile(sorted: &[u32], q: f64) -> u32 {
 }
 
 impl SceneStats {
-    /// The DESIGN.md JSON schema.
-    #[must_use]
-    pub fn to_json(&self) -> String {
-        let methods: Vec<String> = self
-            .methods
-            .iter()
-            .map(|m| {
-                format!(
-                    "{{\"name\": {}, \"rays\": {}, \"hits\": {}, \"compared\": {}, \
-                     \"missed\": {}, \"spurious\": {}, \
-                     \"avg_steps\": {}, \"avg_evaluations\": {}, \"median_steps\": {}, \
-                     \"p95_steps\": {}, \"max_steps\": {}, \"out_of_steps\": {}, \
-                     \"ns_per_ray\": {}, \"max_depth_error\": {}}}",
-                    json::string(&m.name),
-                    m.rays,
-                    m.hits,
-                    m.compared,
-                    m.missed,
-                    m.spurious,
-                    json::number(m.avg_steps),
-                    json::number(m.avg_evaluations),
-                    m.median_steps,
-                    m.p95_steps,
-                    m.max_steps,
-                    m.out_of_steps,
-                    json::number(m.ns_per_ray),
-                    json::number(m.max_depth_error)
-                )
-            })
-            .collect();
-        format!(
-            "{{\"scene\": {}, \"rays\": {}, \"protocol\": {}, \"transparent\": {}, \
-             \"methods\": [\n  {}\n]}}\n",
-            json::string(&self.scene),
-            self.rays,
-            json::string(self.protocol.name()),
-            self.mode == TraceMode::Transparent,
-            methods.join(",\n  ")
-        )
-    }
-
     /// A fixed-width table for the terminal (and the results page).
     #[must_use]
     pub fn to_table(&self) -> String {
