@@ -225,7 +225,7 @@ fn stats_json_follows_the_design_schema() {
     assert!(text(&bad.stderr).contains("unknown method 'warp-drive'"));
 }
 
-/// Issue 20: `stats --protocol` and `--transparent` are reported in the JSON, the profiles
+/// `stats --protocol` and `--transparent` are reported in the JSON, the profiles
 /// change the statistics where they should (segment-original does not depend on the profile;
 /// quadratic-taylor's first interval does), and an unknown profile is one clear error.
 #[test]
@@ -644,7 +644,7 @@ fn trace_ray_reports_the_heat_maps_step_counts_and_a_consistent_step_log() {
     assert!(text(&bad.stderr).contains("outside the 48x40 frame"));
 }
 
-/// Issue 22: `bench --backend gpu` reports the size of the frame's tile lists, the first limit a
+/// `bench --backend gpu` reports the size of the frame's tile lists, the first limit a
 /// scene of many primitives meets: at 4-pixel tiles, and growing with the frame (the same
 /// supports over four times as many tiles); and the first frame's time, which holds the
 /// pipelines' compilation (a duration, not compared with anything: timings vary). Skipped without an adapter, unless
@@ -695,7 +695,7 @@ fn bench_on_the_gpu_reports_the_tile_lists() {
     );
 }
 
-/// Issue 22: `stats --backend gpu` prints the DESIGN.md JSON with the rays compared with the
+/// `stats --backend gpu` prints the DESIGN.md JSON with the rays compared with the
 /// reference (`--compared`), no evaluation count (`null`), and the CPU's hits on the same rays.
 /// Without an adapter it is skipped, unless `SKELETRACE_REQUIRE_GPU=1` (CI) makes that a failure.
 #[test]

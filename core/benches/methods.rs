@@ -1,5 +1,5 @@
 //! Time per ray of every method on the `blobs` and `tree` assets and on 1000 summed blobs
-//! (`generate blobs --groups 1 --size 1000`, issue 18), with the statistics protocol's rays (six
+//! (`generate blobs --groups 1 --size 1000`), with the statistics protocol's rays (six
 //! axis directions from the faces of the support box), single-threaded; and time per pixel of
 //! whole 64×64 frames (camera rays from screen-tile candidate lists, normals, shading) for one
 //! method of each family, on rayon's pool (`RAYON_NUM_THREADS=1` for one thread). Criterion reports time per ray as the inverse of the

@@ -7,7 +7,8 @@
 //! - a regular file (or a new one) is written through a temporary file with a unique name in the
 //!   target's folder, flushed to disk, given the old file's permissions, renamed over the
 //!   target, and the folder flushed: a crash or `kill -9` leaves the old file or the new one,
-//!   and the temporary file is removed on every error path;
+//!   and the temporary file is removed on every error path (those of writers killed in their
+//!   last milliseconds are removed by the next write of the same target);
 //! - a target that is not a regular file (a device such as `/dev/full`, a FIFO) is written
 //!   directly, so that its own write errors are reported rather than replaced by a rename;
 //! - a folder as target is refused.
@@ -161,6 +162,38 @@ pub fn unique_sibling(path: &Path, tag: &str) -> PathBuf {
     folder_of(path).join(format!(".{name}.{}.{tag}", unique_id()))
 }
 
+/// Removes the temporary files beside `target` that writes of processes no longer running
+/// left (a `kill -9` inside their last milliseconds); Linux only, where `/proc` says which
+/// processes run.
+fn sweep_stale_temporaries(target: &Path) {
+    if !cfg!(target_os = "linux") {
+        return;
+    }
+    let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    let Ok(entries) = fs::read_dir(folder_of(target)) else {
+        return;
+    };
+    for entry in entries.filter_map(Result::ok) {
+        let file = entry.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file
+            .strip_prefix(&prefix)
+            .filter(|_| file.ends_with(".tmp"))
+        else {
+            continue;
+        };
+        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+        if let Some(pid) = pid
+            && pid != std::process::id()
+            && !Path::new(&format!("/proc/{pid}")).exists()
+        {
+            let _ = fs::remove_file(entry.path());
+        }
+    }
+}
+
 /// Writes a regular file through a temporary one renamed over it.
 fn replace(
     target: &Path,
@@ -188,6 +221,7 @@ fn replace(
         return result;
     }
     sync_folder(folder_of(target));
+    sweep_stale_temporaries(target);
     Ok(())
 }
 

@@ -1,4 +1,4 @@
-//! Per-thread scratch arrays for the CPU tracer's per-ray lists (issue 18: no allocation per
+//! Per-thread scratch arrays for the CPU tracer's per-ray lists (no allocation per
 //! ray once the arrays have grown).
 
 /// What a [`ScratchPool`] holds: arrays emptied, their capacity kept, when taken again.
@@ -14,7 +14,7 @@ impl<T> Scratch for Vec<T> {
 
 /// A thread's spare arrays of one kind: a ray's temporary lists (its candidates, its support
 /// parts, the SCALIS tracer's breakpoints) reuse those of the thread's earlier rays, so that
-/// tracing allocates nothing per ray once they have grown (issue 18). Taken arrays are owned,
+/// tracing allocates nothing per ray once they have grown. Taken arrays are owned,
 /// so a nested use takes another (or a new one) instead of borrowing the pool across a call.
 pub(crate) struct ScratchPool<T>(std::cell::RefCell<Vec<T>>);
 

@@ -1,4 +1,4 @@
-//! The CPU backend's tile reuse (`cpu_backend.rs`, issue 18's edit loop): after an edit, a
+//! The CPU backend's tile reuse (`cpu_backend.rs`, edit loop): after an edit, a
 //! frame that copies the earlier frame's unchanged tiles, and in the other tiles the rays no
 //! changed primitive reaches, is the frame a full trace gives, bit for bit, for every method,
 //! on generated scenes and random edits the code was not written against; and it does copy

@@ -1,4 +1,4 @@
-//! The marches do not change when the tracer gets faster (issue 18): every method traces a fixed
+//! The marches do not change when the tracer gets faster: every method traces a fixed
 //! set of rays on every asset and on generated scenes, and each (scene, method) pair's outcome —
 //! steps, evaluations and every crossing's exact bits, opaque and transparent — is folded into a
 //! fingerprint held in `core/tests/golden/marches.txt`. An optimisation that changes one step

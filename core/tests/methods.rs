@@ -746,7 +746,7 @@ fn the_reference_finds_a_crossing_where_the_field_rounds_to_the_isovalue() {
     }
 }
 
-/// The operator scene of issue 23 (`assets/scenes/operators.ron`, Ricci over a difference and a
+/// The operator scene (`assets/scenes/operators.ron`, Ricci over a difference and a
 /// ground slab): every conservative method outside the sphere-tracing family (whose global
 /// Lipschitz bound makes grazing rays cost hundreds of steps by design) agrees with the
 /// reference, stays within its budget and within 3× segment tracing's average steps.

@@ -1,4 +1,4 @@
-// Step-count statistics of a comparison traced on the GPU (issue 19; viewport.rs): each
+// Step-count statistics of a comparison traced on the GPU (viewport.rs): each
 // panel's histogram of step counts, and the shared top of the colour scale, the largest over
 // the panels of the 99th percentile of the pixels that took a step (core frame.rs
 // StepHistogram::worked_p99 and shared_step_top). The blit colours the grid with the top where

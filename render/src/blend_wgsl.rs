@@ -1,4 +1,4 @@
-//! A scene's blend tree compiled to WGSL (issue 22: "a compiled expression per scene"): four
+//! A scene's blend tree compiled to WGSL ("a compiled expression per scene"): four
 //! straight-line functions over the group slots, one per quantity the shaders blend, each the
 //! CPU's rule for every operator —
 //!

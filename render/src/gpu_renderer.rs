@@ -1306,7 +1306,10 @@ impl GpuRenderer {
     /// `encoder`, writing the output buffers (panels side by side). With `wait`, the binning is
     /// submitted first and its total read back, so the lists are whole (a frame read back
     /// waits anyway); without, nothing waits ([`GpuRenderer::poll_tile_lists`]).
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the frame's encoder, scene, methods, geometry, settings and options all differ per call"
+    )]
     fn encode_trace(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,

@@ -1,5 +1,5 @@
 //! A bounding volume hierarchy over the primitives' support boxes for the GPU's rays that leave
-//! the screen tiles (issue 22): a frame's shadow, reflected and refracted rays (main.wgsl
+//! the screen tiles: a frame's shadow, reflected and refracted rays (main.wgsl
 //! `trace_path`) and the statistics rays off the axes (gpu_stats.rs). Their window of supports
 //! (prelude.wgsl `fill_window`) visits the primitives whose boxes the ray meets past the
 //! window's floor, instead of testing every primitive at each refill.

@@ -1,4 +1,4 @@
-//! Step statistics of a comparison grid traced on the GPU (issue 19): the frames stay where
+//! Step statistics of a comparison grid traced on the GPU: the frames stay where
 //! they were traced; `shaders/step_statistics.wgsl` counts each panel's histogram of step
 //! counts and the shared top of the colour scale next to them, the viewport's blit colours the
 //! heat maps with that top, and only the histograms (a few kilobytes) and the hovered pixel's

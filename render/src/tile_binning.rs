@@ -307,7 +307,10 @@ impl TileBinning {
     ///
     /// # Errors
     /// A failed readback, or lists larger than the device can bind with the widest tiles.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the device, queue, encoder, primitives, geometry and queries are each the caller's"
+    )]
     pub fn encode_lists(
         &mut self,
         device: &wgpu::Device,

@@ -1,4 +1,4 @@
-//! The editor's GPU viewport (issue 19): frames traced on the window's own device and drawn
+//! The editor's GPU viewport: frames traced on the window's own device and drawn
 //! straight from the trace's outputs by a render pass, with no readback and no CPU copy.
 //! [`ViewportPainter`] lives in egui_wgpu's callback resources; the editor's paint callback asks
 //! it to [`ViewportPainter::prepare`] a frame (uploading only what an edit changed, tracing only

@@ -495,7 +495,7 @@ fn file_dialogs_save_open_and_fall_back_to_the_path_field() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 19: the comparison grid's colour bar says its scale (logarithmic by default), hovering
+/// The comparison grid's colour bar says its scale (logarithmic by default), hovering
 /// a pixel of a panel finds it, and clicking it opens the ray inspector on that pixel: every
 /// panel's method is traced there with the step count its heat map shows (the same trace as
 /// `skeletrace trace-ray`), with one logged step per step for the marching methods, and the
@@ -579,7 +579,7 @@ fn clicking_a_grid_pixel_inspects_its_ray_with_the_heat_maps_step_counts() {
     assert_eq!(h.state().shown_frames().len(), shown);
 }
 
-/// Issue 19: the comparison grid keeps the viewport's aspect for 1, 2, 4 and 9 panels: every
+/// The comparison grid keeps the viewport's aspect for 1, 2, 4 and 9 panels: every
 /// chosen method gets a panel, each panel has the aspect of the grid's area (the whole view,
 /// not a strip of it), and the panels lie inside the area without overlapping.
 #[test]
@@ -800,7 +800,7 @@ fn same_colour(a: [u8; 3], b: [u8; 3]) -> bool {
     (0..3).all(|k| a[k].abs_diff(b[k]) <= 3)
 }
 
-/// Issue 19: the shaded viewport traced on the window's own device through an `egui_wgpu` paint
+/// The shaded viewport traced on the window's own device through an `egui_wgpu` paint
 /// callback (taken on lavapipe here as `SKELETRACE_GPU_VIEWPORT=1` would): the window shows the
 /// same picture as the GPU renderer's read-back frame of that view, hovering traces nothing
 /// again, and orbiting traces once per new view without uploading the scene again.
@@ -901,7 +901,7 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
     );
 }
 
-/// Issue 22: with "shadow rays" on, the GPU viewport traces a shadow ray from each hit to each
+/// With "shadow rays" on, the GPU viewport traces a shadow ray from each hit to each
 /// light: the window shows the read-back frame of that view, which differs from the frame
 /// without them. (Reflection and refraction through transparent groups are held to the CPU by
 /// `gpu_agreement.rs`; the viewport, which never waits, records the dispatches of a full tree of
@@ -972,7 +972,7 @@ fn the_gpu_viewport_traces_shadow_rays() {
     );
 }
 
-/// Issue 19: the comparison grid on the window's GPU. The heat maps are traced and coloured
+/// The comparison grid on the window's GPU. The heat maps are traced and coloured
 /// there (the render thread traces nothing) and only the statistics come back: each panel's
 /// histogram equals that of the same frame read back from a renderer of its own, the shared
 /// top is the CPU's rule applied to those frames, the window shows each frame's heat colours
@@ -1111,7 +1111,7 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
     assert_eq!(h.state().gpu_viewport_counts().map(|c| c.0), traced);
 }
 
-/// Issue 22: the editor traces the default creature, the hand, the HRBF scene and the scene with
+/// The editor traces the default creature, the hand, the HRBF scene and the scene with
 /// every shape and operator on the window's GPU (forced on lavapipe as a hardware adapter would
 /// take it): the frame goes through the paint callback, the render thread traces nothing, and no
 /// failure sends it back to the CPU.
@@ -1150,7 +1150,7 @@ fn the_editor_traces_the_creature_and_the_hand_on_the_gpu() {
     }
 }
 
-/// Issue 19: an edit made in the window, then no input at all: within the autosave period (and
+/// An edit made in the window, then no input at all: within the autosave period (and
 /// a little) the recovery file holds the edited scene.
 #[test]
 fn an_edit_followed_by_idleness_leaves_a_recovery_file() {

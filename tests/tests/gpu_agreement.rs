@@ -1148,7 +1148,7 @@ fn assert_same_surface(label: &str, a: &Frame, b: &Frame, budget: u32, diagonal:
     );
 }
 
-/// Issue 22: a frame whose tile lists do not fit in one storage binding (the 500 000-segment
+/// A frame whose tile lists do not fit in one storage binding (the 500 000-segment
 /// foam at 2048² on a hardware GPU: 2.4 GB against wgpu's 2 GB) is binned again with wider
 /// tiles instead of failing. Here the lists of the molecule are held to two fifths of what its
 /// 4-pixel tiles need; the frame is binned with wider tiles and keeps its hits and depths.
@@ -1184,7 +1184,7 @@ fn lists_too_large_for_one_binding_widen_the_tiles() {
     assert_same_surface("segment", &fine[0], &wide[0], settings.max_steps, diagonal);
 }
 
-/// Issue 22: `stats --backend gpu` against the CPU's statistics on the same rays: the tree and
+/// `stats --backend gpu` against the CPU's statistics on the same rays: the tree and
 /// a generated blob scene, the six-axis protocol and the random rays around the box of
 /// `paper-2023`; and transparent statistics (every crossing, forward-inclusion 2023 Table 4's
 /// protocol) on its summed blobs and on the generated blobs, with the table's methods (and

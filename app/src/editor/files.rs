@@ -1,4 +1,4 @@
-//! Files (issue 5, "Files and export"): New / Open / Save / Save As, screenshots and mesh
+//! Files ("Files and export"): New / Open / Save / Save As, screenshots and mesh
 //! export through the system file dialog — rfd: the xdg desktop portal, zenity as its fallback —
 //! and the File panel's path field when no dialog can be shown; recent and dropped files; the
 //! prompt before unsaved changes are replaced or closed; autosave and recovery.

@@ -3,7 +3,7 @@
 //! options — never otherwise; traces previews at a reduced resolution while the user interacts,
 //! the full frame once idle; and turns replies into textures.
 //!
-//! Previews start at half resolution (issue 18) and keep their divisor, a power of two, while
+//! Previews start at half resolution and keep their divisor, a power of two, while
 //! they take about [`PREVIEW_TARGET_MS`]: a drag then traces one resolution after the other, and
 //! the CPU copies what each edit did not reach from the preview before it (a new resolution
 //! copies nothing). A preview much slower than the target doubles the divisor, one much faster
@@ -33,7 +33,7 @@ const PREVIEW_TARGET_MS: f64 = 60.0;
 /// A preview slower than this makes the next ones twice as coarse.
 const COARSEN_ABOVE_MS: f64 = 2.5 * PREVIEW_TARGET_MS;
 /// Half-resolution previews of edits (that copy pixels from the preview before) stay up to
-/// this long (issue 18: previews at half resolution or better while dragging; on two cores,
+/// this long (previews at half resolution or better while dragging; on two cores,
 /// `bench assets/scenes/creature.ron --after-edits --size 398x367` moves each vertex of the
 /// default creature in 36 ms (median), 166 ms at most; a drag that moves a body vertex farther
 /// between previews takes up to about 300 ms). Camera moves copy nothing and keep

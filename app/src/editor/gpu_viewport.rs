@@ -1,4 +1,4 @@
-//! The viewport and the comparison grid traced on the window's own GPU (issue 19): an
+//! The viewport and the comparison grid traced on the window's own GPU: an
 //! `egui_wgpu` paint callback asks the [`ViewportPainter`] in the renderer's callback resources
 //! to trace the frame into its output buffers and draw it into the viewport's rectangle, or each
 //! method's heat map into its grid panel, with no readback of a frame and no texture upload; an

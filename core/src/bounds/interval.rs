@@ -156,8 +156,7 @@ impl Interval {
     /// `self · o` for `o` of positive members only (`o.lo > 0`): the end points of `*` (equal
     /// numbers; where both are zeros their signs may differ), since the order of the products
     /// is known (the larger factor of `self` gives the larger products), with two products and
-    /// comparisons fewer. For the hot loops of the SCALIS bounds, where `o` is a power of `1/τ`
-    /// (issue 18).
+    /// comparisons fewer. For the hot loops of the SCALIS bounds, where `o` is a power of `1/τ`.
     #[must_use]
     #[inline]
     pub fn times_positive(self, o: Self) -> Self {
@@ -454,7 +453,10 @@ impl Sub for Jet {
 /// Jet of `f/g`, as `f · (1/g)`.
 impl Div for Jet {
     type Output = Self;
-    #[allow(clippy::suspicious_arithmetic_impl)]
+    #[expect(
+        clippy::suspicious_arithmetic_impl,
+        reason = "a quotient of jets is the product with the reciprocal jet"
+    )]
     fn div(self, g: Self) -> Self {
         self * g.recip()
     }

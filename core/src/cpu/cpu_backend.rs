@@ -4,7 +4,7 @@
 //! In the editor it keeps its last frames ([`CpuBackend::reusing_tiles`]): after an edit that
 //! moved a few primitives, a frame through the same camera copies the screen tiles whose
 //! candidates did not change and, in the other tiles, the rays that no changed primitive
-//! reaches, and traces again only the rest (`Renderer::render_reusing`; issue 18, the edit
+//! reaches, and traces again only the rest (`Renderer::render_reusing`; the edit
 //! loop). It does so only where every ray's trace is known to depend on nothing else:
 //! the same method, camera, size, view and settings; a program that differs only in some
 //! bounded primitives (`FieldProgram::primitives_changed_since`), with the same materials,

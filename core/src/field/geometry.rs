@@ -177,7 +177,7 @@ pub const RELATIVE_SUPPORT_MARGIN: f64 = 1e-6;
 
 /// The absolute part of the margin by which a ray's line must miss a support for the field to
 /// be exactly 0 at every point `origin + t·direction`, `|t·direction| ≤ reach`, near `center`
-/// (issue 18, `RayField`): 10⁴ times the rounding of such a point minus `center` and of a
+/// (`RayField`): 10⁴ times the rounding of such a point minus `center` and of a
 /// distance to the line.
 #[must_use]
 pub fn rounding_margin(origin: DVec3, center: DVec3, reach: f64) -> f64 {
@@ -277,8 +277,8 @@ impl SphereCone {
         self.seen_from(ray.origin).ray_interval(ray.direction)
     }
 
-    /// What [`SphereCone::ray_interval`] computes alike for every ray from `origin` (issue 18:
-    /// the rays of a tile share their origin).
+    /// What [`SphereCone::ray_interval`] computes alike for every ray from `origin`
+    /// (the rays of a tile share their origin).
     #[must_use]
     pub fn seen_from(&self, origin: DVec3) -> ConeFromOrigin {
         let d = self.slope;

@@ -65,7 +65,7 @@ impl Default for Kernel {
 
 /// The unvalidated shape of [`Kernel`] as read from a file.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "Kernel")]
 enum KernelSpec {
     CompactPolynomial { degree: u32, scale: f64 },
     Cauchy { degree: u32, scale: f64 },
@@ -190,7 +190,7 @@ fn compact_raw(m: i32, a: f64, x: f64) -> (f64, f64, f64) {
 /// A kernel evaluated many times in one loop (a SCALIS segment's quadrature nodes):
 /// [`KernelProfile::with_family`] hands the loop one whose family — and, for the compact
 /// kernels of degree 4 and 6, whose power — is fixed at compile time, so that the loop does not
-/// match the family at every node (issue 18). Its values are [`KernelProfile::value`]'s and
+/// match the family at every node. Its values are [`KernelProfile::value`]'s and
 /// [`KernelProfile::value_d1`]'s bit for bit.
 pub trait FixedKernel {
     /// `K(x)`.

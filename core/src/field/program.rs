@@ -239,7 +239,7 @@ impl FieldProgram {
     /// (`TraceSettings::for_protocol`), the rays' reach (`frame::far_distance`), field
     /// shading, the candidate tests' padding and the BVH's leaf order, so an edit that moves
     /// the support bounds within their grid cells (an extremal vertex moved a little) changes
-    /// none of them, and the editor traces again only the rays the edit reaches (issue 18).
+    /// none of them, and the editor traces again only the rays the edit reaches.
     #[must_use]
     pub fn scale_bounds(&self) -> Aabb {
         self.support_bounds().snapped_to_grid()
@@ -501,7 +501,7 @@ impl FieldProgram {
         out: &mut Vec<Interval>,
     ) {
         // Each support is merged into the parts as the lookup visits it: no sort of the
-        // supports (issue 18), the parts are few.
+        // supports, the parts are few.
         out.clear();
         lookup.on_ray(span, |_, span| merge_into_parts(out, span));
         for b in &self.cut_boxes {

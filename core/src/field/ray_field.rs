@@ -1,4 +1,4 @@
-//! The field restricted to one ray, with the ray's candidate primitives gathered once (issue 18).
+//! The field restricted to one ray, with the ray's candidate primitives gathered once.
 //!
 //! A tracer asks the field many questions along one ray: the value and derivative at each step,
 //! a bound over the next interval, the supports it crosses. Asked of the [`FieldProgram`], each
@@ -159,7 +159,7 @@ fn reach_of(span: Interval) -> Interval {
 
 /// The candidates of a bundle of rays from one origin — a screen tile's camera rays — on one
 /// span: every primitive whose box may meet one of them, in the BVH's depth-first order, with
-/// its box (issue 18; the CPU twin of the GPU's tile binning, `render/shaders/binning.wgsl`).
+/// its box (the CPU twin of the GPU's tile binning, `render/shaders/binning.wgsl`).
 /// One BVH walk per tile instead of one per ray; [`RayField::from_tile`] filters it per ray.
 #[derive(Debug)]
 pub struct TileCandidates {
@@ -171,7 +171,7 @@ pub struct TileCandidates {
 }
 
 /// One primitive of a tile's list, with what every ray from the tile's origin computes alike
-/// from it (issue 18): the differences of the slab tests and, for a ball-shaped support, of
+/// from it: the differences of the slab tests and, for a ball-shaped support, of
 /// the ball's. The per-ray tests take them as the program's queries compute them, bit for bit.
 #[derive(Debug)]
 struct TileItem {

@@ -1,4 +1,4 @@
-//! Settings profiles after each paper (issue 20): comparisons are made on a paper's terms first.
+//! Settings profiles after each paper: comparisons are made on a paper's terms first.
 //!
 //! - `default`: skeletrace's own settings ([`TraceSettings::for_program`]): every support part
 //!   starts with an interval of 0.05 of the box diagonal, the SCALIS tracer stops on the Newton

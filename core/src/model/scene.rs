@@ -219,7 +219,7 @@ impl Repeat {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "Group")]
 struct GroupFile {
     #[serde(default)]
     name: String,
@@ -364,7 +364,7 @@ pub struct Skeleton {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "Skeleton")]
 struct SkeletonFile {
     #[serde(default)]
     name: String,
@@ -1339,8 +1339,9 @@ fn position_of(text: &str, key: &str) -> (usize, usize) {
 pub const MAX_BLEND_DEPTH: usize = 64;
 
 /// The parser's nesting limit: a blend tree of [`MAX_BLEND_DEPTH`] operators, each of which
-/// takes up to three levels (the operator, its fields, its operand list), within the scene.
-const RON_NESTING_LIMIT: usize = 3 * MAX_BLEND_DEPTH + 16;
+/// takes up to six of the parser's levels (the variant, its fields, its operand list and the
+/// operand's own variant), within the scene, so that the validation names the limit.
+const RON_NESTING_LIMIT: usize = 6 * MAX_BLEND_DEPTH + 32;
 
 /// A parse error in the project's words: an unknown field or variant names the nearest known
 /// one, too deep a nesting names the limit.

@@ -1,5 +1,5 @@
 //! Random scenes of one primitive type and kernel for the accuracy and bound tests.
-#![allow(dead_code, missing_docs)]
+#![expect(dead_code, reason = "each test binary uses a part of these helpers")]
 
 use skeletrace_core::field::kernel::{Kernel, KernelProfile};
 use skeletrace_core::model::rng::SplitMix64;

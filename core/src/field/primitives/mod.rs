@@ -173,7 +173,7 @@ impl Primitive {
 
     /// Whether the primitive is exactly 0 (with a zero gradient) at every point `ray.at(t)`,
     /// `|t| ≤ t_max`, because the ray's line misses its support by more than rounding; `false`
-    /// where that is not established (issue 18: a ray's field leaves such primitives out).
+    /// where that is not established (a ray's field leaves such primitives out).
     #[must_use]
     pub fn zero_on_line(&self, ray: &Ray, k: &KernelProfile, t_max: f64) -> bool {
         match self {

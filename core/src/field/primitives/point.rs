@@ -86,7 +86,7 @@ impl PointBlob {
         })
     }
 
-    /// [`Self::ray_jet`] with the kernel's family fixed (issue 18: the compact kernels'
+    /// [`Self::ray_jet`] with the kernel's family fixed (the compact kernels'
     /// powers unrolled), bit for bit.
     fn ray_jet_with<K: FixedKernel>(&self, ray: &Ray, span: Interval, k: &K) -> Jet {
         let rho = self.radius;
