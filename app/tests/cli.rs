@@ -15,6 +15,23 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
+/// Standard output parsed as JSON.
+fn parse_json(stdout: &str) -> serde_json::Value {
+    serde_json::from_str(stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
+}
+
+/// The names of a `--json` output's `key` list (`methods`, `skipped`).
+fn names(value: &serde_json::Value, key: &str) -> Vec<String> {
+    value[key]
+        .as_array()
+        .map(|list| {
+            list.iter()
+                .filter_map(|m| m["name"].as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("skeletrace-cli-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
@@ -247,20 +264,18 @@ fn stats_runs_each_protocol_opaque_and_transparent() {
         assert!(o.status.success(), "{extra:?}: {}", text(&o.stderr));
         text(&o.stdout)
     };
-    let avg = |json: &str, method: &str| -> f64 {
-        let at = json
-            .find(&format!("\"name\": \"{method}\""))
-            .unwrap_or_else(|| panic!("{method} missing from {json}"));
-        let rest = &json[at..];
-        let from = rest.find("\"avg_steps\": ").unwrap_or(0) + "\"avg_steps\": ".len();
-        let value: String = rest[from..]
-            .chars()
-            .take_while(|c| c.is_ascii_digit() || *c == '.')
-            .collect();
-        value.parse().unwrap_or(f64::NAN)
+    let avg = |out: &str, method: &str| -> f64 {
+        let value = parse_json(out);
+        let methods = value["methods"].as_array().cloned().unwrap_or_default();
+        methods
+            .iter()
+            .find(|m| m["name"] == method)
+            .and_then(|m| m["avg_steps"].as_f64())
+            .unwrap_or_else(|| panic!("{method} missing from {out}"))
     };
     let default = run(&[]);
-    assert!(default.contains("\"protocol\": \"default\", \"transparent\": false"));
+    assert_eq!(parse_json(&default)["protocol"], "default", "{default}");
+    assert_eq!(parse_json(&default)["transparent"], false, "{default}");
     for protocol in ["paper-2023", "paper-2021"] {
         let out = run(&["--protocol", protocol]);
         assert!(
@@ -346,7 +361,7 @@ fn out_of_range_requests_get_one_line_with_the_range() {
         let digits: String = head
             .chars()
             .rev()
-            .take_while(char::is_ascii_digit)
+            .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | '+' | '-'))
             .collect();
         digits
             .chars()
@@ -375,12 +390,28 @@ fn stats_leaves_first_crossing_methods_out_of_transparent_rays() {
     };
     let opaque = stats(&["--methods", "field-inversion,quadratic-taylor"]);
     assert!(opaque.status.success(), "{}", text(&opaque.stderr));
-    assert!(text(&opaque.stdout).contains("\"name\": \"field-inversion\""));
+    assert!(names(&parse_json(&text(&opaque.stdout)), "methods").contains(&"field-inversion".to_owned()));
     let all = stats(&["--methods", "all", "--transparent"]);
     assert!(all.status.success(), "{}", text(&all.stderr));
     let (out, err) = (text(&all.stdout), text(&all.stderr));
-    assert!(!out.contains("\"name\": \"field-inversion\""), "{out}");
-    assert!(out.contains("\"name\": \"quadratic-taylor\""), "{out}");
+    let value = parse_json(&out);
+    assert!(
+        !names(&value, "methods").contains(&"field-inversion".to_owned()),
+        "{out}"
+    );
+    assert!(
+        names(&value, "methods").contains(&"quadratic-taylor".to_owned()),
+        "{out}"
+    );
+    // Left out with its reason, in the JSON as on standard error.
+    let skipped = value["skipped"].as_array().cloned().unwrap_or_default();
+    assert!(
+        skipped.iter().any(|m| m["name"] == "field-inversion"
+            && m["reason"]
+                .as_str()
+                .is_some_and(|r| r.contains("first crossing only"))),
+        "{out}"
+    );
     assert!(
         err.contains("skipping field-inversion: field inversion finds the first crossing only"),
         "{err}"
@@ -443,7 +474,7 @@ fn render_compare_and_stats_json_work_on_every_asset() {
             body.starts_with('{') && body.contains("\"methods\": ["),
             "{body}"
         );
-        assert_eq!(body.matches("\"name\"").count(), panels, "{body}");
+        assert_eq!(names(&parse_json(&body), "methods").len(), panels, "{body}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -162,8 +162,8 @@ pub fn generate(kind: GeneratorKind, options: &GenerateOptions) -> Result<Scene,
         let count = estimated_primitives_f64(kind, size);
         let (count, megabytes) = if estimate == u64::MAX || count >= 1e15 {
             (
-                format!("{count:.1e}"),
-                format!("{:.1e}", count * BYTES_PER_PRIMITIVE as f64 / 1e6),
+                format!("{count:.3e}"),
+                format!("{:.3e}", count * BYTES_PER_PRIMITIVE as f64 / 1e6),
             )
         } else {
             (
