@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use skeletrace_core::backend::{
-    self, BackendChoice, BackendError, DeviceKind, FrameBackend, FrameRequest,
+    self, BackendChoice, BackendError, Capabilities, DeviceKind, FrameBackend, FrameRequest,
 };
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
@@ -93,17 +93,19 @@ pub fn parse_backend_choice(text: &str) -> Result<BackendChoice, String> {
 /// [`Backends::gpu`].
 pub struct FailingGpu;
 
-impl FrameBackend for FailingGpu {
-    fn describe(&self) -> String {
-        "failing GPU (injected)".to_owned()
-    }
-
+impl Capabilities for FailingGpu {
     fn device_kind(&self) -> DeviceKind {
         DeviceKind::HardwareGpu
     }
 
     fn supports(&self, _: &Compiled, _: MethodId, _: &FrameRequest) -> Result<(), String> {
         Ok(())
+    }
+}
+
+impl FrameBackend for FailingGpu {
+    fn describe(&self) -> String {
+        "failing GPU (injected)".to_owned()
     }
 
     fn render(&mut self, _: &Arc<Compiled>, _: &FrameRequest) -> Result<Vec<Frame>, BackendError> {

@@ -14,11 +14,15 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use clap::Parser;
-use skeletrace_core::backend::{BackendChoice, DeviceKind};
-use skeletrace_core::methods::{Method, MethodId, Protocol, TraceMode};
+use skeletrace_core::backend::{
+    BackendChoice, BackendError, Cancel, Capabilities, FrameRequest, Side, decide,
+};
+use skeletrace_core::frame::View;
+use skeletrace_core::methods::{Method, MethodId, Protocol, TraceMode, TraceSettings};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::stats;
 use skeletrace_core::{FieldProgram, Scene};
+use skeletrace_render::gpu_support::gpu_method;
 use skeletrace_render::{GpuMethod, GpuRenderer};
 
 use cli::{Cli, Command};
@@ -206,35 +210,72 @@ fn chosen_methods(
     Ok((ids, Vec::new()))
 }
 
-/// The GPU methods of `chosen` (`all`: those the GPU runs on this scene, the others reported on
-/// standard error; a named method without a GPU implementation is an error).
-fn gpu_methods(
-    list: &str,
-    chosen: &[Box<dyn Method>],
-    program: &FieldProgram,
+/// The methods of `chosen` `stats` traces on the CPU and on the GPU, as
+/// `skeletrace_core::backend::decide` decides for `--backend` (the GPU opened unless the choice
+/// is the CPU; `all` leaves out, with the reason, a method the GPU lacks under `--backend gpu`),
+/// and the GPU.
+///
+/// # Errors
+/// `--backend gpu` without a GPU, or a named method the GPU lacks there.
+#[expect(
+    clippy::type_complexity,
+    reason = "the two lists and the GPU that traces the second are the answer"
+)]
+fn stats_sides(
+    args: &cli::StatsArgs,
+    compiled: &skeletrace_core::Compiled,
+    chosen: Vec<MethodId>,
     protocol: Protocol,
     skipped: &mut Vec<Skipped>,
-) -> Result<Vec<GpuMethod>, String> {
-    let mut out = Vec::new();
-    for method in chosen {
-        let id = method.id();
-        let gpu = GpuMethod::from_id(id)
-            .ok_or_else(|| "no GPU implementation".to_owned())
-            .and_then(|g| g.supports(program).map(|()| g))
-            .and_then(|g| g.follows(protocol).map(|()| g));
-        match gpu {
-            Ok(g) => out.push(g),
-            Err(why) if list == "all" => {
-                eprintln!("skeletrace: skipping {id} on the GPU: {why}");
+) -> Result<
+    (
+        Vec<Box<dyn Method>>,
+        Vec<GpuMethod>,
+        Result<GpuRenderer, String>,
+    ),
+    String,
+> {
+    let gpu = match args.backend {
+        BackendChoice::Cpu => Err("the CPU backend was chosen".to_owned()),
+        _ => GpuRenderer::new().map_err(|e| e.to_string()),
+    };
+    if let (BackendChoice::Gpu, Err(why)) = (args.backend, &gpu) {
+        return Err(format!("--backend gpu: {why}"));
+    }
+    // What the statistics ask of a backend: rays under the profile's settings, no shading.
+    let request = FrameRequest {
+        camera: skeletrace_core::model::scene::Camera::default(),
+        width: 1,
+        height: 1,
+        methods: Vec::new(),
+        view: View::Steps { steps_max: 0 },
+        shadows: false,
+        settings: TraceSettings::for_protocol(&compiled.program, protocol),
+        cancel: Cancel::new(),
+    };
+    let (mut on_cpu, mut on_gpu) = (Vec::new(), Vec::new());
+    for id in chosen {
+        let capabilities = gpu
+            .as_ref()
+            .map(|g| g as &dyn Capabilities)
+            .map_err(String::as_str);
+        match decide(args.backend, capabilities, compiled, id, &request) {
+            Ok(Side::Cpu) => on_cpu.push(id.method()),
+            Ok(Side::Gpu) => on_gpu.push(
+                gpu_method(compiled, id, &request)
+                    .map_err(|why| format!("method '{id}' does not run on the GPU: {why}"))?,
+            ),
+            Err(BackendError::Unsupported(reason)) if args.methods == "all" => {
+                eprintln!("skeletrace: skipping {id}: {reason}");
                 skipped.push(Skipped {
                     name: id.name(),
-                    reason: format!("on the GPU: {why}"),
+                    reason,
                 });
             }
-            Err(why) => return Err(format!("method '{id}' does not run on the GPU: {why}")),
+            Err(e) => return Err(format!("method '{id}': {e}")),
         }
     }
-    Ok(out)
+    Ok((on_cpu, on_gpu, gpu))
 }
 
 /// Most rays `stats` traces per method on the CPU, which keeps every ray's outcome until the
@@ -279,7 +320,6 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         TraceMode::Opaque
     };
     let (chosen, mut skipped) = chosen_methods(&args.methods, program, mode)?;
-    let chosen: Vec<Box<dyn Method>> = chosen.into_iter().map(MethodId::method).collect();
     let terminal = std::io::stderr().is_terminal();
     let progress = |name: &str, fraction: f64| {
         if terminal {
@@ -293,40 +333,43 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         protocol: args.protocol,
         mode,
     };
-    let on_gpu = match args.backend {
-        BackendChoice::Cpu => None,
-        BackendChoice::Gpu => Some(GpuRenderer::new().map_err(|e| e.to_string())?),
-        BackendChoice::Auto => GpuRenderer::new()
-            .ok()
-            .filter(|g| g.device_kind() == DeviceKind::HardwareGpu),
-    };
-    check_stats_rays(args.rays, on_gpu.is_some())?;
-    let stats = match on_gpu {
-        None => stats::run(program, &name, &chosen, setup, &progress)?,
-        Some(mut gpu) => {
-            let methods = gpu_methods(
-                &args.methods,
-                &chosen,
-                program,
-                setup.protocol,
-                &mut skipped,
-            )?;
-            eprintln!(
-                "skeletrace: {} rays per method on {}; the first {} compared with the reference on the CPU",
-                setup.rays,
-                gpu.adapter_name(),
-                args.compared.min(setup.rays)
-            );
-            skeletrace_render::gpu_stats::run(
-                &mut gpu,
-                &compiled,
-                &name,
-                &methods,
-                (setup, args.compared),
-                &progress,
-            )
-            .map_err(|e| e.to_string())?
-        }
+    let (on_cpu, on_gpu, gpu) = stats_sides(args, &compiled, chosen, setup.protocol, &mut skipped)?;
+    check_stats_rays(args.rays, on_cpu.is_empty() && !on_gpu.is_empty())?;
+    let mut methods = Vec::new();
+    let (mut rays, mut protocol) = (args.rays, args.protocol);
+    if !on_cpu.is_empty() {
+        let cpu = stats::run(program, &name, &on_cpu, setup, &progress)?;
+        (rays, protocol) = (cpu.rays, cpu.protocol);
+        methods.extend(cpu.methods);
+    }
+    if let (false, Ok(mut gpu)) = (on_gpu.is_empty(), gpu) {
+        eprintln!(
+            "skeletrace: {} rays per method on {}; the first {} compared with the reference on the CPU",
+            setup.rays,
+            gpu.adapter_name(),
+            args.compared.min(setup.rays)
+        );
+        let traced = skeletrace_render::gpu_stats::run(
+            &mut gpu,
+            &compiled,
+            &name,
+            &on_gpu,
+            (setup, args.compared),
+            &progress,
+        )
+        .map_err(|e| e.to_string())?;
+        (rays, protocol) = (traced.rays, traced.protocol);
+        methods.extend(traced.methods);
+    }
+    // In the order asked, whichever side traced them.
+    let order: Vec<&str> = MethodId::ALL.iter().map(|m| m.name()).collect();
+    methods.sort_by_key(|m| order.iter().position(|n| *n == m.name));
+    let stats = stats::SceneStats {
+        scene: name.clone(),
+        rays,
+        protocol,
+        mode,
+        methods,
     };
     if terminal {
         eprint!("\r{:40}\r", "");

@@ -390,7 +390,10 @@ fn stats_leaves_first_crossing_methods_out_of_transparent_rays() {
     };
     let opaque = stats(&["--methods", "field-inversion,quadratic-taylor"]);
     assert!(opaque.status.success(), "{}", text(&opaque.stderr));
-    assert!(names(&parse_json(&text(&opaque.stdout)), "methods").contains(&"field-inversion".to_owned()));
+    assert!(
+        names(&parse_json(&text(&opaque.stdout)), "methods")
+            .contains(&"field-inversion".to_owned())
+    );
     let all = stats(&["--methods", "all", "--transparent"]);
     assert!(all.status.success(), "{}", text(&all.stderr));
     let (out, err) = (text(&all.stdout), text(&all.stderr));

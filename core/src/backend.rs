@@ -1,7 +1,7 @@
 //! One interface for tracing frames: [`FrameBackend`], implemented by the CPU tracer
 //! (`crate::cpu::cpu_backend::CpuBackend`) and the GPU (`skeletrace_render::GpuBackend`), and
-//! [`choose`], the one place that decides which backend traces a method, used by `render`,
-//! `bench` and the editor.
+//! [`decide`], the one place that decides which backend traces a method ([`choose`] picks the
+//! backend it names), asked by `render`, `bench`, `stats` and the editor.
 //!
 //! Errors keep two cases apart: a backend that does not support a scene or method
 //! ([`BackendError::Unsupported`], a fact about the scene) and a device that failed
@@ -137,11 +137,11 @@ impl fmt::Display for BackendError {
 
 impl std::error::Error for BackendError {}
 
-/// A way of tracing frames of a compiled scene.
-pub trait FrameBackend {
-    /// The device in words (adapter name, or the CPU with its threads).
-    fn describe(&self) -> String;
-
+/// What a backend says about a frame before tracing it: the device it traces on and whether it
+/// can trace a method of a request. [`decide`] asks this of the GPU, whether it is a
+/// [`FrameBackend`] (the command line, the editor's render thread) or the editor's GPU
+/// viewport, so that every caller decides the same way.
+pub trait Capabilities {
     /// What the backend traces on.
     fn device_kind(&self) -> DeviceKind;
 
@@ -156,6 +156,12 @@ pub trait FrameBackend {
         method: MethodId,
         request: &FrameRequest,
     ) -> Result<(), String>;
+}
+
+/// A way of tracing frames of a compiled scene.
+pub trait FrameBackend: Capabilities {
+    /// The device in words (adapter name, or the CPU with its threads).
+    fn describe(&self) -> String;
 
     /// The device's own time for the passes of the last frame, where the backend measures it
     /// (GPU timestamp queries); `None` otherwise.
@@ -181,13 +187,56 @@ pub trait FrameBackend {
     ) -> Result<Vec<Frame>, BackendError>;
 }
 
-/// The backend that traces `method` for `choice`: the CPU, the GPU (`gpu`: the opened GPU
-/// backend, or why none could be opened), or under [`BackendChoice::Auto`] the GPU on a
-/// hardware adapter when it supports the method on this scene and the CPU otherwise.
+/// Where a method's frames are traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// The CPU tracer.
+    Cpu,
+    /// The GPU.
+    Gpu,
+}
+
+/// The one decision of which side traces `method` on `compiled` for `choice`: the CPU; the
+/// GPU (`gpu`: what the opened GPU says of itself, or why none could be opened); or under
+/// [`BackendChoice::Auto`] the GPU on a hardware adapter when it supports the method here,
+/// the CPU otherwise. `render`, `bench`, `stats`, the editor's render thread, its method
+/// labels and its GPU viewport all ask it.
 ///
 /// # Errors
 /// Under [`BackendChoice::Gpu`]: [`BackendError::DeviceFailed`] when no GPU could be opened,
 /// [`BackendError::Unsupported`] when the GPU does not support the method here.
+pub fn decide(
+    choice: BackendChoice,
+    gpu: Result<&dyn Capabilities, &str>,
+    compiled: &Compiled,
+    method: MethodId,
+    request: &FrameRequest,
+) -> Result<Side, BackendError> {
+    match choice {
+        BackendChoice::Cpu => Ok(Side::Cpu),
+        BackendChoice::Gpu => {
+            let gpu = gpu.map_err(|why| BackendError::DeviceFailed(why.to_owned()))?;
+            gpu.supports(compiled, method, request)
+                .map_err(|why| BackendError::Unsupported(format!("{method} on the GPU: {why}")))?;
+            Ok(Side::Gpu)
+        }
+        BackendChoice::Auto => match gpu {
+            Ok(gpu)
+                if gpu.device_kind() == DeviceKind::HardwareGpu
+                    && gpu.supports(compiled, method, request).is_ok() =>
+            {
+                Ok(Side::Gpu)
+            }
+            _ => Ok(Side::Cpu),
+        },
+    }
+}
+
+/// The backend that traces `method` for `choice`, as [`decide`] decides: `gpu` is the opened
+/// GPU backend, or why none could be opened.
+///
+/// # Errors
+/// As [`decide`].
 pub fn choose<'a>(
     choice: BackendChoice,
     gpu: Result<&'a mut dyn FrameBackend, &str>,
@@ -196,22 +245,15 @@ pub fn choose<'a>(
     method: MethodId,
     request: &FrameRequest,
 ) -> Result<&'a mut dyn FrameBackend, BackendError> {
-    match choice {
-        BackendChoice::Cpu => Ok(cpu),
-        BackendChoice::Gpu => {
-            let gpu = gpu.map_err(|why| BackendError::DeviceFailed(why.to_owned()))?;
-            gpu.supports(compiled, method, request)
-                .map_err(|why| BackendError::Unsupported(format!("{method} on the GPU: {why}")))?;
-            Ok(gpu)
-        }
-        BackendChoice::Auto => match gpu {
-            Ok(gpu)
-                if gpu.device_kind() == DeviceKind::HardwareGpu
-                    && gpu.supports(compiled, method, request).is_ok() =>
-            {
-                Ok(gpu)
-            }
-            _ => Ok(cpu),
-        },
+    let capabilities = match &gpu {
+        Ok(g) => Ok(&**g as &dyn Capabilities),
+        Err(why) => Err(*why),
+    };
+    match (
+        decide(choice, capabilities, compiled, method, request)?,
+        gpu,
+    ) {
+        (Side::Gpu, Ok(gpu)) => Ok(gpu),
+        _ => Ok(cpu),
     }
 }

@@ -6,13 +6,12 @@
 use std::sync::Arc;
 
 use skeletrace_core::backend::{
-    BackendError, DeviceKind, FrameBackend, FrameRequest, PassTimes, TileLists,
+    BackendError, Capabilities, DeviceKind, FrameBackend, FrameRequest, PassTimes, TileLists,
 };
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::frame::{Frame, View};
+use skeletrace_core::frame::Frame;
 use skeletrace_core::methods::MethodId;
 
-use crate::buffers::PackedScene;
 use crate::gpu_renderer::GpuRenderer;
 use crate::shaders::GpuMethod;
 
@@ -48,11 +47,7 @@ impl GpuBackend {
     }
 }
 
-impl FrameBackend for GpuBackend {
-    fn describe(&self) -> String {
-        self.renderer.adapter_name().to_owned()
-    }
-
+impl Capabilities for GpuBackend {
     fn device_kind(&self) -> DeviceKind {
         self.renderer.device_kind()
     }
@@ -63,14 +58,13 @@ impl FrameBackend for GpuBackend {
         method: MethodId,
         request: &FrameRequest,
     ) -> Result<(), String> {
-        let gpu_method = GpuMethod::from_id(method)
-            .ok_or_else(|| format!("{method} has no GPU implementation"))?;
-        gpu_method.supports(&compiled.program)?;
-        PackedScene::check(&compiled.program)?;
-        if let View::Shaded(shading) = request.view {
-            self.renderer.check_shading_budget(compiled, shading)?;
-        }
-        Ok(())
+        self.renderer.supports(compiled, method, request)
+    }
+}
+
+impl FrameBackend for GpuBackend {
+    fn describe(&self) -> String {
+        self.renderer.adapter_name().to_owned()
     }
 
     fn last_pass_times(&self) -> Option<PassTimes> {

@@ -1475,7 +1475,7 @@ impl GpuRenderer {
 ///
 /// # Errors
 /// The counts, and the advice to use the CPU.
-fn check_shading_walks(
+pub(crate) fn check_shading_walks(
     compiled: &Compiled,
     shading: FieldShading,
     point_walk_bound: impl FnOnce() -> usize,

@@ -12,6 +12,7 @@ pub mod buffers;
 pub mod gpu_backend;
 pub mod gpu_renderer;
 pub mod gpu_stats;
+pub mod gpu_support;
 pub mod ray_bvh;
 pub mod shaders;
 pub mod shared;
@@ -21,6 +22,7 @@ pub mod viewport;
 
 pub use gpu_backend::GpuBackend;
 pub use gpu_renderer::GpuRenderer;
+pub use gpu_support::GpuOfKind;
 pub use shaders::GpuMethod;
 /// The wgpu the renderer is built on, for naming its types (the adapter's graphics API).
 pub use wgpu;

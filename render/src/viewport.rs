@@ -352,6 +352,12 @@ impl ViewportPainter {
         self.renderer.uploaded_primitive_bytes()
     }
 
+    /// The renderer the painter traces with (what it supports: its `Capabilities`).
+    #[must_use]
+    pub fn renderer(&self) -> &GpuRenderer {
+        &self.renderer
+    }
+
     /// The adapter, as the renderer names it.
     #[must_use]
     pub fn adapter_name(&self) -> &str {

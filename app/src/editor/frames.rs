@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui;
 use skeletrace_core::Compiled;
-use skeletrace_core::backend::{BackendChoice, Cancel};
+use skeletrace_core::backend::{BackendChoice, Cancel, DeviceKind};
 use skeletrace_core::frame::{FieldShading, Frame, StepHistogram, StepScale, shared_step_top};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::Camera;
@@ -76,6 +76,8 @@ pub(super) struct Shown {
     pub frames: Vec<ShownFrame>,
     pub skipped: Vec<String>,
     pub adapter: String,
+    /// The kind of the render thread's GPU, if it has one open.
+    pub gpu: Option<DeviceKind>,
     pub steps_max: u32,
     /// The colour scale of the heat-map textures.
     pub scale: StepScale,
@@ -167,6 +169,13 @@ impl ViewportFrames {
         let id = self.next_request;
         self.next_request += 1;
         id
+    }
+
+    /// The kind of GPU the render thread has open, as its last reply said; `None` before a
+    /// reply or without a GPU.
+    #[must_use]
+    pub fn render_thread_gpu(&self) -> Option<DeviceKind> {
+        self.shown.as_ref().and_then(|shown| shown.gpu)
     }
 
     /// Sends a request for `order` unless the same one was sent last.
@@ -404,6 +413,7 @@ impl ViewportFrames {
             frames,
             skipped: reply.skipped,
             adapter: reply.adapter,
+            gpu: reply.gpu,
             steps_max,
             scale,
             refined,

@@ -12,14 +12,18 @@
 use eframe::egui;
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, RenderState};
 use eframe::wgpu;
-use skeletrace_core::backend::BackendChoice;
+use skeletrace_core::Compiled;
+use skeletrace_core::backend::{
+    BackendChoice, Cancel, Capabilities, DeviceKind, FrameRequest, Side, decide,
+};
 use skeletrace_core::frame::{StepScale, View};
 use skeletrace_core::methods::MethodId;
-use skeletrace_render::GpuMethod;
+use skeletrace_render::GpuRenderer;
+use skeletrace_render::gpu_support::gpu_method;
 use skeletrace_render::step_statistics::GridStatistics;
 use skeletrace_render::viewport::{ViewportFrame, ViewportPainter};
 
-use super::Editor;
+use super::{Editor, worker};
 
 /// The paint callback of one viewport frame or comparison grid.
 struct ViewportCallback {
@@ -84,6 +88,26 @@ pub fn wgpu_configuration() -> egui_wgpu::WgpuConfiguration {
     egui_wgpu::WgpuConfiguration {
         wgpu_setup: egui_wgpu::WgpuSetup::CreateNew(setup),
         ..Default::default()
+    }
+}
+
+/// The window's GPU as the backend decision sees it: a viewport is enabled on a hardware
+/// adapter, or on a software one taken as a hardware one would be (`SKELETRACE_GPU_VIEWPORT=1`),
+/// so it answers as a hardware GPU; what it supports is its renderer's answer.
+struct WindowGpu<'a>(&'a GpuRenderer);
+
+impl Capabilities for WindowGpu<'_> {
+    fn device_kind(&self) -> DeviceKind {
+        DeviceKind::HardwareGpu
+    }
+
+    fn supports(
+        &self,
+        compiled: &Compiled,
+        method: MethodId,
+        request: &FrameRequest,
+    ) -> Result<(), String> {
+        self.0.supports(compiled, method, request)
     }
 }
 
@@ -154,8 +178,9 @@ impl Editor {
     }
 
     /// The GPU viewport's frame of `methods` in `view` at `size`, when it takes this frame: a
-    /// GPU viewport exists, the backend choice is not the CPU, the GPU runs every method on the
-    /// scene and its last frame did not fail.
+    /// GPU viewport exists, its last frame did not fail, and the backend decision
+    /// (`skeletrace_core::backend::decide`, asked of the window's GPU) puts every method on
+    /// the GPU.
     pub(super) fn gpu_viewport_frame(
         &mut self,
         methods: &[MethodId],
@@ -178,16 +203,31 @@ impl Editor {
             self.gpu_viewport = None;
             return None;
         }
-        let tags = self.method_tags();
-        let on_gpu = |m: &MethodId| tags.iter().any(|t| t.id == *m && t.on_gpu);
-        if !methods.iter().all(on_gpu) {
-            return None;
-        }
-        let methods = methods
-            .iter()
-            .map(|&m| GpuMethod::from_id(m))
-            .collect::<Option<Vec<_>>>()?;
         let compiled = self.doc.compiled();
+        let request = worker::frame_request(
+            &compiled,
+            self.orbit.camera(),
+            (size.0 as usize, size.1 as usize),
+            shaded && self.ui_state.shadows,
+            self.ui_state.shading,
+            Cancel::new(),
+        );
+        let request = FrameRequest { view, ..request };
+        let choice = self.ui_state.backend;
+        let methods = self
+            .with_viewport_painter(|painter| {
+                let window = WindowGpu(painter.renderer());
+                methods
+                    .iter()
+                    .map(
+                        |&m| match decide(choice, Ok(&window), &compiled, m, &request) {
+                            Ok(Side::Gpu) => gpu_method(&compiled, m, &request).ok(),
+                            _ => None,
+                        },
+                    )
+                    .collect::<Option<Vec<_>>>()
+            })
+            .flatten()?;
         let settings = compiled.settings;
         Some(ViewportFrame {
             compiled,

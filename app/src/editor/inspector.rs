@@ -4,16 +4,20 @@
 //! live: the next frame is traced from the edited scene.
 
 use eframe::egui;
+use skeletrace_core::Compiled;
 use skeletrace_core::backend::BackendChoice as Backend;
+use skeletrace_core::backend::{
+    BackendChoice, BackendError, Cancel, Capabilities, FrameRequest, Side, decide,
+};
 use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::frame::StepScale;
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::scene::{Blend, Hrbf, Shape, SkeletonField};
-use skeletrace_render::GpuMethod;
+use skeletrace_render::GpuOfKind;
 
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
-use super::{Edit, Editor, MethodTag, ViewMode};
+use super::{Edit, Editor, MethodTag, TagsKey, ViewMode, worker};
 use super::{group_tools, shape_tools};
 
 /// Shortcuts listed by the help overlay.
@@ -212,26 +216,42 @@ impl Editor {
         self.scene_panel(ui);
     }
 
-    /// Which methods apply to the scene, on the CPU and on the GPU: found once per revision,
-    /// on the document's compiled scene (the checks visit every primitive).
+    /// Which methods apply to the scene and where the render thread traces each for the
+    /// backend choice, as `skeletrace_core::backend::decide` decides with the render thread's
+    /// GPU ([`method_sides`]); found once per revision, choice, shading and GPU (the checks
+    /// visit every primitive).
     pub(super) fn method_tags(&mut self) -> &[MethodTag] {
-        let revision = self.doc.revision();
-        if self
-            .method_tags
-            .as_ref()
-            .is_none_or(|(r, _)| *r != revision)
-        {
+        let key = TagsKey {
+            revision: self.doc.revision(),
+            backend: self.ui_state.backend,
+            shadows: self.ui_state.shadows,
+            shading: self.ui_state.shading,
+            gpu: self.frames.render_thread_gpu(),
+        };
+        if self.method_tags.as_ref().is_none_or(|(k, _)| *k != key) {
             let compiled = self.doc.compiled();
-            let program = &compiled.program;
-            let tags = MethodId::ALL
+            let request = worker::frame_request(
+                &compiled,
+                self.orbit.camera(),
+                (1, 1),
+                key.shadows,
+                key.shading,
+                Cancel::new(),
+            );
+            let gpu = key.gpu.map(GpuOfKind);
+            let capabilities = gpu
+                .as_ref()
+                .map(|g| g as &dyn Capabilities)
+                .ok_or("the render thread has no GPU open");
+            let tags = method_sides(key.backend, capabilities, &compiled, &request)
                 .into_iter()
-                .map(|id| MethodTag {
+                .map(|(id, side)| MethodTag {
                     id,
-                    applies: id.method().supports(program).is_ok(),
-                    on_gpu: GpuMethod::from_id(id).is_some_and(|g| g.supports(program).is_ok()),
+                    applies: id.method().supports(&compiled.program).is_ok(),
+                    side,
                 })
                 .collect();
-            self.method_tags = Some((revision, tags));
+            self.method_tags = Some((key, tags));
         }
         self.method_tags.as_ref().map_or(&[], |(_, tags)| tags)
     }
@@ -239,22 +259,22 @@ impl Editor {
     fn methods_panel(&mut self, ui: &mut egui::Ui) {
         ui.heading("Methods");
         let names = self.method_tags().to_vec();
-        let tag = |gpu: bool| if gpu { "GPU+CPU" } else { "CPU only" };
+        let tag = |side: &Result<Side, String>| match side {
+            Ok(Side::Gpu) => "GPU",
+            Ok(Side::Cpu) => "CPU",
+            Err(_) => "not on the GPU",
+        };
         egui::ComboBox::from_label("shaded view")
             .selected_text(self.ui_state.shaded_method.name())
             .show_ui(ui, |ui| {
-                for &MethodTag {
-                    id,
-                    applies,
-                    on_gpu: gpu,
-                } in &names
-                {
-                    if applies {
+                for MethodTag { id, applies, side } in &names {
+                    if *applies {
                         ui.selectable_value(
                             &mut self.ui_state.shaded_method,
-                            id,
-                            format!("{id}  ({})", tag(gpu)),
-                        );
+                            *id,
+                            format!("{id}  ({})", tag(side)),
+                        )
+                        .on_hover_text(side_help(side));
                     }
                 }
             });
@@ -262,19 +282,13 @@ impl Editor {
         egui::Grid::new("compare-methods")
             .num_columns(2)
             .show(ui, |ui| {
-                for (
-                    k,
-                    &MethodTag {
-                        id,
-                        applies,
-                        on_gpu: gpu,
-                    },
-                ) in names.iter().enumerate()
-                {
+                for (k, MethodTag { id, applies, side }) in names.iter().enumerate() {
+                    let (id, applies) = (*id, *applies);
                     let mut on = self.ui_state.compare_methods.contains(&id);
-                    let label = format!("{id} ({})", tag(gpu));
+                    let label = format!("{id} ({})", tag(side));
                     if ui
                         .add_enabled(applies, egui::Checkbox::new(&mut on, label))
+                        .on_hover_text(side_help(side))
                         .changed()
                     {
                         if on {
@@ -835,6 +849,305 @@ impl Editor {
                     }
                 });
             });
+        }
+    }
+}
+
+/// Where each method of `MethodId::ALL` is traced on `compiled` for `choice` with `gpu` (the
+/// render thread's, or why it has none), or why it cannot be: the methods panel's labels, from
+/// the decision every backend caller takes (`skeletrace_core::backend::decide`).
+#[must_use]
+pub fn method_sides(
+    choice: BackendChoice,
+    gpu: Result<&dyn Capabilities, &str>,
+    compiled: &Compiled,
+    request: &FrameRequest,
+) -> Vec<(MethodId, Result<Side, String>)> {
+    MethodId::ALL
+        .into_iter()
+        .map(|id| {
+            let side = decide(choice, gpu, compiled, id, request).map_err(|e| match e {
+                BackendError::Unsupported(why) | BackendError::DeviceFailed(why) => why,
+                BackendError::Cancelled => "cancelled".to_owned(),
+            });
+            (id, side)
+        })
+        .collect()
+}
+
+/// The hover text of a method's label.
+fn side_help(side: &Result<Side, String>) -> String {
+    match side {
+        Ok(Side::Gpu) => "traced on the GPU with this backend choice".to_owned(),
+        Ok(Side::Cpu) => "traced on the CPU with this backend choice".to_owned(),
+        Err(why) => why.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    use skeletrace_core::backend::{DeviceKind, FrameBackend};
+    use skeletrace_core::frame::{FieldShading, Frame};
+    use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+    use skeletrace_core::model::scene::SkeletonField;
+    use skeletrace_core::{Scene, compile};
+    use skeletrace_render::GpuBackend;
+
+    use super::*;
+    use crate::backends::Backends;
+
+    /// The GPU backend, answering as a hardware GPU while `as_hardware` is set (lavapipe taken
+    /// as a hardware adapter, so that `auto` picks it).
+    struct TakenAs {
+        gpu: GpuBackend,
+        as_hardware: Arc<AtomicBool>,
+    }
+
+    impl Capabilities for TakenAs {
+        fn device_kind(&self) -> DeviceKind {
+            if self.as_hardware.load(Ordering::Relaxed) {
+                DeviceKind::HardwareGpu
+            } else {
+                self.gpu.device_kind()
+            }
+        }
+
+        fn supports(&self, c: &Compiled, m: MethodId, r: &FrameRequest) -> Result<(), String> {
+            self.gpu.supports(c, m, r)
+        }
+    }
+
+    impl FrameBackend for TakenAs {
+        fn describe(&self) -> String {
+            self.gpu.describe()
+        }
+
+        fn render(
+            &mut self,
+            compiled: &Arc<Compiled>,
+            request: &FrameRequest,
+        ) -> Result<Vec<Frame>, BackendError> {
+            self.gpu.render(compiled, request)
+        }
+    }
+
+    /// Every asset and scenes generated from seeds the assets do not use (one of them with more
+    /// groups than the GPU takes, one with distance segments).
+    fn scenes() -> Vec<(String, Scene)> {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+        let mut out: Vec<(String, Scene)> = std::fs::read_dir(&dir)
+            .map(|d| {
+                d.filter_map(Result::ok)
+                    .map(|e| e.path())
+                    .collect::<Vec<_>>()
+            })
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+            .map(|p| {
+                let scene = Scene::load(&p).unwrap_or_else(|e| panic!("{e}"));
+                (p.display().to_string(), scene)
+            })
+            .collect();
+        assert!(out.len() >= 10, "assets: {}", out.len());
+        for (kind, seed, size, groups, field) in [
+            (GeneratorKind::Blobs, 17, 90, Some(70), None),
+            (GeneratorKind::Blobs, 23, 30, Some(3), None),
+            (GeneratorKind::Tree, 29, 3, None, None),
+            (
+                GeneratorKind::RandomSkeleton,
+                31,
+                25,
+                None,
+                Some(SkeletonField::Distance),
+            ),
+            (GeneratorKind::Molecule, 37, 60, None, None),
+        ] {
+            let options = GenerateOptions {
+                seed,
+                size: Some(size),
+                groups,
+                varying_radii: false,
+                field,
+                allow_large: false,
+            };
+            let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+            out.push((format!("{} seed {seed}", kind.name()), scene));
+        }
+        out
+    }
+
+    /// The methods panel's label of every method, on every asset and generated scenes, for
+    /// the CPU, the GPU and auto, with and without field shading, with no GPU, a software GPU
+    /// and one taken as hardware, is what the render thread's backend choice then does: the
+    /// CPU, the GPU, or an error. A few frames are traced to see the label borne out.
+    /// Without a GPU adapter the GPU cases are skipped (unless `SKELETRACE_REQUIRE_GPU=1`).
+    #[test]
+    fn the_method_labels_say_where_the_render_thread_traces() {
+        let as_hardware = Arc::new(AtomicBool::new(false));
+        let gpu = match GpuBackend::new() {
+            Ok(gpu) => Some(TakenAs {
+                gpu,
+                as_hardware: Arc::clone(&as_hardware),
+            }),
+            Err(e) => {
+                assert!(
+                    std::env::var("SKELETRACE_REQUIRE_GPU").as_deref() != Ok("1"),
+                    "no GPU adapter: {e}"
+                );
+                eprintln!("SKIPPED the GPU cases: no GPU adapter ({e})");
+                None
+            }
+        };
+        let has_gpu = gpu.is_some();
+        let mut backends = Backends::open(BackendChoice::Cpu);
+        backends.gpu = gpu.map_or_else(
+            || Err("no adapter".to_owned()),
+            |g| Ok(Box::new(g) as Box<dyn FrameBackend + Send>),
+        );
+        let mut no_gpu = Backends::open(BackendChoice::Cpu);
+        let (mut checked, mut on_gpu, mut refused) = (0, 0, 0);
+        let kinds: &[Option<DeviceKind>] = if has_gpu {
+            &[
+                None,
+                Some(DeviceKind::SoftwareGpu),
+                Some(DeviceKind::HardwareGpu),
+            ]
+        } else {
+            &[None]
+        };
+        for (name, scene) in scenes() {
+            let compiled = compile(&scene);
+            for shading in [
+                FieldShading::default(),
+                FieldShading {
+                    soft_shadows: true,
+                    ambient_occlusion: true,
+                },
+            ] {
+                let request = worker::frame_request(
+                    &compiled,
+                    scene.camera,
+                    (8, 8),
+                    false,
+                    shading,
+                    Cancel::new(),
+                );
+                for &kind in kinds {
+                    // Lavapipe taken as hardware keeps its own loop limit, which a hardware
+                    // GPU has not: field shading is asked of the real kinds only.
+                    if kind == Some(DeviceKind::HardwareGpu) && shading.any() {
+                        continue;
+                    }
+                    as_hardware.store(kind == Some(DeviceKind::HardwareGpu), Ordering::Relaxed);
+                    let label_gpu = kind.map(GpuOfKind);
+                    let capabilities = label_gpu
+                        .as_ref()
+                        .map(|g| g as &dyn Capabilities)
+                        .ok_or("no GPU");
+                    for choice in [BackendChoice::Cpu, BackendChoice::Gpu, BackendChoice::Auto] {
+                        let labels = method_sides(choice, capabilities, &compiled, &request);
+                        for (id, label) in labels {
+                            if id.method().supports(&compiled.program).is_err() {
+                                continue;
+                            }
+                            let mut asked = request.clone();
+                            asked.methods = vec![id];
+                            let chosen = if kind.is_some() {
+                                &mut backends
+                            } else {
+                                &mut no_gpu
+                            };
+                            let done =
+                                chosen.choose(choice, &compiled, id, &asked).map(|b| {
+                                    match b.device_kind() {
+                                        DeviceKind::Cpu => Side::Cpu,
+                                        _ => Side::Gpu,
+                                    }
+                                });
+                            let case =
+                                format!("{name}, {id}, {choice:?}, GPU {kind:?}, {shading:?}");
+                            match (&label, &done) {
+                                (Ok(l), Ok(d)) => assert_eq!(l, d, "{case}"),
+                                (Err(_), Err(_)) => refused += 1,
+                                _ => panic!("{case}: label {label:?}, backend {done:?}"),
+                            }
+                            on_gpu += usize::from(label == Ok(Side::Gpu));
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 500, "{checked} cases");
+        if has_gpu {
+            assert!(
+                on_gpu > 100 && refused > 50,
+                "{on_gpu} on the GPU, {refused} refused"
+            );
+            // The label borne out by frames: traced where it says, or refused.
+            as_hardware.store(false, Ordering::Relaxed);
+            let scene = Scene::load(
+                &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../assets/scenes/blobs.ron"),
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            let compiled = compile(&scene);
+            let request = worker::frame_request(
+                &compiled,
+                scene.camera,
+                (12, 10),
+                false,
+                FieldShading::default(),
+                Cancel::new(),
+            );
+            let methods = vec![MethodId::Sphere, MethodId::SphereNormalized];
+            let labels = method_sides(
+                BackendChoice::Gpu,
+                Ok(&GpuOfKind(DeviceKind::SoftwareGpu)),
+                &compiled,
+                &request,
+            );
+            let reply = worker::trace(
+                &worker::Request {
+                    id: 1,
+                    compiled: Arc::clone(&compiled),
+                    camera: scene.camera,
+                    size: (12, 10),
+                    methods: methods.clone(),
+                    backend: BackendChoice::Gpu,
+                    shadows: false,
+                    preview: false,
+                    shading: FieldShading::default(),
+                    cancel: Cancel::new(),
+                },
+                &mut backends,
+            )
+            .unwrap_or_else(|| panic!("cancelled"));
+            for id in methods {
+                let label = labels
+                    .iter()
+                    .find(|(m, _)| *m == id)
+                    .map(|(_, s)| s.clone());
+                let traced = reply.frames.iter().find(|t| t.method == id);
+                match (label, traced) {
+                    (Some(Ok(Side::Gpu)), Some(t)) => assert!(t.on_gpu, "{id}"),
+                    (Some(Ok(Side::Cpu)), Some(t)) => assert!(!t.on_gpu, "{id}"),
+                    (Some(Err(_)), None) => {
+                        assert!(
+                            reply.skipped.iter().any(|s| s.starts_with(id.name())),
+                            "{id}"
+                        );
+                    }
+                    (label, traced) => panic!(
+                        "{id}: label {label:?}, traced on the GPU: {:?}",
+                        traced.map(|t| t.on_gpu)
+                    ),
+                }
+            }
         }
     }
 }

@@ -28,6 +28,7 @@ use std::time::Instant;
 use eframe::egui;
 use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
+use skeletrace_core::backend::{DeviceKind, Side};
 use skeletrace_core::frame::{FieldShading, Frame, StepScale};
 use skeletrace_core::methods::MethodId;
 
@@ -111,13 +112,24 @@ pub const UI_STATE_KEY: &str = "skeletrace-ui";
 /// Seconds between autosaves of a dirty scene to the recovery file.
 const AUTOSAVE_SECONDS: u64 = 20;
 /// A method, whether it applies to the scene, and whether it runs on the GPU there.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct MethodTag {
     id: MethodId,
     /// The method applies to the scene (on the CPU).
     applies: bool,
-    /// The GPU implements it for the scene.
-    on_gpu: bool,
+    /// Where the render thread traces it for the backend choice
+    /// (`skeletrace_core::backend::decide`), or why it cannot.
+    side: Result<Side, String>,
+}
+
+/// What the methods' tags depend on.
+#[derive(Clone, Copy, PartialEq)]
+struct TagsKey {
+    revision: u64,
+    backend: BackendChoice,
+    shadows: bool,
+    shading: FieldShading,
+    gpu: Option<DeviceKind>,
 }
 
 /// A message in the status bar.
@@ -161,8 +173,9 @@ pub struct Editor {
     hovered_pixel: Option<(usize, usize)>,
     /// Where the shaded viewport was last drawn.
     viewport_rect: Option<egui::Rect>,
-    /// The methods' tags for one scene revision.
-    method_tags: Option<(u64, Vec<MethodTag>)>,
+    /// The methods' tags, and what they were found for: the scene revision, the backend
+    /// choice, the shading and the render thread's GPU.
+    method_tags: Option<(TagsKey, Vec<MethodTag>)>,
     /// The ray the inspector window shows.
     ray_probe: Option<crate::ray_probe::RayProbe>,
     /// Where the comparison grid was last drawn: its area (less the colour bar) and each

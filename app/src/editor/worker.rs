@@ -78,6 +78,8 @@ pub struct Reply {
     pub skipped: Vec<String>,
     /// The GPU adapter, or why there is none.
     pub adapter: String,
+    /// The kind of the GPU the thread has open, if any.
+    pub gpu: Option<DeviceKind>,
     /// A device failure met while tracing this request (the GPU is then dropped and the
     /// request traced on the CPU).
     pub device_failure: Option<String>,
@@ -211,16 +213,15 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
     let mut skipped = Vec::new();
     let mut device_failure = None;
     for &method in &request.methods {
-        let frame_request = FrameRequest {
-            camera: request.camera,
-            width: request.size.0,
-            height: request.size.1,
-            methods: vec![method],
-            view: View::Shaded(request.shading),
-            shadows: request.shadows,
-            settings: request.compiled.settings,
-            cancel: request.cancel.clone(),
-        };
+        let mut frame_request = frame_request(
+            &request.compiled,
+            request.camera,
+            request.size,
+            request.shadows,
+            request.shading,
+            request.cancel.clone(),
+        );
+        frame_request.methods = vec![method];
         if let Err(why) = method.method().supports(&request.compiled.program) {
             skipped.push(format!("{method}: {why}"));
             continue;
@@ -259,17 +260,42 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
             Err(e) => skipped.push(format!("{method}: {e}")),
         }
     }
-    let adapter = match &backends.gpu {
-        Ok(gpu) => gpu.describe(),
-        Err(why) => format!("no GPU ({why})"),
+    let (adapter, gpu) = match &backends.gpu {
+        Ok(gpu) => (gpu.describe(), Some(gpu.device_kind())),
+        Err(why) => (format!("no GPU ({why})"), None),
     };
     Some(Reply {
         id: request.id,
         frames,
         skipped,
         adapter,
+        gpu,
         device_failure,
     })
+}
+
+/// The frame request the render thread traces for `compiled` (no method yet): the shaded view
+/// with `shading`, under the scene's own settings. The methods panel asks the backend decision
+/// with the same request.
+#[must_use]
+pub fn frame_request(
+    compiled: &Compiled,
+    camera: Camera,
+    (width, height): (usize, usize),
+    shadows: bool,
+    shading: FieldShading,
+    cancel: Cancel,
+) -> FrameRequest {
+    FrameRequest {
+        camera,
+        width,
+        height,
+        methods: Vec::new(),
+        view: View::Shaded(shading),
+        shadows,
+        settings: compiled.settings,
+        cancel,
+    }
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 
-use crate::backend::{BackendError, DeviceKind, FrameBackend, FrameRequest};
+use crate::backend::{BackendError, Capabilities, DeviceKind, FrameBackend, FrameRequest};
 use crate::compile::Compiled;
 use crate::cpu::renderer::{EarlierFrame, RenderOptions, Renderer, TracedFrame};
 use crate::frame::{FieldShading, Frame, View, heat_colour};
@@ -165,11 +165,7 @@ fn rays_stay_in_their_tiles(compiled: &Compiled, options: &RenderOptions) -> boo
         && compiled.materials.iter().all(|m| m.opacity >= 1.0)
 }
 
-impl FrameBackend for CpuBackend {
-    fn describe(&self) -> String {
-        format!("CPU, {} threads", rayon::current_num_threads())
-    }
-
+impl Capabilities for CpuBackend {
     fn device_kind(&self) -> DeviceKind {
         DeviceKind::Cpu
     }
@@ -181,6 +177,12 @@ impl FrameBackend for CpuBackend {
         _request: &FrameRequest,
     ) -> Result<(), String> {
         method.method().supports(&compiled.program)
+    }
+}
+
+impl FrameBackend for CpuBackend {
+    fn describe(&self) -> String {
+        format!("CPU, {} threads", rayon::current_num_threads())
     }
 
     fn render(
