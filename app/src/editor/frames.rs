@@ -317,7 +317,7 @@ impl ViewportFrames {
         if self.shown.as_ref().is_some_and(|s| s.id >= last) {
             return None;
         }
-        let reply = self.worker.wait_for(last)?;
+        let reply = self.worker.wait_for(last, super::worker::LONGEST_FRAME)?;
         self.show(ctx, reply, view, scale)
     }
 

@@ -710,7 +710,7 @@ impl Editor {
             let offscreen = RenderWorker::start(|| {});
             offscreen.request(request);
             let reply = offscreen
-                .wait_for(id)
+                .wait_for(id, worker::LONGEST_FRAME)
                 .ok_or("the renderer stopped before the screenshot was traced")?;
             let named: Vec<(&str, Frame)> = reply
                 .frames
