@@ -7,8 +7,8 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
-use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blob, Camera, Group, Material, Scene};
 use skeletrace_core::{FieldProgram, Interval, Ray};

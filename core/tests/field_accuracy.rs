@@ -6,7 +6,7 @@ mod common;
 use common::{KERNELS, KINDS, add_primitive, group, scene};
 use glam::DVec3;
 use skeletrace_core::field::geometry::Ray;
-use skeletrace_core::field::kernel::{CLIP_EPSILON, Kernel};
+use skeletrace_core::model::kernel::{CLIP_EPSILON, Kernel};
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Skeleton, SkeletonField, Vertex};
 use skeletrace_core::{FieldProgram, Interval};

@@ -10,10 +10,10 @@ use skeletrace_core::backend::{Cancel, FrameBackend, FrameRequest};
 use skeletrace_core::compile::{Compiled, compile};
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::cpu::renderer::{EarlierFrame, RenderOptions, Renderer, TracedFrame};
-use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::frame::{FieldShading, Frame, View};
 use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::Scene;
 

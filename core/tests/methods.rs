@@ -10,9 +10,9 @@ use common::{
 };
 use glam::DVec3;
 use rayon::prelude::*;
-use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::methods::{self, Method, MethodId, Protocol, TraceMode, TraceSettings};
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{
     Blend, Blob, Camera, Group, Material, Scene, Skeleton, SkeletonField, Vertex,

@@ -8,7 +8,7 @@ mod common;
 use common::{KINDS, Kind, add_primitive, group, scene};
 use glam::{DMat3, DVec3, EulerRot};
 use skeletrace_core::FieldProgram;
-use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Repeat, Scene, Transform};
 

@@ -11,8 +11,8 @@ use bytemuck::{Pod, Zeroable};
 use skeletrace_core::FieldProgram;
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::field::blend::BlendTree;
-use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::{Primitive, Solid};
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::scene::Light;
 
 use crate::blend_wgsl::BlendWgsl;
@@ -262,13 +262,13 @@ fn kernel(k: Kernel) -> GpuKernel {
             KernelFamily::Cauchy,
             f64::from(degree) / 2.0,
             scale,
-            skeletrace_core::field::kernel::CLIP_EPSILON,
+            skeletrace_core::model::kernel::CLIP_EPSILON,
         ),
         Kernel::Gaussian { scale } => (
             KernelFamily::Gaussian,
             0.0,
             scale,
-            skeletrace_core::field::kernel::CLIP_EPSILON,
+            skeletrace_core::model::kernel::CLIP_EPSILON,
         ),
     };
     GpuKernel {

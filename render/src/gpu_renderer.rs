@@ -461,7 +461,7 @@ pub(crate) fn f3(v: glam::DVec3) -> [f32; 3] {
 impl MethodConstants {
     fn of(program: &FieldProgram) -> Self {
         let sigma = match program.common_kernel() {
-            Some(skeletrace_core::field::kernel::Kernel::Gaussian { scale }) => scale,
+            Some(skeletrace_core::model::kernel::Kernel::Gaussian { scale }) => scale,
             _ => 1.0,
         };
         let (mut radius, mut norm) = (f64::INFINITY, 1.0);

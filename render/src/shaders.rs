@@ -2,11 +2,11 @@
 //! together in Rust. The methods that run on the GPU, and what each needs of a scene.
 
 use skeletrace_core::FieldProgram;
-use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::methods::{
     AcceleratedSphereTracing, Method, MethodId, Protocol, SegmentOriginal, Sherstyuk,
 };
+use skeletrace_core::model::kernel::Kernel;
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::shared::{KindSet, MarchBound, wgsl_constants};

@@ -15,7 +15,7 @@ use skeletrace::editor::{
     BackendChoice, DialogRequest, Document, Editor, FileDialogs, FilePurpose, Item, UiState,
     ViewMode,
 };
-use skeletrace_core::field::kernel::Kernel;
+use skeletrace_core::model::kernel::Kernel;
 
 fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"))

@@ -315,8 +315,8 @@ mod tests {
     /// the start restores the generated scene exactly and redoing to the end the last one.
     #[test]
     fn random_editing_sequences_keep_valid_scenes_and_undo_redo_exactly() {
-        use skeletrace_core::field::kernel::Kernel;
         use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
+        use skeletrace_core::model::kernel::Kernel;
         use skeletrace_core::model::rng::SplitMix64;
         use skeletrace_core::model::scene::{Blend, Blob, SkeletonField};
 

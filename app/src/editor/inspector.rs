@@ -9,9 +9,9 @@ use skeletrace_core::backend::BackendChoice as Backend;
 use skeletrace_core::backend::{
     BackendChoice, BackendError, Cancel, Capabilities, FrameRequest, Side, decide,
 };
-use skeletrace_core::field::kernel::Kernel;
 use skeletrace_core::frame::StepScale;
 use skeletrace_core::methods::MethodId;
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::scene::{Blend, Hrbf, Shape, SkeletonField};
 use skeletrace_render::GpuOfKind;
 

@@ -16,136 +16,15 @@
 //! jumps at the support boundary (a convex kink); so does the degree-2 compact kernel's. Second
 //! derivative bounds account for that (see [`KernelProfile::compose`]).
 //!
-//! Practice: a scene stores a [`Kernel`]; a field program turns it into a [`KernelProfile`],
+//! Practice: a scene stores a [`Kernel`] (`model/kernel.rs`: the file's spec and its
+//! validation); a field program turns it into a [`KernelProfile`],
 //! which evaluates `K`, `K′`, `K″` by value and over intervals and carries the normalisation
 //! constants of points, SCALIS segments and end-point correctors.
 
-use serde::{Deserialize, Serialize};
-
 use crate::bounds::interval::{Interval, Jet};
 use crate::field::quadrature::GaussLegendre;
-
-/// Clipping threshold of the infinite-support kernels (scalis §7 uses 0.005). The clipped
-/// kernel is within this absolute error of the exact kernel.
-pub const CLIP_EPSILON: f64 = 0.005;
-
-/// A kernel as stored in a scene, validated on load.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "KernelSpec")]
-pub enum Kernel {
-    /// `(1 − r²/σ²)^(i/2)` on `r < σ` (C² for degree 6).
-    CompactPolynomial {
-        /// Even degree `i ≥ 2`.
-        degree: u32,
-        /// Support scale `σ > 1`.
-        scale: f64,
-    },
-    /// `(1 + r²/σ²)^(−i/2)`, clipped at [`CLIP_EPSILON`].
-    Cauchy {
-        /// Degree `i ≥ 1`.
-        degree: u32,
-        /// Scale `σ > 0`.
-        scale: f64,
-    },
-    /// `exp(−r²/σ²)`, clipped at [`CLIP_EPSILON`].
-    Gaussian {
-        /// Scale `σ > 0`.
-        scale: f64,
-    },
-}
-
-impl Default for Kernel {
-    fn default() -> Self {
-        Self::CompactPolynomial {
-            degree: 6,
-            scale: 2.0,
-        }
-    }
-}
-
-/// The unvalidated shape of [`Kernel`] as read from a file.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields, rename = "Kernel")]
-enum KernelSpec {
-    CompactPolynomial { degree: u32, scale: f64 },
-    Cauchy { degree: u32, scale: f64 },
-    Gaussian { scale: f64 },
-}
-
-impl TryFrom<KernelSpec> for Kernel {
-    type Error = String;
-
-    fn try_from(spec: KernelSpec) -> Result<Self, String> {
-        let kernel = match spec {
-            KernelSpec::CompactPolynomial { degree, scale } => {
-                Self::CompactPolynomial { degree, scale }
-            }
-            KernelSpec::Cauchy { degree, scale } => Self::Cauchy { degree, scale },
-            KernelSpec::Gaussian { scale } => Self::Gaussian { scale },
-        };
-        kernel.validate()?;
-        Ok(kernel)
-    }
-}
-
-impl Kernel {
-    /// Checks degree and scale, and that the clipped support reaches past the prescribed
-    /// radius. The file loader and `Scene::validate` both call it.
-    ///
-    /// # Errors
-    /// The kernel, the value and the rule it breaks.
-    pub fn validate(self) -> Result<(), String> {
-        match self {
-            Self::CompactPolynomial { degree, scale } => {
-                if degree < 2 || degree % 2 == 1 || degree > 20 {
-                    return Err(format!(
-                        "compact polynomial kernel: degree {degree} must be even, between 2 and 20"
-                    ));
-                }
-                if !(scale.is_finite() && scale > 1.0) {
-                    return Err(format!(
-                        "compact polynomial kernel: scale σ = {scale} must be finite and > 1"
-                    ));
-                }
-            }
-            Self::Cauchy { degree, scale } => {
-                if !(1..=20).contains(&degree) {
-                    return Err(format!(
-                        "Cauchy kernel: degree {degree} must be between 1 and 20"
-                    ));
-                }
-                if !(scale.is_finite() && scale > 0.0) {
-                    return Err(format!(
-                        "Cauchy kernel: scale σ = {scale} must be finite and > 0"
-                    ));
-                }
-            }
-            Self::Gaussian { scale } => {
-                if !(scale.is_finite() && scale > 0.0) {
-                    return Err(format!(
-                        "Gaussian kernel: scale σ = {scale} must be finite and > 0"
-                    ));
-                }
-            }
-        }
-        let support = KernelProfile::new(self).support_radius();
-        if support <= 1.0 {
-            return Err(format!(
-                "{self:?}: the clipped support radius {support:.4} does not reach the prescribed \
-                 radius (must be > 1); increase the scale"
-            ));
-        }
-        // A support of more than a thousand radii makes every primitive cover the scene (and
-        // at σ = 10³⁰⁸ it is infinite).
-        if support.is_nan() || support > 1e3 {
-            return Err(format!(
-                "{self:?}: the clipped support radius {support:.4e} is more than 1000 times the \
-                 prescribed radius; decrease the scale"
-            ));
-        }
-        Ok(())
-    }
-}
+pub use crate::model::kernel::CLIP_EPSILON;
+use crate::model::kernel::Kernel;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Family {
@@ -375,18 +254,28 @@ impl KernelProfile {
             Kernel::CompactPolynomial { degree, scale } => {
                 let m = i32::try_from(degree / 2).unwrap_or(1);
                 let s2 = scale * scale;
-                Self::with(Family::Compact { m }, s2, s2, 0.0, m == 1)
+                Self::with(Family::Compact { m }, s2, kernel.support_sq(), 0.0, m == 1)
             }
             Kernel::Cauchy { degree, scale } => {
                 let n = f64::from(degree) / 2.0;
                 let s2 = scale * scale;
-                let support_sq = s2 * (CLIP_EPSILON.powf(-1.0 / n) - 1.0);
-                Self::with(Family::Cauchy { n }, s2, support_sq, CLIP_EPSILON, true)
+                Self::with(
+                    Family::Cauchy { n },
+                    s2,
+                    kernel.support_sq(),
+                    CLIP_EPSILON,
+                    true,
+                )
             }
             Kernel::Gaussian { scale } => {
                 let s2 = scale * scale;
-                let support_sq = s2 * (1.0 / CLIP_EPSILON).ln();
-                Self::with(Family::Gaussian, s2, support_sq, CLIP_EPSILON, true)
+                Self::with(
+                    Family::Gaussian,
+                    s2,
+                    kernel.support_sq(),
+                    CLIP_EPSILON,
+                    true,
+                )
             }
         }
     }
@@ -913,20 +802,6 @@ mod tests {
             let exact = (1.0 + x).powf(-1.5);
             assert!((cauchy.value(x) - exact).abs() <= CLIP_EPSILON + 1e-15);
         }
-    }
-
-    #[test]
-    fn invalid_kernels_are_rejected_with_their_values() {
-        let odd = Kernel::try_from(KernelSpec::CompactPolynomial {
-            degree: 5,
-            scale: 2.0,
-        });
-        assert!(odd.is_err_and(|e| e.contains("degree 5")));
-        let narrow = Kernel::try_from(KernelSpec::CompactPolynomial {
-            degree: 6,
-            scale: 1.0,
-        });
-        assert!(narrow.is_err_and(|e| e.contains("σ = 1")));
     }
 
     #[test]

@@ -13,10 +13,11 @@ use crate::field::blend::{self, BlendOperand, BlendTree};
 use crate::field::bvh::Bvh;
 use crate::field::geometry::{Aabb, Ray, Similarity, SphereCone};
 use crate::field::hrbf_solve;
-use crate::field::kernel::{Kernel, KernelProfile};
+use crate::field::kernel::KernelProfile;
 use crate::field::primitives::{
     DistanceSegment, HrbfTerm, PointBlob, Primitive, ScalisSegment, ShapePrimitive, Solid,
 };
+use crate::model::kernel::Kernel;
 use crate::model::scene::{Group, Hrbf, Scene, Shape, Skeleton, SkeletonField, Vec3};
 
 /// Groups evaluated without heap allocation per query.

@@ -9,10 +9,10 @@
 
 use super::MethodId;
 use crate::field::blend::BlendTree;
-use crate::field::kernel::{CLIP_EPSILON, Kernel};
 use crate::field::primitives::Primitive;
 use crate::field::program::FieldProgram;
 use crate::field::ray_field::RayField;
+use crate::model::kernel::{CLIP_EPSILON, Kernel};
 
 use super::{Crossing, Method, RayTracer, Trace, TraceMode, TraceSettings, trace_supports};
 

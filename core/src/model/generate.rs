@@ -8,7 +8,7 @@ use std::collections::HashMap;
 
 use glam::{DQuat, DVec3};
 
-use crate::field::kernel::Kernel;
+use crate::model::kernel::Kernel;
 use crate::model::rng::SplitMix64;
 use crate::model::scene::{
     Blend, Blob, Camera, Group, MAX_PRIMITIVES, Material, SCENE_VERSION, Scene, Skeleton,

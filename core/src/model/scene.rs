@@ -20,7 +20,7 @@ use std::path::Path;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
-use crate::field::kernel::{Kernel, KernelProfile};
+use crate::model::kernel::Kernel;
 
 /// Most primitives a generator builds unless asked for more, and most that the repetitions of
 /// a scene file may expand it to: at about 400 bytes each (scene and compiled scene), 400 MB.
@@ -265,7 +265,7 @@ impl Group {
     /// Constraints between a group's items: the SCALIS radius slope, rounding against half
     /// extents, HRBF sets alone in their group and solvable, repetition counts.
     fn check_items(&self) -> Result<(), String> {
-        let support = KernelProfile::new(self.kernel).support_radius();
+        let support = self.kernel.support_sq().sqrt();
         for (si, skeleton) in self.skeletons.iter().enumerate() {
             for (ei, &[a, b]) in skeleton.edges.iter().enumerate() {
                 let (va, vb) = (

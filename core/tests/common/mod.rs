@@ -1,7 +1,8 @@
 //! Random scenes of one primitive type and kernel for the accuracy and bound tests.
 #![expect(dead_code, reason = "each test binary uses a part of these helpers")]
 
-use skeletrace_core::field::kernel::{Kernel, KernelProfile};
+use skeletrace_core::field::kernel::KernelProfile;
+use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{
     Blend, Blob, Camera, Group, Hrbf, HrbfPoint, Material, Scene, Shape, Skeleton, SkeletonField,

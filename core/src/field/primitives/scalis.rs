@@ -702,7 +702,8 @@ const ARC_LENGTH_RATIO: f64 = 1.05;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::kernel::{EVERY_FAMILY, Kernel};
+    use crate::field::kernel::EVERY_FAMILY;
+    use crate::model::kernel::Kernel;
     use crate::model::rng::SplitMix64;
 
     /// [`ScalisSegment::pieces_within_reach`] leaves out only pieces that [`ScalisSegment::ray_jet`]'s
