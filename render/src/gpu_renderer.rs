@@ -23,19 +23,12 @@ use wgpu::util::DeviceExt;
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
-use crate::gpu_stats::{GpuStatsRay, RayCrossings, RayLists, STATS_ROW, UploadedRayLists};
 use crate::ray_bvh::RayBvh;
+use crate::ray_lists::{GpuStatsRay, RayCrossings, RayLists, UploadedRayLists};
 use crate::shaders::GpuMethod;
-use crate::shared::{KindSet, secondary};
-use crate::tile_binning::{DEPTH_BANDS, FrameGeometry, TILE, TileBinning};
-
-/// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
-/// method's rays from one dispatch to the next.
-pub const SUSPENSION_BYTES: u64 = 28;
-
-/// Size of `Path` in main.wgsl: one per pixel of a panel when the frame has secondary rays
-/// (shadow rays, or transparent groups), the pixel's colour so far and the rays still to trace.
-pub const PATH_BYTES: u64 = 384;
+use crate::shared::{DEPTH_BANDS, KindSet, PATH_BYTES, STATS_ROW, SUSPENSION_BYTES, secondary};
+use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
+use crate::wgpu_util::{entry, f3, map_for_reading, pipeline, read_back, storage, timestamps_at};
 
 /// Steps a marching method takes per ray in one dispatch on a GPU (parts.wgsl): the 2 048-step
 /// budget in eight dispatches, none of them long (the scalis 2021 paper bounds sphere tracing
@@ -421,41 +414,6 @@ fn secondary_rays(packed: &PackedScene, shadows: bool, view: View) -> (u32, u32)
             0
         };
     (flags, traced * per_hit)
-}
-
-pub(crate) fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    // Storage buffers may not be empty.
-    let padded;
-    let contents = if bytes.is_empty() {
-        padded = [0u8; 16];
-        &padded[..]
-    } else {
-        bytes
-    };
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-    })
-}
-
-pub(crate) fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(entry),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
-    })
-}
-
-pub(crate) fn f3(v: glam::DVec3) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
 }
 
 impl MethodConstants {
@@ -1504,30 +1462,6 @@ pub(crate) fn check_shading_walks(
     Ok(())
 }
 
-/// Timestamp writes of pass `pass` (its begin and end), where the device has timestamps.
-pub(crate) fn timestamp_writes(
-    queries: Option<&wgpu::QuerySet>,
-    pass: u32,
-) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-    timestamps_at(queries, pass, (true, true))
-}
-
-/// Timestamp writes of pass `pass` at its `begin`, its `end`, or both, where the device has
-/// timestamps (a pass recorded in pieces stamps its first piece's begin and its last's end).
-fn timestamps_at(
-    queries: Option<&wgpu::QuerySet>,
-    pass: u32,
-    (begin, end): (bool, bool),
-) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-    queries
-        .filter(|_| begin || end)
-        .map(|query_set| wgpu::ComputePassTimestampWrites {
-            query_set,
-            beginning_of_pass_write_index: begin.then_some(2 * pass),
-            end_of_pass_write_index: end.then_some(2 * pass + 1),
-        })
-}
-
 /// The flag a dispatch sets when it leaves a ray marching and the count of invocations past
 /// lavapipe's loop limit (main.wgsl `unfinished_paths`), and their `MAP_READ` copy.
 fn unfinished_flag(device: &wgpu::Device) -> [wgpu::Buffer; 2] {
@@ -1623,50 +1557,6 @@ fn dispatch_marches(
         }
     }
     Ok(())
-}
-
-pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
-
-/// Maps `MAP_READ` buffers, waiting once for the queue.
-fn map_for_reading(device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> Result<(), String> {
-    let (sender, receiver) = std::sync::mpsc::channel();
-    for buffer in buffers {
-        let sender = sender.clone();
-        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-            let _ = sender.send(r);
-        });
-    }
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| format!("GPU poll failed: {e}"))?;
-    for _ in buffers {
-        receiver
-            .recv()
-            .map_err(|e| e.to_string())?
-            .map_err(|e| format!("GPU readback failed: {e}"))?;
-    }
-    Ok(())
-}
-
-/// Maps a `MAP_READ` buffer and copies it out.
-pub(crate) fn read_back<T: Pod>(
-    device: &wgpu::Device,
-    buffer: &wgpu::Buffer,
-) -> Result<Vec<T>, String> {
-    map_for_reading(device, &[buffer])?;
-    let slice = buffer.slice(..);
-    let view = slice
-        .get_mapped_range()
-        .map_err(|e| format!("GPU readback failed: {e}"))?;
-    let data = bytemuck::cast_slice(&view).to_vec();
-    drop(view);
-    buffer.unmap();
-    Ok(data)
 }
 
 /// Splits the mapped side-by-side outputs (packed sRGB8 colour, depth, steps; `panels` frames

@@ -13,12 +13,16 @@ pub mod gpu_backend;
 pub mod gpu_renderer;
 pub mod gpu_stats;
 pub mod gpu_support;
+#[cfg(test)]
+mod layout_tests;
 pub mod ray_bvh;
+pub mod ray_lists;
 pub mod shaders;
 pub mod shared;
 pub mod step_statistics;
 pub mod tile_binning;
 pub mod viewport;
+mod wgpu_util;
 
 pub use gpu_backend::GpuBackend;
 pub use gpu_renderer::GpuRenderer;

@@ -9,7 +9,7 @@ use skeletrace_core::methods::{
 use skeletrace_core::model::kernel::Kernel;
 
 use crate::blend_wgsl::BlendWgsl;
-use crate::shared::{KindSet, MarchBound, wgsl_constants};
+use crate::shared::{KindSet, MarchBound, RAY_SUPPORTS, wgsl_constants};
 
 const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
 const MARCH: &str = include_str!("../shaders/march.wgsl");
@@ -31,11 +31,6 @@ const MAIN: &str = include_str!("../shaders/main.wgsl");
 const BLIT: &str = include_str!("../shaders/viewport_blit.wgsl");
 const STEP_STATISTICS: &str = include_str!("../shaders/step_statistics.wgsl");
 const BINNING: &str = include_str!("../shaders/binning.wgsl");
-
-/// The size of a ray's window of supports (prelude.wgsl `RaySupports`; emitted as
-/// `RAY_SUPPORTS` by `shared::wgsl_constants`): a ray that crosses more supports marches parts
-/// cut at the window's horizon.
-pub const RAY_SUPPORTS: usize = 64;
 
 /// The tile-binning passes: the shared constants and binning.wgsl.
 #[must_use]
@@ -320,107 +315,6 @@ mod tests {
         }
     }
 
-    /// Size and member offsets of WGSL struct `name` as naga lays it out.
-    fn wgsl_layout(source: &str, name: &str) -> (u32, Vec<(String, u32)>) {
-        let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{e}"));
-        module
-            .types
-            .iter()
-            .find_map(|(_, ty)| match &ty.inner {
-                naga::TypeInner::Struct { members, span } if ty.name.as_deref() == Some(name) => {
-                    let offsets = members
-                        .iter()
-                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                        .collect();
-                    Some((*span, offsets))
-                }
-                _ => None,
-            })
-            .unwrap_or_else(|| panic!("no struct {name}"))
-    }
-
-    /// The Rust twin's size and the offsets of its named fields.
-    macro_rules! rust_layout {
-        ($ty:ty: $($field:ident),* $(,)?) => {
-            (
-                std::mem::size_of::<$ty>() as u32,
-                vec![$((stringify!($field), std::mem::offset_of!($ty, $field) as u32)),*],
-            )
-        };
-    }
-
-    /// Every field of the Rust twin sits where its WGSL namesake does, and the sizes agree
-    /// (padding fields excepted by name).
-    fn check_twin(source: &str, wgsl: &str, (size, fields): (u32, Vec<(&str, u32)>)) {
-        let (span, members) = wgsl_layout(source, wgsl);
-        assert_eq!(span, size, "{wgsl}: WGSL size {span}, Rust size {size}");
-        for (field, offset) in fields {
-            let wgsl_offset = members
-                .iter()
-                .find(|(n, _)| n == field)
-                .map(|(_, o)| *o)
-                .unwrap_or_else(|| panic!("{wgsl}: no member {field} in WGSL"));
-            assert_eq!(wgsl_offset, offset, "{wgsl}.{field}");
-        }
-        let named = members
-            .iter()
-            .filter(|(n, _)| !n.starts_with("pad"))
-            .count();
-        assert!(named > 0, "{wgsl}: no members");
-    }
-
-    #[test]
-    fn every_struct_shared_with_wgsl_has_the_rust_layout() {
-        use crate::buffers::{GpuKernel, GpuLight, GpuMaterial, GpuPrimitive};
-        use crate::gpu_renderer::GpuGlobals;
-        use crate::tile_binning::GpuBinning;
-        let trace = GpuMethod::QuadraticTaylor.source(&summed(2), KindSet::ALL);
-        let binning = binning_source();
-        check_twin(
-            &trace,
-            "Globals",
-            rust_layout!(GpuGlobals: origin, far, forward, tan_half_fov, right, aspect, up,
-                isovalue, width, height, tiles_x, tiles_y, primitive_count, group_count,
-                max_steps, epsilon, min_step, growth, initial_interval, lipschitz,
-                gauss_sigma, gauss_radius, gauss_norm, tile_size, light_count, panel_x,
-                output_width, heat_max, heat_view, shading_flags, shading_scale,
-                steps_per_dispatch, secondary, stats_crossings, bvh_unbounded, bvh_items,
-                band_near, band_width, list_bands, loop_probe),
-        );
-        check_twin(
-            &binning,
-            "Binning",
-            rust_layout!(GpuBinning: origin, forward, tan_half_fov, right, aspect, up, tiles_x,
-                tiles_y, tile_size, primitive_count, width, height, occluders, band_near,
-                band_width, hulls),
-        );
-        for source in [&trace, &binning] {
-            check_twin(
-                source,
-                "Primitive",
-                rust_layout!(GpuPrimitive: kind, group, occluder, extra, a, b, c, d, bound),
-            );
-        }
-        check_twin(
-            &trace,
-            "Kernel",
-            rust_layout!(GpuKernel: family, kinked, clamped, exponent, inv_sigma2, support_sq,
-                clip, clip_scale),
-        );
-        check_twin(&trace, "Light", rust_layout!(GpuLight: vector, colour));
-        check_twin(&trace, "Material", rust_layout!(GpuMaterial: colour, ior));
-        check_twin(
-            &trace,
-            "BvhNode",
-            rust_layout!(crate::ray_bvh::GpuBvhNode: min, skip, max, leaf),
-        );
-        check_twin(
-            &trace,
-            "StatsRay",
-            rust_layout!(crate::gpu_stats::GpuStatsRay: origin, far, dir, list),
-        );
-    }
-
     /// Every GPU method follows the default profile; the three whose profile choices are
     /// CPU-only refuse those profiles, naming what the GPU lacks.
     #[test]
@@ -506,8 +400,8 @@ mod tests {
                 })
                 .unwrap_or_else(|| panic!("no {name} struct in the shader"))
         };
-        assert_eq!(span_of("Suspension"), crate::gpu_renderer::SUSPENSION_BYTES);
-        assert_eq!(span_of("Path"), crate::gpu_renderer::PATH_BYTES);
+        assert_eq!(span_of("Suspension"), crate::shared::SUSPENSION_BYTES);
+        assert_eq!(span_of("Path"), crate::shared::PATH_BYTES);
     }
 
     /// Core's `MethodId::has_gpu_implementation` names exactly the methods with shaders here.

@@ -196,6 +196,31 @@ pub enum MarchBound {
     QuadraticMixed = 6,
 }
 
+/// Workgroups in a row of the `trace_rays` dispatch (main.wgsl `STATS_ROW`).
+pub const STATS_ROW: u32 = 1024;
+
+/// The list of a statistics ray off the axes: every primitive, which the shader walks the
+/// scene's hierarchy for (main.wgsl `trace_rays`, prelude.wgsl `gather_every`).
+pub const EVERY_PRIMITIVE: u32 = u32::MAX;
+
+/// The size of a ray's window of supports (prelude.wgsl `RaySupports`; emitted as
+/// `RAY_SUPPORTS` by `shared::wgsl_constants`): a ray that crosses more supports marches parts
+/// cut at the window's horizon.
+pub const RAY_SUPPORTS: usize = 64;
+
+/// Depth bands per tile list (binning.wgsl): a tile lists its primitives band by band, by the
+/// distance from the eye to their bounding spheres, so that a ray's window fill (prelude.wgsl
+/// `fill_window`) stops at the first band that begins past what the window could still take.
+pub const DEPTH_BANDS: u32 = 16;
+
+/// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
+/// method's rays from one dispatch to the next.
+pub const SUSPENSION_BYTES: u64 = 28;
+
+/// Size of `Path` in main.wgsl: one per pixel of a panel when the frame has secondary rays
+/// (shadow rays, or transparent groups), the pixel's colour so far and the rays still to trace.
+pub const PATH_BYTES: u64 = 384;
+
 /// `Globals.secondary`: which secondary rays a frame traces (main.wgsl `trace_path`).
 pub mod secondary {
     /// Exact shadow rays towards every light (core `RenderOptions::shadows`).
@@ -248,17 +273,9 @@ fn f32_array(out: &mut String, name: &str, values: &[f64]) {
 #[must_use]
 pub fn wgsl_constants() -> String {
     let mut out = String::from("// Emitted by render/src/shared.rs from the Rust definitions.\n");
-    u32_const(&mut out, "STATS_ROW", crate::gpu_stats::STATS_ROW);
-    u32_const(
-        &mut out,
-        "EVERY_PRIMITIVE",
-        crate::gpu_stats::EVERY_PRIMITIVE,
-    );
-    u32_const(
-        &mut out,
-        "RAY_SUPPORTS",
-        crate::shaders::RAY_SUPPORTS as u32,
-    );
+    u32_const(&mut out, "STATS_ROW", STATS_ROW);
+    u32_const(&mut out, "EVERY_PRIMITIVE", EVERY_PRIMITIVE);
+    u32_const(&mut out, "RAY_SUPPORTS", RAY_SUPPORTS as u32);
     for kind in PrimitiveKind::ALL {
         u32_const(&mut out, kind.wgsl_name(), kind as u32);
     }
@@ -282,7 +299,7 @@ pub fn wgsl_constants() -> String {
     ] {
         u32_const(&mut out, name, bound as u32);
     }
-    u32_const(&mut out, "DEPTH_BANDS", crate::tile_binning::DEPTH_BANDS);
+    u32_const(&mut out, "DEPTH_BANDS", DEPTH_BANDS);
     u32_const(&mut out, "SECONDARY_SHADOW_RAYS", secondary::SHADOW_RAYS);
     u32_const(&mut out, "SECONDARY_PATHS", secondary::PATHS);
     u32_const(&mut out, "RAY_CAMERA", PathRayKind::Camera as u32);

@@ -8,8 +8,8 @@
 use skeletrace_core::frame::StepHistogram;
 
 use crate::async_readback::AsyncReadback;
-use crate::gpu_renderer::{entry, pipeline};
 use crate::shaders::step_statistics_source;
+use crate::wgpu_util::{entry, pipeline};
 
 /// Threads of a `count_steps` workgroup (step_statistics.wgsl `COUNT_GROUP`).
 const COUNT_GROUP: u32 = 256;

@@ -14,8 +14,9 @@ use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::async_readback::AsyncReadback;
-use crate::gpu_renderer::{entry, f3, pipeline, read_back, timestamp_writes};
 use crate::shaders::binning_source;
+use crate::shared::DEPTH_BANDS;
+use crate::wgpu_util::{entry, f3, pipeline, read_back, timestamp_writes};
 
 /// Tile edge in pixels, as long as the lists fit in one storage binding.
 pub const TILE: u32 = 4;
@@ -26,11 +27,6 @@ pub const TILE: u32 = 4;
 /// keeps about a quarter of the pairs on smaller foams; wgpu binds at most 2 GB): wider tiles
 /// make fewer (primitive, tile) pairs and longer lists per ray.
 pub const MAX_TILE: u32 = 64;
-
-/// Depth bands per tile list (binning.wgsl): a tile lists its primitives band by band, by the
-/// distance from the eye to their bounding spheres, so that a ray's window fill (prelude.wgsl
-/// `fill_window`) stops at the first band that begins past what the window could still take.
-pub const DEPTH_BANDS: u32 = 16;
 
 /// Twin of `Binning` in binning.wgsl (a layout test checks every field's offset).
 #[repr(C)]

@@ -15,9 +15,10 @@ use skeletrace_core::frame::{StepScale, View};
 use skeletrace_core::methods::TraceSettings;
 use skeletrace_core::model::scene::Camera;
 
-use crate::gpu_renderer::{GpuRenderer, entry};
+use crate::gpu_renderer::GpuRenderer;
 use crate::shaders::{GpuMethod, blit_source};
 use crate::step_statistics::{GridStatistics, StatisticsShape, StatisticsTag, StepStatistics};
+use crate::wgpu_util::entry;
 
 /// What a viewport frame depends on: the same key traces nothing again.
 #[derive(Clone, Debug)]
