@@ -248,7 +248,7 @@ struct Path {
 
 @group(0) @binding(13) var<storage, read_write> paths: array<Path>;
 // [0]: non-zero once a dispatch has left a path unfinished (a ray still marching); the renderer
-// clears it before the last dispatch of a batch and reads it after (gpu_renderer.rs
+// clears it before the last dispatch of a batch and reads it after (gpu_renderer/encode.rs
 // `dispatch_marches`), to stop dispatching once every path is done. [1]: the invocations that
 // passed lavapipe's loop limit (note_loop_limit), which fail the frame.
 @group(0) @binding(14) var<storage, read_write> unfinished_paths: array<atomic<u32>, 2>;

@@ -1,0 +1,114 @@
+//! The trace pipelines of a scene's methods: compiled in place, or on threads of their own
+//! while the last frame stays on screen.
+
+use super::*;
+
+impl PendingPipeline {
+    pub(super) fn is_for(&self, scene: &PackedScene) -> bool {
+        self.blend == scene.blend && self.kinds == scene.kinds
+    }
+}
+
+impl GpuRenderer {
+    /// The uploaded scene, after checking that `methods` and `view` apply to it and that the
+    /// methods follow the settings' profile ([`GpuMethod::follows`]); builds the
+    /// methods' pipelines.
+    pub(super) fn ready_for(
+        &mut self,
+        methods: &[GpuMethod],
+        view: View,
+        settings: &TraceSettings,
+    ) -> Result<Arc<Compiled>, BackendError> {
+        let compiled = self
+            .scene
+            .as_ref()
+            .map(|s| Arc::clone(&s.compiled))
+            .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
+        let program = &compiled.program;
+        for m in methods {
+            m.follows(settings.protocol)
+                .map_err(BackendError::Unsupported)?;
+        }
+        for m in methods {
+            m.supports(program).map_err(BackendError::Unsupported)?;
+        }
+        if let View::Shaded(shading) = view {
+            self.check_shading_budget(&compiled, shading)
+                .map_err(BackendError::Unsupported)?;
+        }
+        if let Some(scene) = &self.scene {
+            for &m in methods {
+                if self.trace_pipelines.contains_key(&m) {
+                    continue;
+                }
+                // One compiled in the background for this scene is waited for, not compiled
+                // again.
+                let background = self
+                    .pending_pipelines
+                    .remove(&m)
+                    .filter(|p| p.is_for(&scene.packed))
+                    .and_then(|p| p.compiled.join().ok());
+                let compiled = background.unwrap_or_else(|| {
+                    pipeline(
+                        &self.device,
+                        &m.source(&scene.packed.blend, scene.packed.kinds),
+                        "trace_pixels",
+                    )
+                });
+                self.trace_pipelines.insert(m, compiled);
+            }
+        }
+        Ok(compiled)
+    }
+
+    /// Whether the trace pipelines of `methods` for the uploaded scene are still being
+    /// compiled, each on a thread of its own: starts those not started (the driver takes
+    /// seconds per pipeline, `bench`'s first frame, which the editor's window must not wait
+    /// for) and keeps those done. A frame encoded before this answers `false` waits for the
+    /// rest ([`GpuRenderer::encode_frame`]). One compiles per method at a time: a pipeline
+    /// started for an earlier blend tree or set of primitive kinds (a driver's compilation
+    /// cannot be cancelled) is left to finish and dropped before this scene's starts, so that
+    /// a slider dragged over a blend's width or Ricci exponent, which are in the shader's code,
+    /// does not start one compilation per value it passes.
+    pub fn pipelines_compiling(&mut self, methods: &[GpuMethod]) -> bool {
+        let Some(scene) = &self.scene else {
+            return false;
+        };
+        let mut compiling = false;
+        for &m in methods {
+            if self.trace_pipelines.contains_key(&m) {
+                continue;
+            }
+            match self.pending_pipelines.remove(&m) {
+                Some(p) if !p.compiled.is_finished() => {
+                    self.pending_pipelines.insert(m, p);
+                    compiling = true;
+                }
+                Some(p) if p.is_for(&scene.packed) => {
+                    // A thread that panicked leaves the pipeline to the frame, which compiles
+                    // it and reports the error as any other.
+                    if let Ok(done) = p.compiled.join() {
+                        self.trace_pipelines.insert(m, done);
+                    }
+                }
+                // None started, or one for an earlier scene, done: this scene's starts.
+                _ => {
+                    let device = self.device.clone();
+                    let source = m.source(&scene.packed.blend, scene.packed.kinds);
+                    let compiled =
+                        std::thread::spawn(move || pipeline(&device, &source, "trace_pixels"));
+                    self.pending_pipelines.insert(
+                        m,
+                        PendingPipeline {
+                            blend: scene.packed.blend.clone(),
+                            kinds: scene.packed.kinds,
+                            compiled,
+                        },
+                    );
+                    compiling = true;
+                }
+            }
+        }
+        compiling
+    }
+}
