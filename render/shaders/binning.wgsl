@@ -173,7 +173,7 @@ fn support_hull(i: u32) -> Hull {
     return Hull(p.bound, p.bound);
 }
 
-// Image-plane coordinate of a pixel centre's column or row, as prelude.wgsl pixel_ray.
+// Image-plane coordinate of a pixel centre's column or row, as shared/supports.wgsl pixel_ray.
 fn pixel_u(px: u32) -> f32 {
     return (2.0 * (f32(px) + 0.5) / f32(binning.width) - 1.0) * binning.tan_half_fov * binning.aspect;
 }
@@ -225,7 +225,7 @@ fn beam_misses_hull(tile: u32, hull: Hull, slack: f32) -> bool {
     return false;
 }
 
-// Direction of the ray through the centre of pixel (px, py), as prelude.wgsl pixel_ray.
+// Direction of the ray through the centre of pixel (px, py), as shared/supports.wgsl pixel_ray.
 fn pixel_direction(px: u32, py: u32) -> vec3<f32> {
     let u = (2.0 * (f32(px) + 0.5) / f32(binning.width) - 1.0) * binning.tan_half_fov * binning.aspect;
     let v = (1.0 - 2.0 * (f32(py) + 0.5) / f32(binning.height)) * binning.tan_half_fov;

@@ -8,7 +8,7 @@
 //! - `compose_groups`: the forward-inclusion composition (`inclusion.rs` `blend`), `valid` false
 //!   where that has no rule.
 //!
-//! The operators' helpers are WGSL (`prelude.wgsl`, `primitive_jets.wgsl`, `inclusion.wgsl`);
+//! The operators' helpers are WGSL (`shared/blend.wgsl`, `primitive_jets.wgsl`, `inclusion.wgsl`);
 //! this module only nests their calls in the tree's shape, operands in the tree's order, so the
 //! smooth operators (not associative) fold as on the CPU. Straight-line code keeps every slot
 //! index constant: an interpreter over a stack indexed at run time made lavapipe's compile of

@@ -1,5 +1,5 @@
 //! The scene packed for the GPU: `#[repr(C)]` + bytemuck twins of the WGSL structs in
-//! `shaders/prelude.wgsl`, built from a [`Compiled`] scene.
+//! `shaders/shared/scene.wgsl`, built from a [`Compiled`] scene.
 //!
 //! The GPU evaluates every primitive — point blobs, distance and SCALIS segments, planes, boxes,
 //! rounded boxes, tori, cylinders and HRBF terms — in up to [`MAX_GROUPS`] groups under any
@@ -19,7 +19,7 @@ use crate::blend_wgsl::BlendWgsl;
 pub use crate::shared::MAX_GROUPS;
 use crate::shared::{KernelFamily, KindSet, LightKind, PrimitiveKind};
 
-/// Twin of `Primitive` in prelude.wgsl.
+/// Twin of `Primitive` in shared/scene.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuPrimitive {
@@ -50,7 +50,7 @@ pub struct GpuPrimitive {
     pub bound: [f32; 4],
 }
 
-/// Twin of `Kernel` in prelude.wgsl.
+/// Twin of `Kernel` in shared/scene.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuKernel {
@@ -76,7 +76,7 @@ pub struct GpuKernel {
     pub pad2: [f32; 3],
 }
 
-/// Twin of `Light` in prelude.wgsl.
+/// Twin of `Light` in shared/scene.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
@@ -86,7 +86,7 @@ pub struct GpuLight {
     pub colour: [f32; 4],
 }
 
-/// Twin of `Material` in prelude.wgsl: a group's material.
+/// Twin of `Material` in shared/scene.wgsl: a group's material.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -179,7 +179,7 @@ fn occluding_groups(tree: &BlendTree, groups: usize) -> Vec<bool> {
     out
 }
 
-/// The shader kind of a primitive (`Primitive.kind` in prelude.wgsl).
+/// The shader kind of a primitive (`Primitive.kind` in shared/scene.wgsl).
 fn gpu_kind(p: &Primitive) -> PrimitiveKind {
     match p {
         Primitive::Point(_) => PrimitiveKind::Point,

@@ -1,7 +1,7 @@
 //! A bounding volume hierarchy over the primitives' support boxes for the GPU's rays that leave
 //! the screen tiles: a frame's shadow, reflected and refracted rays (main.wgsl
 //! `trace_path`) and the statistics rays off the axes (gpu_stats.rs). Their window of supports
-//! (prelude.wgsl `fill_window`) visits the primitives whose boxes the ray meets past the
+//! (shared/supports.wgsl `fill_window`) visits the primitives whose boxes the ray meets past the
 //! window's floor, instead of testing every primitive at each refill.
 //!
 //! Median splits on the boxes' centres along their widest axis, leaves of up to [`LEAF`]
@@ -28,7 +28,7 @@ pub const LEAF: usize = 4;
 /// from the origin: about a hundred f32 ulps of either.
 const RELATIVE_MARGIN: f64 = 1e-5;
 
-/// Twin of `BvhNode` in prelude.wgsl (a layout test checks every field's offset).
+/// Twin of `BvhNode` in shared/scene.wgsl (a layout test checks every field's offset).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuBvhNode {

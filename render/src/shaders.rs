@@ -1,4 +1,4 @@
-//! WGSL composition: one file per method family plus the shared prelude (`shaders/`), put
+//! WGSL composition: one file per method family plus the shared WGSL (`shaders/shared/`), put
 //! together in Rust. The methods that run on the GPU, and what each needs of a scene.
 
 use skeletrace_core::FieldProgram;
@@ -11,7 +11,39 @@ use skeletrace_core::model::kernel::Kernel;
 use crate::blend_wgsl::BlendWgsl;
 use crate::shared::{KindSet, MarchBound, RAY_SUPPORTS, wgsl_constants};
 
-const PRELUDE: &str = include_str!("../shaders/prelude.wgsl");
+/// The WGSL every compute shader shares (`shaders/shared/`), one file per core module it
+/// mirrors, in the order they are composed.
+const SHARED: [(&str, &str); 6] = [
+    (
+        "shared/scene.wgsl",
+        include_str!("../shaders/shared/scene.wgsl"),
+    ),
+    (
+        "shared/kernels.wgsl",
+        include_str!("../shaders/shared/kernels.wgsl"),
+    ),
+    (
+        "shared/primitives.wgsl",
+        include_str!("../shaders/shared/primitives.wgsl"),
+    ),
+    (
+        "shared/geometry.wgsl",
+        include_str!("../shaders/shared/geometry.wgsl"),
+    ),
+    (
+        "shared/supports.wgsl",
+        include_str!("../shaders/shared/supports.wgsl"),
+    ),
+    (
+        "shared/blend.wgsl",
+        include_str!("../shaders/shared/blend.wgsl"),
+    ),
+];
+
+/// The shared WGSL, composed.
+fn shared_wgsl() -> String {
+    SHARED.map(|(_, text)| text).join("\n")
+}
 const MARCH: &str = include_str!("../shaders/march.wgsl");
 const PARTS: &str = include_str!("../shaders/parts.wgsl");
 const SPHERE: &str = include_str!("../shaders/sphere.wgsl");
@@ -237,7 +269,7 @@ impl GpuMethod {
     }
 
     /// The composed compute shader for a scene whose blend tree compiles to `blend` and whose
-    /// primitives are of the kinds in `kinds`: the shared constants, the prelude, the blend, the
+    /// primitives are of the kinds in `kinds`: the shared constants, the shared WGSL, the blend, the
     /// method family, the entry point.
     #[must_use]
     pub fn source(self, blend: &BlendWgsl, kinds: KindSet) -> String {
@@ -286,11 +318,12 @@ impl GpuMethod {
             Self::FieldInversion => FIELD_INVERSION.to_owned(),
         };
         format!(
-            "{}{}{}\nconst RESUMABLE: bool = {};\n{PRELUDE}\n{}\n{family}\n{HEAT}\n{MAIN}",
+            "{}{}{}\nconst RESUMABLE: bool = {};\n{}\n{}\n{family}\n{HEAT}\n{MAIN}",
             wgsl_constants(),
             blend.groups_constant(),
             kinds.wgsl(),
             self.resumable(),
+            shared_wgsl(),
             blend.values
         )
     }
@@ -351,8 +384,7 @@ mod tests {
             .filter_map(|l| l.strip_prefix("const ")?.split(':').next())
             .collect();
         assert!(names.len() >= 30, "{emitted}");
-        for (file, text) in [
-            ("prelude.wgsl", PRELUDE),
+        for (file, text) in SHARED.into_iter().chain([
             ("march.wgsl", MARCH),
             ("parts.wgsl", PARTS),
             ("sphere.wgsl", SPHERE),
@@ -372,7 +404,7 @@ mod tests {
             ("heat.wgsl", HEAT),
             ("viewport_blit.wgsl", BLIT),
             ("step_statistics.wgsl", STEP_STATISTICS),
-        ] {
+        ]) {
             for name in &names {
                 assert!(
                     !text.contains(&format!("const {name}:")),

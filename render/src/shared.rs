@@ -200,20 +200,20 @@ pub enum MarchBound {
 pub const STATS_ROW: u32 = 1024;
 
 /// The list of a statistics ray off the axes: every primitive, which the shader walks the
-/// scene's hierarchy for (main.wgsl `trace_rays`, prelude.wgsl `gather_every`).
+/// scene's hierarchy for (main.wgsl `trace_rays`, shared/supports.wgsl `gather_every`).
 pub const EVERY_PRIMITIVE: u32 = u32::MAX;
 
-/// The size of a ray's window of supports (prelude.wgsl `RaySupports`; emitted as
+/// The size of a ray's window of supports (shared/supports.wgsl `RaySupports`; emitted as
 /// `RAY_SUPPORTS` by `shared::wgsl_constants`): a ray that crosses more supports marches parts
 /// cut at the window's horizon.
 pub const RAY_SUPPORTS: usize = 64;
 
 /// Depth bands per tile list (binning.wgsl): a tile lists its primitives band by band, by the
-/// distance from the eye to their bounding spheres, so that a ray's window fill (prelude.wgsl
+/// distance from the eye to their bounding spheres, so that a ray's window fill (shared/supports.wgsl
 /// `fill_window`) stops at the first band that begins past what the window could still take.
 pub const DEPTH_BANDS: u32 = 16;
 
-/// Size of `Suspension` in prelude.wgsl: one per pixel of a panel, carrying a marching
+/// Size of `Suspension` in shared/scene.wgsl: one per pixel of a panel, carrying a marching
 /// method's rays from one dispatch to the next.
 pub const SUSPENSION_BYTES: u64 = 28;
 

@@ -74,7 +74,7 @@ const SOFTWARE_BATCHES: Batches = Batches {
 /// share.
 pub const MAX_SHADING_VISITS: usize = 40_000;
 
-/// Twin of `Globals` in prelude.wgsl (a layout test checks every field's offset).
+/// Twin of `Globals` in shared/scene.wgsl (a layout test checks every field's offset).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuGlobals {
