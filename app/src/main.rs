@@ -217,24 +217,13 @@ fn chosen_methods(
 ///
 /// # Errors
 /// `--backend gpu` without a GPU, or a named method the GPU lacks there.
-#[expect(
-    clippy::type_complexity,
-    reason = "the two lists and the GPU that traces the second are the answer"
-)]
 fn stats_sides(
     args: &cli::StatsArgs,
     compiled: &skeletrace_core::Compiled,
     chosen: Vec<MethodId>,
     protocol: Protocol,
     skipped: &mut Vec<Skipped>,
-) -> Result<
-    (
-        Vec<Box<dyn Method>>,
-        Vec<GpuMethod>,
-        Result<GpuRenderer, String>,
-    ),
-    String,
-> {
+) -> Result<StatsSides, String> {
     let gpu = match args.backend {
         BackendChoice::Cpu => Err("the CPU backend was chosen".to_owned()),
         _ => GpuRenderer::new().map_err(|e| e.to_string()),
@@ -275,7 +264,19 @@ fn stats_sides(
             Err(e) => return Err(format!("method '{id}': {e}")),
         }
     }
-    Ok((on_cpu, on_gpu, gpu))
+    Ok(StatsSides {
+        on_cpu,
+        on_gpu,
+        gpu,
+    })
+}
+
+/// The methods `stats` traces on each side, and the GPU.
+struct StatsSides {
+    on_cpu: Vec<Box<dyn Method>>,
+    on_gpu: Vec<GpuMethod>,
+    /// The GPU opened for `--backend gpu` or `auto`, or why there is none.
+    gpu: Result<GpuRenderer, String>,
 }
 
 /// Most rays `stats` traces per method on the CPU, which keeps every ray's outcome until the
@@ -333,7 +334,11 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         protocol: args.protocol,
         mode,
     };
-    let (on_cpu, on_gpu, gpu) = stats_sides(args, &compiled, chosen, setup.protocol, &mut skipped)?;
+    let StatsSides {
+        on_cpu,
+        on_gpu,
+        gpu,
+    } = stats_sides(args, &compiled, chosen, setup.protocol, &mut skipped)?;
     check_stats_rays(args.rays, on_cpu.is_empty() && !on_gpu.is_empty())?;
     let mut methods = Vec::new();
     let (mut rays, mut protocol) = (args.rays, args.protocol);

@@ -9,6 +9,7 @@ use eframe::egui;
 use egui_plot::{Bar, BarChart, Plot};
 use skeletrace_core::frame::{StepHistogram, StepScale, View};
 use skeletrace_core::methods::MethodId;
+use skeletrace_render::viewport::ViewportFrame;
 
 use super::Editor;
 
@@ -26,13 +27,12 @@ impl Editor {
     pub(super) fn comparison(&mut self, ui: &mut egui::Ui) {
         let rect = ui.available_rect_before_wrap();
         let bar = 44.0;
-        let label = 34.0;
         // Every panel shows the whole view at the aspect the viewport has in this area.
         let area_h = (rect.height() - bar).max(16.0);
         let aspect = rect.width() / area_h;
         let ppp = ui.ctx().pixels_per_point();
         let methods = self.ui_state.compare_methods.clone();
-        let layout = GridLayout::new(methods.len(), rect.width(), area_h, label, aspect);
+        let layout = GridLayout::new(methods.len(), rect.width(), area_h, LABEL_HEIGHT, aspect);
         let full = (
             ((layout.panel_w * ppp) as u32).max(8),
             ((layout.panel_h * ppp) as u32).max(8),
@@ -41,42 +41,19 @@ impl Editor {
             steps_max: self.doc.compiled().settings.max_steps,
         };
         let gpu_frame = self.gpu_viewport_frame(&methods, steps_view, full);
-        self.viewport_on_gpu = gpu_frame.is_some();
+        self.view.viewport_on_gpu = gpu_frame.is_some();
         if gpu_frame.is_none() {
             // Heat maps trace every chosen method: half resolution keeps the grid responsive.
             self.request_frames(ui.ctx(), ((full.0 / 2) as usize, (full.1 / 2) as usize));
         }
         let response = ui.allocate_rect(rect, egui::Sense::click());
         let painter = ui.painter_at(rect);
-        // The panels, their frames' size and what is known of each.
-        let (size, mut infos, top) = if gpu_frame.is_some() {
-            let infos: Vec<PanelInfo> = methods
-                .iter()
-                .map(|&method| PanelInfo {
-                    method,
-                    on_gpu: true,
-                    histogram: None,
-                    hovered_steps: None,
-                })
-                .collect();
-            (full, infos, None)
-        } else if let Some(shown) = &self.frames.shown {
-            let size = shown
-                .frames
-                .first()
-                .map_or((1, 1), |f| (f.frame.width as u32, f.frame.height as u32));
-            let infos: Vec<PanelInfo> = shown
-                .frames
-                .iter()
-                .map(|f| PanelInfo {
-                    method: f.method,
-                    on_gpu: f.on_gpu,
-                    histogram: Some(f.histogram.clone()),
-                    hovered_steps: None,
-                })
-                .collect();
-            (size, infos, Some(shown.steps_max))
-        } else {
+        let Some(GridPanels {
+            size,
+            mut infos,
+            top,
+        }) = self.panel_infos(&methods, gpu_frame.is_some(), full)
+        else {
             painter.text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,
@@ -86,31 +63,8 @@ impl Editor {
             );
             return;
         };
-        // Each panel's cell: its label strip, then its image.
-        let cells: Vec<egui::Pos2> = (0..infos.len())
-            .map(|i| {
-                egui::pos2(
-                    rect.left() + (i % layout.columns) as f32 * layout.cell_w,
-                    rect.top() + (i / layout.columns) as f32 * (layout.panel_h + label),
-                )
-            })
-            .collect();
-        let panels: Vec<egui::Rect> = cells
-            .iter()
-            .map(|&egui::Pos2 { x, y }| {
-                fit_rect(
-                    egui::Rect::from_min_size(
-                        egui::pos2(x, y + label),
-                        egui::vec2(layout.cell_w - 4.0, layout.panel_h),
-                    ),
-                    // The panel keeps the grid's aspect whatever the resolution traced (a
-                    // preview rounds its size), so the layout does not move when the full
-                    // frame arrives.
-                    layout.panel_w / layout.panel_h,
-                )
-            })
-            .collect();
-        self.hovered_pixel = response.hover_pos().and_then(|p| {
+        let (cells, panels) = panel_rects(rect, &layout, infos.len());
+        self.view.hovered_pixel = response.hover_pos().and_then(|p| {
             let image = panels.iter().find(|r| r.contains(p))?;
             let u = (p.x - image.left()) / image.width() * size.0 as f32;
             let v = (p.y - image.top()) / image.height() * size.1 as f32;
@@ -119,93 +73,17 @@ impl Editor {
                 (v as usize).min(size.1 as usize - 1),
             ))
         });
-        let top = if let Some(frame) = gpu_frame {
-            let probe = self.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
-            self.paint_gpu_viewport(
-                &painter,
-                rect,
-                frame,
-                panels.clone(),
-                (self.ui_state.step_scale, probe),
-            );
-            let statistics = self.gpu_grid_statistics();
-            if !statistics.as_ref().is_some_and(|(_, current)| *current) {
-                // The statistics of this frame are on their way from the GPU.
-                ui.ctx().request_repaint();
+        let top = match gpu_frame {
+            Some(frame) => self.paint_gpu_panels(&painter, rect, frame, &panels, &mut infos),
+            None => {
+                self.paint_traced_panels(&painter, &panels, &mut infos);
+                top
             }
-            match statistics.filter(|(s, _)| s.histograms.len() == infos.len()) {
-                Some((s, current)) => {
-                    for (k, info) in infos.iter_mut().enumerate() {
-                        info.histogram = Some(s.histograms[k].clone());
-                        if current && probe.is_some() {
-                            info.hovered_steps = s.probe_steps.get(k).copied();
-                        }
-                    }
-                    Some(s.top)
-                }
-                None => None,
-            }
-        } else {
-            if let (Some(shown), Some((u, v))) = (&self.frames.shown, self.hovered_pixel) {
-                for (info, f) in infos.iter_mut().zip(&shown.frames) {
-                    info.hovered_steps = Some(f.frame.steps[v * f.frame.width + u]);
-                }
-            }
-            for (f, image_rect) in self
-                .frames
-                .shown
-                .iter()
-                .flat_map(|s| &s.frames)
-                .zip(&panels)
-            {
-                painter.image(
-                    f.texture.id(),
-                    *image_rect,
-                    egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0)),
-                    egui::Color32::WHITE,
-                );
-            }
-            top
         };
-        for (i, (info, &egui::Pos2 { x, y })) in infos.iter().zip(&cells).enumerate() {
-            let backend = if info.on_gpu { "GPU" } else { "CPU" };
-            painter.text(
-                egui::pos2(x + 4.0, y + 2.0),
-                egui::Align2::LEFT_TOP,
-                format!("{} ({backend})", info.method),
-                egui::FontId::proportional(14.0),
-                egui::Color32::WHITE,
-            );
-            let summary = info.histogram.as_ref().map_or_else(
-                || "counting…".to_owned(),
-                |h| {
-                    let s = h.summary();
-                    format!(
-                        "avg {:.2}  median {}  p95 {}  max {}",
-                        s.average, s.median, s.p95, s.max
-                    )
-                },
-            );
-            painter.text(
-                egui::pos2(x + 4.0, y + 18.0),
-                egui::Align2::LEFT_TOP,
-                summary,
-                egui::FontId::monospace(11.0),
-                egui::Color32::LIGHT_GRAY,
-            );
-            if let Some(h) = &info.histogram {
-                histogram_plot(
-                    ui,
-                    ("step histogram", i),
-                    egui::Rect::from_min_size(
-                        egui::pos2(x + layout.cell_w - 4.0 - HISTOGRAM_WIDTH, y + 2.0),
-                        egui::vec2(HISTOGRAM_WIDTH, label - 6.0),
-                    ),
-                    h,
-                );
-            }
+        for (i, (info, &cell)) in infos.iter().zip(&cells).enumerate() {
+            panel_caption(ui, &painter, i, info, cell, layout.cell_w);
         }
-        self.compare_layout = Some((
+        self.view.compare_layout = Some((
             egui::Rect::from_min_size(rect.min, egui::vec2(rect.width(), area_h)),
             panels,
         ));
@@ -214,6 +92,7 @@ impl Editor {
             .filter_map(|i| Some(format!("{}: {} steps", i.method, i.hovered_steps?)))
             .collect();
         let inspect = self
+            .view
             .hovered_pixel
             .filter(|_| response.clicked())
             .map(|pixel| {
@@ -231,6 +110,110 @@ impl Editor {
         }
         if let Some((pixel, size, methods)) = inspect {
             self.inspect_ray(pixel, size, &methods);
+        }
+    }
+
+    /// The panels' frame size, what is known of each panel, and the colour scale's top when
+    /// the frames on screen give it: the GPU viewport's panels (statistics still to come), the
+    /// render thread's last reply, or `None` before any frame.
+    fn panel_infos(
+        &self,
+        methods: &[MethodId],
+        on_gpu: bool,
+        full: (u32, u32),
+    ) -> Option<GridPanels> {
+        if on_gpu {
+            let infos = methods
+                .iter()
+                .map(|&method| PanelInfo {
+                    method,
+                    on_gpu: true,
+                    histogram: None,
+                    hovered_steps: None,
+                })
+                .collect();
+            return Some(GridPanels {
+                size: full,
+                infos,
+                top: None,
+            });
+        }
+        let shown = self.frames.shown.as_ref()?;
+        let size = shown
+            .frames
+            .first()
+            .map_or((1, 1), |f| (f.frame.width as u32, f.frame.height as u32));
+        let infos = shown
+            .frames
+            .iter()
+            .map(|f| PanelInfo {
+                method: f.method,
+                on_gpu: f.on_gpu,
+                histogram: Some(f.histogram.clone()),
+                hovered_steps: None,
+            })
+            .collect();
+        Some(GridPanels {
+            size,
+            infos,
+            top: Some(shown.steps_max),
+        })
+    }
+
+    /// Paints the GPU viewport's heat maps into `panels` and takes the statistics it read back
+    /// (histograms, the hovered pixel's counts) into `infos`; returns the colour scale's top
+    /// once they are there.
+    fn paint_gpu_panels(
+        &self,
+        painter: &egui::Painter,
+        area: egui::Rect,
+        frame: ViewportFrame,
+        panels: &[egui::Rect],
+        infos: &mut [PanelInfo],
+    ) -> Option<u32> {
+        let probe = self.view.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
+        self.paint_gpu_viewport(
+            painter,
+            area,
+            frame,
+            panels.to_vec(),
+            (self.ui_state.step_scale, probe),
+        );
+        let statistics = self.gpu_grid_statistics();
+        if !statistics.as_ref().is_some_and(|(_, current)| *current) {
+            // The statistics of this frame are on their way from the GPU.
+            painter.ctx().request_repaint();
+        }
+        let (s, current) = statistics.filter(|(s, _)| s.histograms.len() == infos.len())?;
+        for (k, info) in infos.iter_mut().enumerate() {
+            info.histogram = Some(s.histograms[k].clone());
+            if current && probe.is_some() {
+                info.hovered_steps = s.probe_steps.get(k).copied();
+            }
+        }
+        Some(s.top)
+    }
+
+    /// Paints the render thread's heat-map textures into `panels`, with the hovered pixel's
+    /// counts into `infos`.
+    fn paint_traced_panels(
+        &self,
+        painter: &egui::Painter,
+        panels: &[egui::Rect],
+        infos: &mut [PanelInfo],
+    ) {
+        if let (Some(shown), Some((u, v))) = (&self.frames.shown, self.view.hovered_pixel) {
+            for (info, f) in infos.iter_mut().zip(&shown.frames) {
+                info.hovered_steps = Some(f.frame.steps[v * f.frame.width + u]);
+            }
+        }
+        for (f, image_rect) in self.frames.shown.iter().flat_map(|s| &s.frames).zip(panels) {
+            painter.image(
+                f.texture.id(),
+                *image_rect,
+                egui::Rect::from_min_max(egui::Pos2::ZERO, egui::pos2(1.0, 1.0)),
+                egui::Color32::WHITE,
+            );
         }
     }
 
@@ -461,6 +444,97 @@ fn fit_rect(outer: egui::Rect, aspect: f32) -> egui::Rect {
         egui::vec2(w, w / aspect.max(1e-3))
     };
     egui::Rect::from_center_size(outer.center(), size)
+}
+
+/// What the grid knows of its panels before drawing them.
+struct GridPanels {
+    /// Pixels of each panel's frame.
+    size: (u32, u32),
+    infos: Vec<PanelInfo>,
+    /// The shared colour scale's top, once known.
+    top: Option<u32>,
+}
+
+/// Height of a panel's caption strip, in points.
+const LABEL_HEIGHT: f32 = 34.0;
+
+/// Each of `n` panels' cell (the top left of its caption strip) and its image rectangle.
+fn panel_rects(
+    rect: egui::Rect,
+    layout: &GridLayout,
+    n: usize,
+) -> (Vec<egui::Pos2>, Vec<egui::Rect>) {
+    let cells: Vec<egui::Pos2> = (0..n)
+        .map(|i| {
+            egui::pos2(
+                rect.left() + (i % layout.columns) as f32 * layout.cell_w,
+                rect.top() + (i / layout.columns) as f32 * (layout.panel_h + LABEL_HEIGHT),
+            )
+        })
+        .collect();
+    let panels = cells
+        .iter()
+        .map(|&egui::Pos2 { x, y }| {
+            fit_rect(
+                egui::Rect::from_min_size(
+                    egui::pos2(x, y + LABEL_HEIGHT),
+                    egui::vec2(layout.cell_w - 4.0, layout.panel_h),
+                ),
+                // The panel keeps the grid's aspect whatever the resolution traced (a preview
+                // rounds its size), so the layout does not move when the full frame arrives.
+                layout.panel_w / layout.panel_h,
+            )
+        })
+        .collect();
+    (cells, panels)
+}
+
+/// Panel `i`'s caption at `cell`: the method and where it was traced, its step summary and
+/// its step histogram.
+fn panel_caption(
+    ui: &mut egui::Ui,
+    painter: &egui::Painter,
+    index: usize,
+    info: &PanelInfo,
+    egui::Pos2 { x, y }: egui::Pos2,
+    cell_w: f32,
+) {
+    let backend = if info.on_gpu { "GPU" } else { "CPU" };
+    painter.text(
+        egui::pos2(x + 4.0, y + 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("{} ({backend})", info.method),
+        egui::FontId::proportional(14.0),
+        egui::Color32::WHITE,
+    );
+    let summary = info.histogram.as_ref().map_or_else(
+        || "counting…".to_owned(),
+        |h| {
+            let s = h.summary();
+            format!(
+                "avg {:.2}  median {}  p95 {}  max {}",
+                s.average, s.median, s.p95, s.max
+            )
+        },
+    );
+    painter.text(
+        egui::pos2(x + 4.0, y + 18.0),
+        egui::Align2::LEFT_TOP,
+        summary,
+        egui::FontId::monospace(11.0),
+        egui::Color32::LIGHT_GRAY,
+    );
+    if let Some(h) = &info.histogram {
+        histogram_plot(
+            ui,
+            ("step histogram", index),
+            egui::Rect::from_min_size(
+                egui::pos2(x + cell_w - 4.0 - HISTOGRAM_WIDTH, y + 2.0),
+                egui::vec2(HISTOGRAM_WIDTH, LABEL_HEIGHT - 6.0),
+            ),
+            h,
+        );
+    }
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 use eframe::egui;
+use skeletrace_core::Scene;
 
 use super::{AUTOSAVE_SECONDS, Document, Editor, OrbitCamera, default_scene};
 
@@ -153,6 +154,53 @@ fn dialog_missing(
     }
 }
 
+/// Files, dialogs, recovery and autosave: what the editor keeps about the files it reads and
+/// writes.
+pub(super) struct FileState {
+    /// A recovery file found at start, offered for restore.
+    pub recovery_offer: Option<Scene>,
+    /// Where autosaves go (none in tests).
+    pub recovery_path: Option<PathBuf>,
+    /// The File panel's path field.
+    pub path_field: String,
+    /// Give the path field the keyboard on the next frame (no file dialog could be shown).
+    pub focus_path_field: bool,
+    pub file_dialogs: Arc<dyn FileDialogs>,
+    pub pending_dialog: Option<PendingDialog>,
+    /// Why the system dialog failed to show, once it has: later requests use the path field.
+    pub dialog_failure: Option<String>,
+    /// Screenshots and meshes being written on threads of their own.
+    pub background_writes: Vec<BackgroundWrite>,
+    pub last_interaction: Instant,
+    pub last_autosave: Instant,
+    /// The document revision the recovery file holds.
+    pub autosaved_revision: Option<u64>,
+}
+
+impl FileState {
+    /// The state of an editor started with `recovery_offer` found at `recovery_path`, and
+    /// `path_field` in the File panel.
+    pub fn new(
+        recovery_offer: Option<Scene>,
+        recovery_path: Option<PathBuf>,
+        path_field: String,
+    ) -> Self {
+        Self {
+            recovery_offer,
+            recovery_path,
+            path_field,
+            focus_path_field: false,
+            file_dialogs: Arc::new(SystemFileDialogs),
+            pending_dialog: None,
+            dialog_failure: None,
+            background_writes: Vec::new(),
+            last_interaction: Instant::now(),
+            last_autosave: Instant::now(),
+            autosaved_revision: None,
+        }
+    }
+}
+
 /// A dialog shown on its own thread.
 pub(super) struct PendingDialog {
     purpose: FilePurpose,
@@ -178,29 +226,30 @@ impl Editor {
     /// Uses `dialogs` for file dialogs instead of the system's (tests script them).
     #[must_use]
     pub fn with_file_dialogs(mut self, dialogs: Arc<dyn FileDialogs>) -> Self {
-        self.file_dialogs = dialogs;
+        self.files.file_dialogs = dialogs;
         self
     }
 
     /// Asks for a file for `purpose`: a system dialog on its own thread, or, when none can be
     /// shown, the path field (scenes) or the default path beside the scene (screenshots, meshes).
     pub(super) fn ask_for_file(&mut self, ctx: &egui::Context, purpose: FilePurpose) {
-        if self.pending_dialog.is_some() {
+        if self.files.pending_dialog.is_some() {
             self.complain("a file dialog is already open");
             return;
         }
         if let Some(reason) = self
+            .files
             .dialog_failure
             .clone()
-            .or_else(|| self.file_dialogs.unavailable())
+            .or_else(|| self.files.file_dialogs.unavailable())
         {
             self.without_dialog(ctx, purpose, &reason);
             return;
         }
         let request = self.dialog_request(purpose);
-        let dialogs = Arc::clone(&self.file_dialogs);
+        let dialogs = Arc::clone(&self.files.file_dialogs);
         match answer_on_thread(ctx, "file dialog", move || dialogs.pick(&request)) {
-            Ok(answer) => self.pending_dialog = Some(PendingDialog { purpose, answer }),
+            Ok(answer) => self.files.pending_dialog = Some(PendingDialog { purpose, answer }),
             Err(why) => self.without_dialog(ctx, purpose, &format!("no file dialog thread: {why}")),
         }
     }
@@ -208,12 +257,12 @@ impl Editor {
     /// Whether a file dialog is waiting for the user.
     #[must_use]
     pub fn file_dialog_open(&self) -> bool {
-        self.pending_dialog.is_some()
+        self.files.pending_dialog.is_some()
     }
 
     /// Takes the answer of the open dialog, if it has come.
     pub(super) fn poll_file_dialog(&mut self, ctx: &egui::Context) {
-        let Some(pending) = &self.pending_dialog else {
+        let Some(pending) = &self.files.pending_dialog else {
             return;
         };
         let purpose = pending.purpose;
@@ -224,12 +273,12 @@ impl Editor {
                 Err("the file dialog thread stopped without an answer".into())
             }
         };
-        self.pending_dialog = None;
+        self.files.pending_dialog = None;
         match answer {
             Ok(Some(path)) => self.use_file(ctx, purpose, with_extension(path, purpose)),
             Ok(None) => {}
             Err(reason) => {
-                self.dialog_failure = Some(reason.clone());
+                self.files.dialog_failure = Some(reason.clone());
                 self.without_dialog(ctx, purpose, &reason);
             }
         }
@@ -246,7 +295,9 @@ impl Editor {
         match answer_on_thread(ctx, "file writer", write) {
             Ok(done) => {
                 self.tell(format!("writing {what}…"));
-                self.background_writes.push(BackgroundWrite { what, done });
+                self.files
+                    .background_writes
+                    .push(BackgroundWrite { what, done });
             }
             Err(why) => self.complain(format!("cannot write {what}: {why}")),
         }
@@ -255,13 +306,14 @@ impl Editor {
     /// How many screenshots and meshes are still being written.
     #[must_use]
     pub fn background_writes(&self) -> usize {
-        self.background_writes.len()
+        self.files.background_writes.len()
     }
 
     /// Reports the writes that have finished.
     pub(super) fn poll_background_writes(&mut self) {
         let mut finished = Vec::new();
-        self.background_writes
+        self.files
+            .background_writes
             .retain(|write| match write.done.try_recv() {
                 Ok(result) => {
                     finished.push(result);
@@ -342,7 +394,7 @@ impl Editor {
                 } else {
                     "Save As"
                 };
-                self.focus_path_field = true;
+                self.files.focus_path_field = true;
                 self.complain(format!(
                     "{reason}: type the path in the File panel, then {button}"
                 ));
@@ -357,7 +409,7 @@ impl Editor {
     /// Replaces the document, first asking what to do with unsaved changes.
     pub(super) fn replace_document(&mut self, replacement: Replacement) {
         if self.doc.is_dirty() {
-            self.replace_prompt = Some(replacement);
+            self.prompts.replace_prompt = Some(replacement);
         } else {
             self.carry_out(replacement);
         }
@@ -381,7 +433,7 @@ impl Editor {
 
     /// The prompt before unsaved changes are replaced by New, Open, a recent or a dropped file.
     pub(super) fn replace_dialog(&mut self, ctx: &egui::Context) {
-        let Some(replacement) = self.replace_prompt.clone() else {
+        let Some(replacement) = self.prompts.replace_prompt.clone() else {
             return;
         };
         let what = match &replacement {
@@ -403,17 +455,17 @@ impl Editor {
             };
             ui.horizontal(|ui| {
                 if named.is_some() && ui.button("Save").clicked() {
-                    self.replace_prompt = None;
+                    self.prompts.replace_prompt = None;
                     if self.save(None) {
                         self.carry_out(replacement.clone());
                     }
                 }
                 if ui.button("Discard").clicked() {
-                    self.replace_prompt = None;
+                    self.prompts.replace_prompt = None;
                     self.carry_out(replacement.clone());
                 }
                 if ui.button("Keep editing").clicked() {
-                    self.replace_prompt = None;
+                    self.prompts.replace_prompt = None;
                 }
             });
         });
@@ -427,7 +479,7 @@ impl Editor {
                 self.doc = doc;
                 self.selection.clear();
                 self.active_group = 0;
-                self.path_field = path.display().to_string();
+                self.files.path_field = path.display().to_string();
                 self.remember(path);
                 self.tell(format!("opened {}", path.display()));
             }
@@ -440,7 +492,7 @@ impl Editor {
         self.orbit = OrbitCamera::from_camera(&scene.camera);
         self.doc = Document::new(scene, None);
         self.selection.clear();
-        self.path_field.clear();
+        self.files.path_field.clear();
         self.tell("new scene (the embedded creature)");
     }
 
@@ -449,7 +501,7 @@ impl Editor {
         let target = path
             .or_else(|| self.doc.path().map(Path::to_path_buf))
             .or_else(|| {
-                let typed = self.path_field.trim();
+                let typed = self.files.path_field.trim();
                 (!typed.is_empty()).then(|| PathBuf::from(typed))
             });
         let Some(target) = target else {
@@ -458,9 +510,9 @@ impl Editor {
         };
         match self.doc.save_as(&target) {
             Ok(()) => {
-                self.path_field = target.display().to_string();
+                self.files.path_field = target.display().to_string();
                 self.remember(&target);
-                if let Some(p) = &self.recovery_path {
+                if let Some(p) = &self.files.recovery_path {
                     let _ = std::fs::remove_file(p);
                 }
                 self.tell(format!("saved {}", target.display()));
@@ -502,23 +554,23 @@ impl Editor {
     /// the autosave period has passed; before that, asks egui to wake up when it will have, so
     /// that an edit followed by no input at all is still saved within the period.
     pub(super) fn autosave(&mut self, ctx: &egui::Context) {
-        let Some(path) = self.recovery_path.clone() else {
+        let Some(path) = self.files.recovery_path.clone() else {
             return;
         };
         let revision = self.doc.revision();
         if !self.doc.is_dirty()
-            || self.recovery_offer.is_some()
-            || self.autosaved_revision == Some(revision)
+            || self.files.recovery_offer.is_some()
+            || self.files.autosaved_revision == Some(revision)
         {
             return;
         }
         let period = Duration::from_secs(AUTOSAVE_SECONDS);
-        let waited = self.last_autosave.elapsed();
+        let waited = self.files.last_autosave.elapsed();
         if waited < period {
             ctx.request_repaint_after(period - waited);
             return;
         }
-        self.last_autosave = Instant::now();
+        self.files.last_autosave = Instant::now();
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
@@ -531,7 +583,7 @@ impl Editor {
             .scene()
             .save_with_comment(&path, &format!("skeletrace recovery of {origin}"))
         {
-            Ok(()) => self.autosaved_revision = Some(revision),
+            Ok(()) => self.files.autosaved_revision = Some(revision),
             Err(why) => self.complain(format!("autosave failed: {why}")),
         }
     }
@@ -539,19 +591,21 @@ impl Editor {
     /// A clean exit: the recovery file is no longer needed.
     /// Screenshots and meshes still being written are finished first.
     pub fn on_exit(&mut self) {
-        for write in self.background_writes.drain(..) {
+        for write in self.files.background_writes.drain(..) {
             let _ = write.done.recv();
         }
-        if let Some(p) = &self.recovery_path {
+        if let Some(p) = &self.files.recovery_path {
             let _ = std::fs::remove_file(p);
         }
     }
 
     pub(super) fn handle_close(&mut self, ctx: &egui::Context) {
-        if ctx.input(|i| i.viewport().close_requested()) && !self.allow_close && self.doc.is_dirty()
+        if ctx.input(|i| i.viewport().close_requested())
+            && !self.prompts.allow_close
+            && self.doc.is_dirty()
         {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            self.close_prompt = true;
+            self.prompts.close_prompt = true;
         }
     }
 }
@@ -658,14 +712,17 @@ mod tests {
             s.groups[0].skeletons[0].vertices[0].position[1] += 0.25;
         }));
         let edited = editor.doc.scene().clone();
-        editor.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS + 1);
+        editor.files.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS + 1);
         editor.autosave(&egui::Context::default());
         // The rename onto an existing directory fails after the text was written, even as root.
         let target = dir.join("taken.ron");
         std::fs::create_dir_all(target.join("inside")).unwrap_or_else(|e| panic!("{e}"));
         assert!(!editor.save(Some(target.clone())));
         let notice = editor.notice().unwrap_or_default().to_owned();
-        assert!(editor.notice.as_ref().is_some_and(|n| n.error), "{notice}");
+        assert!(
+            editor.prompts.notice.as_ref().is_some_and(|n| n.error),
+            "{notice}"
+        );
         assert!(notice.contains("taken.ron"), "{notice}");
         assert!(
             editor.doc.is_dirty(),
@@ -702,7 +759,7 @@ mod tests {
         assert!(editor.apply(Edit::new("move"), |s| {
             s.groups[0].skeletons[0].vertices[0].position[1] += 0.25;
         }));
-        editor.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS - 2);
+        editor.files.last_autosave = Instant::now() - Duration::from_secs(AUTOSAVE_SECONDS - 2);
         editor.autosave(&ctx);
         assert!(!recovery.exists(), "written before the period ended");
         let delay = wake_up.lock().ok().and_then(|d| *d);
@@ -711,13 +768,13 @@ mod tests {
             "no wake-up asked for the end of the period: {delay:?}"
         );
         // The frame egui runs at that time, without input.
-        editor.last_autosave -= Duration::from_secs(2);
+        editor.files.last_autosave -= Duration::from_secs(2);
         editor.autosave(&ctx);
         let restored = Scene::load(&recovery).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(&restored, editor.doc.scene());
         // Nothing changed since: no new write, no new wake-up.
         std::fs::remove_file(&recovery).unwrap_or_else(|e| panic!("{e}"));
-        editor.last_autosave -= Duration::from_secs(AUTOSAVE_SECONDS + 1);
+        editor.files.last_autosave -= Duration::from_secs(AUTOSAVE_SECONDS + 1);
         editor.autosave(&ctx);
         assert!(
             !recovery.exists(),

@@ -138,7 +138,7 @@ impl Editor {
             .write()
             .callback_resources
             .insert(painter);
-        self.gpu_viewport = Some(render_state.clone());
+        self.view.gpu_viewport = Some(render_state.clone());
         Ok(())
     }
 
@@ -172,7 +172,7 @@ impl Editor {
     }
 
     fn with_viewport_painter<T>(&self, f: impl FnOnce(&ViewportPainter) -> T) -> Option<T> {
-        let state = self.gpu_viewport.as_ref()?;
+        let state = self.view.gpu_viewport.as_ref()?;
         let renderer = state.renderer.read();
         renderer.callback_resources.get::<ViewportPainter>().map(f)
     }
@@ -187,7 +187,7 @@ impl Editor {
         view: View,
         size: (u32, u32),
     ) -> Option<ViewportFrame> {
-        let state = self.gpu_viewport.as_ref()?;
+        let state = self.view.gpu_viewport.as_ref()?;
         let shaded = matches!(view, View::Shaded(_));
         if self.ui_state.backend == BackendChoice::Cpu || methods.is_empty() {
             return None;
@@ -200,7 +200,7 @@ impl Editor {
             .and_then(|p| p.failure().map(str::to_owned));
         if let Some(why) = failure {
             self.complain(format!("GPU viewport: {why}; tracing on the render thread"));
-            self.gpu_viewport = None;
+            self.view.gpu_viewport = None;
             return None;
         }
         let compiled = self.doc.compiled();
@@ -244,7 +244,7 @@ impl Editor {
     /// those of the frame on screen with the hovered pixel's counts.
     #[must_use]
     pub fn gpu_grid_statistics(&self) -> Option<(GridStatistics, bool)> {
-        let probe = self.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
+        let probe = self.view.hovered_pixel.map(|(u, v)| (u as u32, v as u32));
         self.with_viewport_painter(|painter| {
             let (published, current) = painter.statistics(probe);
             published.map(|p| (p.clone(), current))

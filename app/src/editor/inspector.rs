@@ -17,7 +17,7 @@ use skeletrace_render::GpuOfKind;
 
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
-use super::{Edit, Editor, MethodTag, TagsKey, ViewMode, worker};
+use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
 use super::{group_tools, shape_tools};
 
 /// Shortcuts listed by the help overlay.
@@ -56,6 +56,19 @@ pub const SHORTCUTS: [(&str, &str); 27] = [
     ("F1 or ?", "this help"),
     ("Drop a .ron file", "open it"),
 ];
+
+/// Messages, prompts and the help window.
+#[derive(Default)]
+pub(super) struct Prompts {
+    /// The status bar's message.
+    pub notice: Option<Notice>,
+    pub help: bool,
+    /// The window's close asked while the scene has unsaved changes.
+    pub close_prompt: bool,
+    pub allow_close: bool,
+    /// New / Open waiting for the user's answer about unsaved changes.
+    pub replace_prompt: Option<Replacement>,
+}
 
 impl Editor {
     pub(super) fn menu_bar(&mut self, ui: &mut egui::Ui) {
@@ -154,9 +167,9 @@ impl Editor {
                 "Compare methods",
             );
             ui.separator();
-            ui.toggle_value(&mut self.sketch, "Sketch");
+            ui.toggle_value(&mut self.view.sketch, "Sketch");
             if ui.button("Help").clicked() {
-                self.help = !self.help;
+                self.prompts.help = !self.prompts.help;
             }
         });
     }
@@ -182,21 +195,21 @@ impl Editor {
         ui.horizontal(|ui| {
             ui.label("Path");
             let field = ui.add(
-                egui::TextEdit::singleline(&mut self.path_field)
+                egui::TextEdit::singleline(&mut self.files.path_field)
                     .hint_text("scene.ron")
                     .desired_width(f32::INFINITY),
             );
-            if std::mem::take(&mut self.focus_path_field) {
+            if std::mem::take(&mut self.files.focus_path_field) {
                 field.request_focus();
             }
         });
         ui.horizontal(|ui| {
             if ui.button("Open").clicked() {
-                let path = std::path::PathBuf::from(self.path_field.trim());
+                let path = std::path::PathBuf::from(self.files.path_field.trim());
                 self.replace_document(Replacement::Open(path));
             }
             if ui.button("Save As").clicked() {
-                let path = std::path::PathBuf::from(self.path_field.trim());
+                let path = std::path::PathBuf::from(self.files.path_field.trim());
                 self.save(Some(path));
             }
             let dirty = if self.doc.is_dirty() {
@@ -228,7 +241,12 @@ impl Editor {
             shading: self.ui_state.shading,
             gpu: self.frames.render_thread_gpu(),
         };
-        if self.method_tags.as_ref().is_none_or(|(k, _)| *k != key) {
+        if self
+            .view
+            .method_tags
+            .as_ref()
+            .is_none_or(|(k, _)| *k != key)
+        {
             let compiled = self.doc.compiled();
             let request = worker::frame_request(
                 &compiled,
@@ -251,9 +269,9 @@ impl Editor {
                     side,
                 })
                 .collect();
-            self.method_tags = Some((key, tags));
+            self.view.method_tags = Some((key, tags));
         }
-        self.method_tags.as_ref().map_or(&[], |(_, tags)| tags)
+        self.view.method_tags.as_ref().map_or(&[], |(_, tags)| tags)
     }
 
     fn methods_panel(&mut self, ui: &mut egui::Ui) {
@@ -736,6 +754,7 @@ impl Editor {
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
             let gpu = self
+                .view
                 .viewport_on_gpu
                 .then(|| self.gpu_viewport_counts())
                 .flatten();
@@ -781,7 +800,7 @@ impl Editor {
                     ui.colored_label(egui::Color32::from_rgb(240, 180, 90), s);
                 }
             }
-            if let Some(n) = &self.notice {
+            if let Some(n) = &self.prompts.notice {
                 ui.separator();
                 let colour = if n.error {
                     egui::Color32::from_rgb(255, 120, 110)
@@ -795,7 +814,7 @@ impl Editor {
 
     pub(super) fn dialogs(&mut self, ctx: &egui::Context) {
         self.replace_dialog(ctx);
-        if self.help {
+        if self.prompts.help {
             let mut open = true;
             egui::Window::new("Shortcuts")
                 .open(&mut open)
@@ -809,43 +828,43 @@ impl Editor {
                         }
                     });
                 });
-            self.help = open;
+            self.prompts.help = open;
         }
-        if let Some(scene) = self.recovery_offer.clone() {
+        if let Some(scene) = self.files.recovery_offer.clone() {
             egui::Modal::new(egui::Id::unique("recovery")).show(ctx, |ui| {
                 ui.heading("Restore unsaved work?");
                 ui.label("skeletrace did not close cleanly last time. A recovery copy of the scene was kept.");
                 ui.horizontal(|ui| {
                     if ui.button("Restore").clicked() {
                         self.doc.replace(scene, "restore recovery");
-                        self.recovery_offer = None;
+                        self.files.recovery_offer = None;
                         self.tell("restored the recovery copy (not yet saved)");
                     }
                     if ui.button("Discard").clicked() {
-                        if let Some(p) = &self.recovery_path {
+                        if let Some(p) = &self.files.recovery_path {
                             let _ = std::fs::remove_file(p);
                         }
-                        self.recovery_offer = None;
+                        self.files.recovery_offer = None;
                     }
                 });
             });
         }
-        if self.close_prompt {
+        if self.prompts.close_prompt {
             egui::Modal::new(egui::Id::unique("close")).show(ctx, |ui| {
                 ui.heading("Save changes before closing?");
                 ui.horizontal(|ui| {
                     if ui.button("Save").clicked() && self.save(None) {
-                        self.close_prompt = false;
-                        self.allow_close = true;
+                        self.prompts.close_prompt = false;
+                        self.prompts.allow_close = true;
                         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                     }
                     if ui.button("Discard").clicked() {
-                        self.close_prompt = false;
-                        self.allow_close = true;
+                        self.prompts.close_prompt = false;
+                        self.prompts.allow_close = true;
                         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                     }
                     if ui.button("Cancel").clicked() {
-                        self.close_prompt = false;
+                        self.prompts.close_prompt = false;
                     }
                 });
             });

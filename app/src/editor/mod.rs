@@ -17,126 +17,32 @@ mod inspector;
 mod ray_inspector;
 mod selection;
 mod shape_tools;
+mod state;
 mod view;
 mod viewport;
 mod worker;
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Instant;
 
 use eframe::egui;
-use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
-use skeletrace_core::backend::{DeviceKind, Side};
-use skeletrace_core::frame::{FieldShading, Frame, StepScale};
+use skeletrace_core::frame::Frame;
 use skeletrace_core::methods::MethodId;
 
 pub use document::{Document, Edit};
 pub use files::{DialogRequest, FileDialogs, FilePurpose, SystemFileDialogs};
 pub use selection::{Item, Selection};
 pub use skeletrace_core::backend::BackendChoice;
+use state::{MethodTag, Notice, TagsKey};
+pub use state::{UI_STATE_KEY, UiState, ViewMode};
 pub use view::OrbitCamera;
 
 use crate::picture::{Canvas, Panels, compose, shared_scale};
 use worker::{RenderWorker, Request};
 
-/// What the centre of the window shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ViewMode {
-    /// The shaded surface of one method with the skeleton overlay.
-    Shaded,
-    /// The step-count heat maps of the chosen methods, one shared scale.
-    Compare,
-}
-
-impl ViewMode {
-    /// The suffix of this view's screenshot file names.
-    #[must_use]
-    pub fn file_suffix(self) -> &'static str {
-        match self {
-            Self::Shaded => "shaded",
-            Self::Compare => "compare",
-        }
-    }
-}
-
-/// UI state kept between runs (eframe persistence), apart from anything on the GPU.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct UiState {
-    /// Method of the shaded view.
-    pub shaded_method: MethodId,
-    /// Methods of the comparison grid.
-    pub compare_methods: Vec<MethodId>,
-    /// Shaded view or comparison grid.
-    pub view: ViewMode,
-    /// Where frames are traced.
-    pub backend: BackendChoice,
-    /// Exact shadow rays in the shaded view (CPU and GPU).
-    pub shadows: bool,
-    /// Field soft shadows and ambient occlusion in the shaded view.
-    #[serde(default)]
-    pub shading: FieldShading,
-    /// Colour scale of the comparison grid's heat maps (logarithmic by default).
-    #[serde(default)]
-    pub step_scale: StepScale,
-    /// Recently opened or saved files, newest first.
-    pub recent: Vec<PathBuf>,
-    /// Screenshot size in pixels.
-    pub screenshot_size: (usize, usize),
-}
-
-impl Default for UiState {
-    fn default() -> Self {
-        Self {
-            shaded_method: MethodId::QuadraticTaylor,
-            compare_methods: vec![
-                MethodId::Sphere,
-                MethodId::Segment,
-                MethodId::QuadraticTaylor,
-                MethodId::BottomUpQuadratic,
-            ],
-            view: ViewMode::Shaded,
-            backend: BackendChoice::Auto,
-            shadows: false,
-            shading: FieldShading::default(),
-            step_scale: StepScale::Log,
-            recent: Vec::new(),
-            screenshot_size: (1280, 960),
-        }
-    }
-}
-
-/// Key of the persisted [`UiState`].
-pub const UI_STATE_KEY: &str = "skeletrace-ui";
 /// Seconds between autosaves of a dirty scene to the recovery file.
 const AUTOSAVE_SECONDS: u64 = 20;
-/// A method, whether it applies to the scene, and whether it runs on the GPU there.
-#[derive(Clone, Debug)]
-struct MethodTag {
-    id: MethodId,
-    /// The method applies to the scene (on the CPU).
-    applies: bool,
-    /// Where the render thread traces it for the backend choice
-    /// (`skeletrace_core::backend::decide`), or why it cannot.
-    side: Result<Side, String>,
-}
-
-/// What the methods' tags depend on.
-#[derive(Clone, Copy, PartialEq)]
-struct TagsKey {
-    revision: u64,
-    backend: BackendChoice,
-    shadows: bool,
-    shading: FieldShading,
-    gpu: Option<DeviceKind>,
-}
-
-/// A message in the status bar.
-struct Notice {
-    text: String,
-    error: bool,
-}
 
 /// The editor's state.
 pub struct Editor {
@@ -146,46 +52,14 @@ pub struct Editor {
     ui_state: UiState,
     /// The viewport's frames: requests to the render thread and the replies shown.
     frames: frames::ViewportFrames,
-    gesture: viewport::Gesture,
-    sketch: bool,
-    notice: Option<Notice>,
-    help: bool,
-    close_prompt: bool,
-    allow_close: bool,
-    recovery_offer: Option<Scene>,
-    recovery_path: Option<PathBuf>,
-    path_field: String,
-    /// Give the path field the keyboard on the next frame (no file dialog could be shown).
-    focus_path_field: bool,
-    file_dialogs: Arc<dyn FileDialogs>,
-    pending_dialog: Option<files::PendingDialog>,
-    /// Why the system dialog failed to show, once it has: later requests use the path field.
-    dialog_failure: Option<String>,
-    /// New / Open waiting for the user's answer about unsaved changes.
-    replace_prompt: Option<files::Replacement>,
-    /// Screenshots and meshes being written on threads of their own.
-    background_writes: Vec<files::BackgroundWrite>,
-    last_interaction: Instant,
-    last_autosave: Instant,
-    /// The document revision the recovery file holds.
-    autosaved_revision: Option<u64>,
+    /// The group new items go to.
     active_group: usize,
-    hovered_pixel: Option<(usize, usize)>,
-    /// Where the shaded viewport was last drawn.
-    viewport_rect: Option<egui::Rect>,
-    /// The methods' tags, and what they were found for: the scene revision, the backend
-    /// choice, the shading and the render thread's GPU.
-    method_tags: Option<(TagsKey, Vec<MethodTag>)>,
-    /// The ray the inspector window shows.
-    ray_probe: Option<crate::ray_probe::RayProbe>,
-    /// Where the comparison grid was last drawn: its area (less the colour bar) and each
-    /// panel's image.
-    compare_layout: Option<(egui::Rect, Vec<egui::Rect>)>,
-    /// The window's wgpu state when the shaded viewport is traced on its device
-    /// (`gpu_viewport.rs`).
-    gpu_viewport: Option<eframe::egui_wgpu::RenderState>,
-    /// The shaded viewport or the comparison grid was last drawn by the GPU viewport.
-    viewport_on_gpu: bool,
+    /// Files, dialogs, recovery and autosave (`files.rs`).
+    files: files::FileState,
+    /// Messages, prompts and the help window (`inspector.rs`).
+    prompts: inspector::Prompts,
+    /// What the viewport and the comparison grid keep between frames (`viewport.rs`).
+    view: viewport::ViewportState,
 }
 
 impl Editor {
@@ -213,32 +87,10 @@ impl Editor {
             orbit,
             ui_state,
             frames: frames::ViewportFrames::new(wake),
-            gesture: viewport::Gesture::None,
-            sketch: false,
-            notice: None,
-            help: false,
-            close_prompt: false,
-            allow_close: false,
-            recovery_offer,
-            recovery_path,
-            path_field,
-            focus_path_field: false,
-            file_dialogs: Arc::new(SystemFileDialogs),
-            pending_dialog: None,
-            dialog_failure: None,
-            replace_prompt: None,
-            background_writes: Vec::new(),
-            last_interaction: Instant::now(),
-            last_autosave: Instant::now(),
-            autosaved_revision: None,
             active_group: 0,
-            hovered_pixel: None,
-            viewport_rect: None,
-            method_tags: None,
-            ray_probe: None,
-            compare_layout: None,
-            gpu_viewport: None,
-            viewport_on_gpu: false,
+            files: files::FileState::new(recovery_offer, recovery_path, path_field),
+            prompts: inspector::Prompts::default(),
+            view: viewport::ViewportState::default(),
         }
     }
 
@@ -270,19 +122,19 @@ impl Editor {
     /// panel's image (window points).
     #[must_use]
     pub fn compare_layout(&self) -> Option<&(egui::Rect, Vec<egui::Rect>)> {
-        self.compare_layout.as_ref()
+        self.view.compare_layout.as_ref()
     }
 
     /// Where the shaded viewport was last drawn (window points).
     #[must_use]
     pub fn viewport_rect(&self) -> Option<egui::Rect> {
-        self.viewport_rect
+        self.view.viewport_rect
     }
 
     /// The pixel of the comparison grid's frames under the pointer, if any.
     #[must_use]
     pub fn hovered_pixel(&self) -> Option<(usize, usize)> {
-        self.hovered_pixel
+        self.view.hovered_pixel
     }
 
     /// Frames currently shown, with their methods.
@@ -332,7 +184,7 @@ impl Editor {
     fn viewport_projection(
         &self,
     ) -> Option<(view::Projection, impl Fn(f64, f64) -> egui::Pos2 + use<>)> {
-        let rect = self.viewport_rect?;
+        let rect = self.view.viewport_rect?;
         let projection = view::Projection::new(
             &self.orbit.camera(),
             f64::from(rect.width()),
@@ -346,18 +198,18 @@ impl Editor {
     /// The message in the status bar, if any.
     #[must_use]
     pub fn notice(&self) -> Option<&str> {
-        self.notice.as_ref().map(|n| n.text.as_str())
+        self.prompts.notice.as_ref().map(|n| n.text.as_str())
     }
 
     fn tell(&mut self, text: impl Into<String>) {
-        self.notice = Some(Notice {
+        self.prompts.notice = Some(Notice {
             text: text.into(),
             error: false,
         });
     }
 
     fn complain(&mut self, text: impl Into<String>) {
-        self.notice = Some(Notice {
+        self.prompts.notice = Some(Notice {
             text: text.into(),
             error: true,
         });
@@ -413,8 +265,8 @@ impl Editor {
             ViewMode::Shaded => vec![self.ui_state.shaded_method],
             ViewMode::Compare => self.ui_state.compare_methods.clone(),
         };
-        let interacting =
-            self.gesture.is_active() || self.last_interaction.elapsed() < frames::REFINE_AFTER;
+        let interacting = self.view.gesture.is_active()
+            || self.files.last_interaction.elapsed() < frames::REFINE_AFTER;
         let order = frames::FrameOrder {
             revision: self.doc.revision(),
             compiled: self.doc.compiled(),
@@ -433,12 +285,12 @@ impl Editor {
     /// Shows a device failure the render thread reported: the frames came from the CPU.
     fn report_device_failure(&mut self, failure: Option<String>) {
         if let Some(text) = failure {
-            self.notice = Some(Notice { text, error: true });
+            self.prompts.notice = Some(Notice { text, error: true });
         }
     }
 
     fn touch(&mut self) {
-        self.last_interaction = Instant::now();
+        self.files.last_interaction = Instant::now();
     }
 
     // ---- keyboard ----
@@ -479,7 +331,7 @@ impl Editor {
             self.delete();
         }
         if pressed(Key::F1) || ctx.input(|i| i.events.contains(&egui::Event::Text("?".into()))) {
-            self.help = !self.help;
+            self.prompts.help = !self.prompts.help;
         }
         if pressed(Key::F) {
             self.frame_selection();
@@ -488,7 +340,7 @@ impl Editor {
             self.frame_all();
         }
         if pressed(Key::S) {
-            self.sketch = !self.sketch;
+            self.view.sketch = !self.view.sketch;
         }
         if pressed(Key::C) {
             self.connect();
@@ -507,7 +359,7 @@ impl Editor {
         }
         if pressed(Key::Escape) {
             self.selection.clear();
-            self.sketch = false;
+            self.view.sketch = false;
         }
         let step = 0.08;
         let mut turned = false;
@@ -814,7 +666,7 @@ pub fn run(path: Option<&Path>) -> Result<(), String> {
                 editor.complain(format!("GPU viewport unavailable: {why}"));
             }
             if let Some(p) = path_recent(&editor) {
-                editor.path_field = p;
+                editor.files.path_field = p;
             }
             Ok(Box::new(EditorApp { editor }))
         }),

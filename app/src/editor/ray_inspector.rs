@@ -38,7 +38,7 @@ impl Editor {
     ) {
         let compiled = self.doc.compiled();
         let camera = self.orbit.camera();
-        self.ray_probe = Some(RayProbe::new(&compiled, &camera, pixel, size, methods));
+        self.view.ray_probe = Some(RayProbe::new(&compiled, &camera, pixel, size, methods));
     }
 
     /// Opens the inspector on the shaded view's pixel under `at` (window points in `rect`), for
@@ -69,11 +69,11 @@ impl Editor {
     /// The inspected ray, if the inspector is open.
     #[must_use]
     pub fn ray_probe(&self) -> Option<&RayProbe> {
-        self.ray_probe.as_ref()
+        self.view.ray_probe.as_ref()
     }
 
     pub(super) fn ray_inspector(&mut self, ctx: &egui::Context) {
-        let Some(probe) = &self.ray_probe else {
+        let Some(probe) = &self.view.ray_probe else {
             return;
         };
         let mut open = true;
@@ -84,7 +84,7 @@ impl Editor {
             .default_size([580.0, 480.0])
             .show(ctx, |ui| show_probe(ui, probe));
         if !open {
-            self.ray_probe = None;
+            self.view.ray_probe = None;
         }
     }
 }

@@ -7,16 +7,19 @@
 
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, StrokeKind, Vec2};
 use skeletrace_core::frame::{StepScale, View};
+use skeletrace_render::viewport::ViewportFrame;
 
 use super::gizmo::{Gizmo, Handle};
 use super::selection::{self, Item, Selection};
+use super::state::{MethodTag, TagsKey};
 use super::view::Projection;
 use super::{Edit, Editor};
 
 /// What a mouse drag in the viewport is doing.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Gesture {
     /// Nothing.
+    #[default]
     None,
     /// Turning the camera.
     Orbit,
@@ -57,32 +60,124 @@ struct Drawn {
     tip: Option<Pos2>,
 }
 
+/// What the viewport and the comparison grid keep between frames.
+#[derive(Default)]
+pub(super) struct ViewportState {
+    pub gesture: Gesture,
+    /// Clicks in the viewport add vertices.
+    pub sketch: bool,
+    pub hovered_pixel: Option<(usize, usize)>,
+    /// Where the shaded viewport was last drawn.
+    pub viewport_rect: Option<egui::Rect>,
+    /// The methods' tags, and what they were found for: the scene revision, the backend
+    /// choice, the shading and the render thread's GPU.
+    pub method_tags: Option<(TagsKey, Vec<MethodTag>)>,
+    /// The ray the inspector window shows.
+    pub ray_probe: Option<crate::ray_probe::RayProbe>,
+    /// Where the comparison grid was last drawn: its area (less the colour bar) and each
+    /// panel's image.
+    pub compare_layout: Option<(egui::Rect, Vec<egui::Rect>)>,
+    /// The window's wgpu state when the shaded viewport is traced on its device
+    /// (`gpu_viewport.rs`).
+    pub gpu_viewport: Option<eframe::egui_wgpu::RenderState>,
+    /// The shaded viewport or the comparison grid was last drawn by the GPU viewport.
+    pub viewport_on_gpu: bool,
+}
+
 impl Editor {
+    /// The shaded viewport: the frame (on the window's GPU where it can, else the render
+    /// thread's), the skeleton overlay and gizmo, and what the mouse does there.
     pub(super) fn viewport(&mut self, ui: &mut egui::Ui) {
         let rect = ui.available_rect_before_wrap();
-        self.viewport_rect = Some(rect);
+        self.view.viewport_rect = Some(rect);
         let ppp = ui.ctx().pixels_per_point();
         let pixels = (
             (rect.width() * ppp) as usize,
             (rect.height() * ppp) as usize,
         );
-        // On the window's GPU where it can (no render thread, no readback); else the render
-        // thread's frames.
         let gpu_frame = self.gpu_viewport_frame(
             &[self.ui_state.shaded_method],
             View::Shaded(self.ui_state.shading),
             (pixels.0 as u32, pixels.1 as u32),
         );
         let on_gpu = gpu_frame.is_some();
-        self.viewport_on_gpu = on_gpu;
+        self.view.viewport_on_gpu = on_gpu;
         if gpu_frame.is_none() {
             self.request_frames(ui.ctx(), pixels);
         }
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
         let painter = ui.painter_at(rect);
+        self.paint_viewport_frame(&painter, rect, gpu_frame);
+        let Some((projection, to_screen)) = self.viewport_projection() else {
+            return;
+        };
+        let drawn = self.draw_overlay(&painter, &projection, &to_screen);
+        let hovered = response.hover_pos().and_then(|p| nearest(&drawn, p));
+        if let Some(d) = hovered.and_then(|h| drawn.iter().find(|d| d.item == h)) {
+            painter.circle_stroke(d.at, 7.0, Stroke::new(2.0, Color32::WHITE));
+        }
+        let gizmo = selection::centroid(self.doc.scene(), &self.selection)
+            .and_then(|c| Gizmo::place(c, &projection, &to_screen));
+        if let Some(gizmo) = &gizmo {
+            let active = match self.view.gesture {
+                Gesture::Move(handle) => Some(handle),
+                _ => None,
+            };
+            gizmo.draw(&painter, active, SELECTED);
+        }
+        if self.view.sketch {
+            painter.text(
+                rect.left_top() + Vec2::new(10.0, 10.0),
+                egui::Align2::LEFT_TOP,
+                "SKETCH: click to add a vertex joined to the selected one (S or Esc to leave)",
+                egui::FontId::proportional(14.0),
+                SELECTED,
+            );
+        }
+        let shift = ui.input(|i| i.modifiers.shift);
+        if response.drag_started() {
+            self.begin_gesture(ui, &response, gizmo.as_ref(), &drawn);
+        }
+        if response.dragged() {
+            self.continue_gesture(&response, &painter, gizmo.as_ref(), &projection, &drawn);
+        }
+        if response.drag_stopped() {
+            self.end_gesture(&response, &drawn, shift);
+        }
+        if response.clicked() {
+            let at = response.interact_pointer_pos().unwrap_or_default();
+            if ui.input(|i| i.modifiers.alt) {
+                self.inspect_viewport_pixel(at, rect, on_gpu.then_some(pixels));
+            } else {
+                self.viewport_click(at, rect, &projection, hovered, shift);
+            }
+        }
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if response.hovered() && scroll != 0.0 {
+            let factor = (f64::from(scroll) * 0.002).exp();
+            if hovered.is_some_and(|h| self.selection.contains(&h)) {
+                let chosen = self.selection.clone();
+                self.apply(Edit::gesture("radius", "scroll-radius"), |s| {
+                    selection::scale_radius(s, &chosen, factor);
+                });
+            } else {
+                self.orbit.zoom(1.0 / factor);
+            }
+            self.touch();
+        }
+    }
+
+    /// The viewport's frame: the GPU viewport's paint callback, the render thread's last
+    /// frame, or "tracing…" before the first.
+    fn paint_viewport_frame(
+        &self,
+        painter: &egui::Painter,
+        rect: Rect,
+        gpu_frame: Option<ViewportFrame>,
+    ) {
         painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
         if let Some(frame) = gpu_frame {
-            self.paint_gpu_viewport(&painter, rect, frame, vec![rect], (StepScale::Log, None));
+            self.paint_gpu_viewport(painter, rect, frame, vec![rect], (StepScale::Log, None));
         } else if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
             painter.image(
                 f.texture.id(),
@@ -99,172 +194,163 @@ impl Editor {
                 Color32::GRAY,
             );
         }
-        let Some((projection, to_screen)) = self.viewport_projection() else {
-            return;
-        };
-        let drawn = self.draw_overlay(&painter, &projection, &to_screen);
-        let pointer = response.hover_pos();
-        let hovered = pointer.and_then(|p| nearest(&drawn, p));
-        if let Some(d) = hovered.and_then(|h| drawn.iter().find(|d| d.item == h)) {
-            painter.circle_stroke(d.at, 7.0, Stroke::new(2.0, Color32::WHITE));
-        }
-        let gizmo = selection::centroid(self.doc.scene(), &self.selection)
-            .and_then(|c| Gizmo::place(c, &projection, &to_screen));
-        if let Some(gizmo) = &gizmo {
-            let active = match self.gesture {
-                Gesture::Move(handle) => Some(handle),
-                _ => None,
-            };
-            gizmo.draw(&painter, active, SELECTED);
-        }
-        if self.sketch {
-            painter.text(
-                rect.left_top() + Vec2::new(10.0, 10.0),
-                egui::Align2::LEFT_TOP,
-                "SKETCH: click to add a vertex joined to the selected one (S or Esc to leave)",
-                egui::FontId::proportional(14.0),
-                SELECTED,
-            );
-        }
-        // ---- mouse ----
+    }
+
+    /// What a drag that starts here does: pan (secondary or middle button), move by a gizmo
+    /// handle, turn a normal by its tip, change a radius by its ring, move the picked items,
+    /// draw a selection box (Shift) or orbit.
+    fn begin_gesture(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        gizmo: Option<&Gizmo>,
+        drawn: &[Drawn],
+    ) {
         let shift = ui.input(|i| i.modifiers.shift);
-        if response.drag_started() {
-            // Where the button went down: the drag is recognised only after some movement.
-            let start = ui
-                .input(|i| i.pointer.press_origin())
-                .or(response.interact_pointer_pos())
-                .unwrap_or_default();
-            let secondary = ui.input(|i| {
-                i.pointer.button_down(egui::PointerButton::Secondary)
-                    || i.pointer.button_down(egui::PointerButton::Middle)
-            });
-            self.gesture = if secondary {
-                Gesture::Pan
-            } else if let Some(handle) = gizmo.and_then(|g| g.axis_or_plane_at(start)) {
-                Gesture::Move(handle)
-            } else if let Some(item) = tip_under(&drawn, &self.selection, start) {
-                Gesture::Normal(item)
-            } else if let Some(centre) = ring_under(&drawn, &self.selection, start) {
-                Gesture::Radius(centre)
-            } else if gizmo.is_some_and(|g| g.centre_at(start, PICK)) {
-                Gesture::Move(Handle::ViewPlane)
-            } else if let Some(item) = nearest(&drawn, start) {
-                if !self.selection.contains(&item) {
-                    if !shift {
-                        self.selection.clear();
-                    }
-                    self.selection.insert(item);
-                }
-                Gesture::Move(Handle::ViewPlane)
-            } else if shift {
-                Gesture::Box(start)
-            } else {
-                Gesture::Orbit
-            };
-        }
-        if response.dragged() {
-            let delta = response.drag_delta();
-            let (dx, dy) = (f64::from(delta.x), f64::from(delta.y));
-            match self.gesture {
-                Gesture::Orbit => self.orbit.orbit(dx, dy),
-                Gesture::Pan => self.orbit.pan(dx, dy, f64::from(rect.height())),
-                Gesture::Move(handle) => {
-                    if let (Some(gizmo), Some(now)) = (&gizmo, response.interact_pointer_pos()) {
-                        let moved =
-                            gizmo.drag(handle, &projection, rect.left_top(), now - delta, now);
-                        self.move_selection(moved);
-                    }
-                }
-                Gesture::Radius(centre) => {
-                    if let Some(now) = response.interact_pointer_pos() {
-                        let before = (now - delta - centre).length();
-                        let after = (now - centre).length();
-                        if before > 1.0 && after > 1.0 {
-                            let chosen = self.selection.clone();
-                            let factor = f64::from(after / before);
-                            self.apply(Edit::gesture("radius", "drag-radius"), |s| {
-                                selection::scale_radius(s, &chosen, factor);
-                            });
-                        }
-                    }
-                }
-                Gesture::Normal(item) => {
-                    let at = drawn.iter().find(|d| d.item == item).map(|d| d.at);
-                    if let (Some(at), Some(now)) = (at, response.interact_pointer_pos()) {
-                        self.turn_normal(item, &projection, now - delta - at, now - at);
-                    }
-                }
-                Gesture::Box(start) => {
-                    if let Some(now) = response.interact_pointer_pos() {
-                        painter.rect_stroke(
-                            Rect::from_two_pos(start, now),
-                            0.0,
-                            Stroke::new(1.0, SELECTED),
-                            StrokeKind::Middle,
-                        );
-                    }
-                }
-                Gesture::None => {}
-            }
-            self.touch();
-        }
-        if response.drag_stopped() {
-            if let (Gesture::Box(start), Some(end)) =
-                (self.gesture, response.interact_pointer_pos())
-            {
-                let area = Rect::from_two_pos(start, end);
+        // Where the button went down: the drag is recognised only after some movement.
+        let start = ui
+            .input(|i| i.pointer.press_origin())
+            .or(response.interact_pointer_pos())
+            .unwrap_or_default();
+        let secondary = ui.input(|i| {
+            i.pointer.button_down(egui::PointerButton::Secondary)
+                || i.pointer.button_down(egui::PointerButton::Middle)
+        });
+        self.view.gesture = if secondary {
+            Gesture::Pan
+        } else if let Some(handle) = gizmo.and_then(|g| g.axis_or_plane_at(start)) {
+            Gesture::Move(handle)
+        } else if let Some(item) = tip_under(drawn, &self.selection, start) {
+            Gesture::Normal(item)
+        } else if let Some(centre) = ring_under(drawn, &self.selection, start) {
+            Gesture::Radius(centre)
+        } else if gizmo.is_some_and(|g| g.centre_at(start, PICK)) {
+            Gesture::Move(Handle::ViewPlane)
+        } else if let Some(item) = nearest(drawn, start) {
+            if !self.selection.contains(&item) {
                 if !shift {
                     self.selection.clear();
                 }
-                self.selection
-                    .extend(drawn.iter().filter(|d| area.contains(d.at)).map(|d| d.item));
+                self.selection.insert(item);
             }
-            self.gesture = Gesture::None;
-            self.doc.end_gesture();
-            self.touch();
-        }
-        let alt = ui.input(|i| i.modifiers.alt);
-        if response.clicked() && alt {
-            let at = response.interact_pointer_pos().unwrap_or_default();
-            self.inspect_viewport_pixel(at, rect, on_gpu.then_some(pixels));
-        } else if response.clicked() {
-            let at = response.interact_pointer_pos().unwrap_or_default();
-            if self.sketch && hovered.is_none() {
-                let anchor = selection::centroid(self.doc.scene(), &self.selection)
-                    .unwrap_or(self.orbit.target);
-                let position = projection.unproject_on_plane(
-                    f64::from(at.x - rect.left()),
-                    f64::from(at.y - rect.top()),
-                    anchor,
-                );
-                self.sketch_at(position);
-            } else {
-                match hovered {
-                    Some(item) if shift && !self.selection.remove(&item) => {
-                        self.selection.insert(item);
+            Gesture::Move(Handle::ViewPlane)
+        } else if shift {
+            Gesture::Box(start)
+        } else {
+            Gesture::Orbit
+        };
+    }
+
+    /// One step of the drag under way.
+    fn continue_gesture(
+        &mut self,
+        response: &egui::Response,
+        painter: &egui::Painter,
+        gizmo: Option<&Gizmo>,
+        projection: &Projection,
+        drawn: &[Drawn],
+    ) {
+        let delta = response.drag_delta();
+        let (dx, dy) = (f64::from(delta.x), f64::from(delta.y));
+        let now = response.interact_pointer_pos();
+        match self.view.gesture {
+            Gesture::Orbit => self.orbit.orbit(dx, dy),
+            Gesture::Pan => self.orbit.pan(dx, dy, f64::from(response.rect.height())),
+            Gesture::Move(handle) => {
+                if let (Some(gizmo), Some(now)) = (gizmo, now) {
+                    let moved = gizmo.drag(
+                        handle,
+                        projection,
+                        response.rect.left_top(),
+                        now - delta,
+                        now,
+                    );
+                    self.move_selection(moved);
+                }
+            }
+            Gesture::Radius(centre) => {
+                if let Some(now) = now {
+                    let before = (now - delta - centre).length();
+                    let after = (now - centre).length();
+                    if before > 1.0 && after > 1.0 {
+                        let chosen = self.selection.clone();
+                        let factor = f64::from(after / before);
+                        self.apply(Edit::gesture("radius", "drag-radius"), |s| {
+                            selection::scale_radius(s, &chosen, factor);
+                        });
                     }
-                    Some(_) if shift => {}
-                    Some(item) => self.selection = Selection::from([item]),
-                    None if !shift => self.selection.clear(),
-                    None => {}
-                }
-                if let Some(item) = hovered {
-                    self.active_group = item.group();
                 }
             }
+            Gesture::Normal(item) => {
+                let at = drawn.iter().find(|d| d.item == item).map(|d| d.at);
+                if let (Some(at), Some(now)) = (at, now) {
+                    self.turn_normal(item, projection, now - delta - at, now - at);
+                }
+            }
+            Gesture::Box(start) => {
+                if let Some(now) = now {
+                    painter.rect_stroke(
+                        Rect::from_two_pos(start, now),
+                        0.0,
+                        Stroke::new(1.0, SELECTED),
+                        StrokeKind::Middle,
+                    );
+                }
+            }
+            Gesture::None => {}
         }
-        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
-        if response.hovered() && scroll != 0.0 {
-            let factor = (f64::from(scroll) * 0.002).exp();
-            if hovered.is_some_and(|h| self.selection.contains(&h)) {
-                let chosen = self.selection.clone();
-                self.apply(Edit::gesture("radius", "scroll-radius"), |s| {
-                    selection::scale_radius(s, &chosen, factor);
-                });
-            } else {
-                self.orbit.zoom(1.0 / factor);
+        self.touch();
+    }
+
+    /// The end of a drag: a selection box selects what it holds (adds to it with Shift).
+    fn end_gesture(&mut self, response: &egui::Response, drawn: &[Drawn], shift: bool) {
+        if let (Gesture::Box(start), Some(end)) =
+            (self.view.gesture, response.interact_pointer_pos())
+        {
+            let area = Rect::from_two_pos(start, end);
+            if !shift {
+                self.selection.clear();
             }
-            self.touch();
+            self.selection
+                .extend(drawn.iter().filter(|d| area.contains(d.at)).map(|d| d.item));
+        }
+        self.view.gesture = Gesture::None;
+        self.doc.end_gesture();
+        self.touch();
+    }
+
+    /// A click at `at`: in sketch mode on empty space, a new vertex on the plane through the
+    /// selection (or the orbit target); else it picks `hovered` (Shift toggles it).
+    fn viewport_click(
+        &mut self,
+        at: Pos2,
+        rect: Rect,
+        projection: &Projection,
+        hovered: Option<Item>,
+        shift: bool,
+    ) {
+        if self.view.sketch && hovered.is_none() {
+            let anchor =
+                selection::centroid(self.doc.scene(), &self.selection).unwrap_or(self.orbit.target);
+            let position = projection.unproject_on_plane(
+                f64::from(at.x - rect.left()),
+                f64::from(at.y - rect.top()),
+                anchor,
+            );
+            self.sketch_at(position);
+            return;
+        }
+        match hovered {
+            Some(item) if shift && !self.selection.remove(&item) => {
+                self.selection.insert(item);
+            }
+            Some(_) if shift => {}
+            Some(item) => self.selection = Selection::from([item]),
+            None if !shift => self.selection.clear(),
+            None => {}
+        }
+        if let Some(item) = hovered {
+            self.active_group = item.group();
         }
     }
 
