@@ -554,8 +554,9 @@ fn every_primitive_matches_the_cpu_tracer() {
     let mut shapes = 0;
     for seed in 42..46 {
         let mut rng = SplitMix64::new(seed);
-        let n = 2 + rng.below(3);
-        let groups = common::random_groups(&mut rng, n);
+        // Four summed groups in every scene: one blend tree, so the scenes share their
+        // pipelines (with the secondary-ray test's random scenes too).
+        let groups = common::random_groups(&mut rng, 4);
         shapes += groups.iter().map(|g| g.shapes.len()).sum::<usize>();
         let scene = common::scene(groups, None);
         let label = format!("random-{seed}");
