@@ -385,42 +385,8 @@ pub fn write_gltf(
             json::buffer::Target::ElementArrayBuffer,
         );
         let group = &scene.groups[g];
-        let m = group.material;
-        let see_through = m.opacity < 1.0;
-        transparent |= see_through;
-        let material = root.push(json::Material {
-            name: Some(group.name.clone()),
-            alpha_mode: Valid(if see_through {
-                json::material::AlphaMode::Blend
-            } else {
-                json::material::AlphaMode::Opaque
-            }),
-            pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-                base_color_factor: json::material::PbrBaseColorFactor([
-                    m.color[0] as f32,
-                    m.color[1] as f32,
-                    m.color[2] as f32,
-                    m.opacity as f32,
-                ]),
-                metallic_factor: json::material::StrengthFactor(0.0),
-                roughness_factor: json::material::StrengthFactor(0.5),
-                ..Default::default()
-            },
-            extensions: see_through.then(|| json::extensions::material::Material {
-                transmission: Some(json::extensions::material::Transmission {
-                    transmission_factor: json::extensions::material::TransmissionFactor(
-                        (1.0 - m.opacity) as f32,
-                    ),
-                    transmission_texture: None,
-                    extras: Default::default(),
-                }),
-                ior: Some(json::extensions::material::Ior {
-                    ior: json::extensions::material::IndexOfRefraction(m.ior as f32),
-                    extras: Default::default(),
-                }),
-            }),
-            ..Default::default()
-        });
+        transparent |= group.material.opacity < 1.0;
+        let material = root.push(group_material(group));
         let primitive = json::mesh::Primitive {
             attributes: BTreeMap::from([
                 (Valid(json::mesh::Semantic::Positions), position),
@@ -474,8 +440,61 @@ pub fn write_gltf(
                 .unwrap_or_default()
         }),
     });
+    write_gltf_files(path, binary, &root, bytes, &bin_name, inputs)
+}
+
+/// A group's material: its colour and opacity, and where it is see-through the transmission
+/// and index of refraction of `KHR_materials_transmission` and `KHR_materials_ior`.
+fn group_material(group: &skeletrace_core::model::scene::Group) -> json::Material {
+    let m = group.material;
+    let see_through = m.opacity < 1.0;
+    json::Material {
+        name: Some(group.name.clone()),
+        alpha_mode: Valid(if see_through {
+            json::material::AlphaMode::Blend
+        } else {
+            json::material::AlphaMode::Opaque
+        }),
+        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+            base_color_factor: json::material::PbrBaseColorFactor([
+                m.color[0] as f32,
+                m.color[1] as f32,
+                m.color[2] as f32,
+                m.opacity as f32,
+            ]),
+            metallic_factor: json::material::StrengthFactor(0.0),
+            roughness_factor: json::material::StrengthFactor(0.5),
+            ..Default::default()
+        },
+        extensions: see_through.then(|| json::extensions::material::Material {
+            transmission: Some(json::extensions::material::Transmission {
+                transmission_factor: json::extensions::material::TransmissionFactor(
+                    (1.0 - m.opacity) as f32,
+                ),
+                transmission_texture: None,
+                extras: Default::default(),
+            }),
+            ior: Some(json::extensions::material::Ior {
+                ior: json::extensions::material::IndexOfRefraction(m.ior as f32),
+                extras: Default::default(),
+            }),
+        }),
+        ..Default::default()
+    }
+}
+
+/// Writes `root` and its buffer `bytes`: one `.glb`, or the `.gltf` after its buffer `bin_name`
+/// (then the buffer of the `.gltf` it replaced is removed).
+fn write_gltf_files(
+    path: &Path,
+    binary: bool,
+    root: &json::Root,
+    bytes: Vec<u8>,
+    bin_name: &Path,
+    inputs: &[&Path],
+) -> Result<(), String> {
     if binary {
-        let json_text = json::serialize::to_string(&root).map_err(|e| e.to_string())?;
+        let json_text = json::serialize::to_string(root).map_err(|e| e.to_string())?;
         let json_len = json_text.len().next_multiple_of(4);
         let glb = gltf::binary::Glb {
             header: gltf::binary::Header {
@@ -491,14 +510,14 @@ pub fn write_gltf(
         glb.to_writer(&mut out).map_err(|e| e.to_string())?;
         write_file(path, &out, inputs).map_err(|e| e.to_string())
     } else {
-        let json_text = json::serialize::to_string_pretty(&root).map_err(|e| e.to_string())?;
+        let json_text = json::serialize::to_string_pretty(root).map_err(|e| e.to_string())?;
         let old_buffers = buffers_named_by(path);
-        write_file(&bin_name, &bytes, inputs).map_err(|e| e.to_string())?;
+        write_file(bin_name, &bytes, inputs).map_err(|e| e.to_string())?;
         if let Err(e) = write_file(path, json_text.as_bytes(), inputs) {
-            let _ = std::fs::remove_file(&bin_name);
+            let _ = std::fs::remove_file(bin_name);
             return Err(e.to_string());
         }
-        for old in old_buffers.into_iter().filter(|old| *old != bin_name) {
+        for old in old_buffers.into_iter().filter(|old| old != bin_name) {
             let _ = std::fs::remove_file(old);
         }
         Ok(())

@@ -236,6 +236,25 @@ fn a_device_gets_the_bytes_or_its_error_and_stays_a_device() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A read-only output is refused with one line and left as it was.
+#[cfg(unix)]
+#[test]
+fn a_read_only_output_is_refused_and_kept() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("read-only");
+    let scene = generated(&dir, 15);
+    for (name, args, out) in writers(&scene, &dir.join("kept")) {
+        std::fs::write(&out, b"old").unwrap_or_else(|e| panic!("{e}"));
+        std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o444))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let o = run(&args);
+        assert_one_line_failure(&o, &[s(&out), "read-only"], name);
+        assert_eq!(std::fs::read(&out).unwrap_or_default(), b"old", "{name}");
+    }
+    assert!(temporaries(&dir).is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_folder_as_output_is_refused_without_leftovers() {
     let dir = scratch("folder");

@@ -85,6 +85,21 @@ pub struct FrameRequest {
     pub cancel: Cancel,
 }
 
+impl FrameRequest {
+    /// Whether `other` asks for the same frames (everything but the cancel flag): the editor's
+    /// frame caches key on it, beside the scene's revision.
+    #[must_use]
+    pub fn same_frame(&self, other: &Self) -> bool {
+        self.camera == other.camera
+            && self.width == other.width
+            && self.height == other.height
+            && self.methods == other.methods
+            && self.view == other.view
+            && self.shadows == other.shadows
+            && self.settings == other.settings
+    }
+}
+
 /// How long the last frame's passes ran on the device, from GPU timestamp queries: the
 /// wall-clock frame time also holds submissions, the readback and the conversion to
 /// [`Frame`]s, which dominate on a fast GPU.

@@ -11,7 +11,8 @@
 //!   last milliseconds are removed by the next write of the same target);
 //! - a target that is not a regular file (a device such as `/dev/full`, a FIFO) is written
 //!   directly, so that its own write errors are reported rather than replaced by a rename;
-//! - a folder as target is refused.
+//! - a folder as target is refused, and so is a read-only file (its owner marked it so; a
+//!   rename would replace it all the same).
 //!
 //! Outputs made of several files (`.gltf` and its buffer) write their parts under names unique
 //! to the write and the file that names them last ([`unique_id`]).
@@ -67,6 +68,9 @@ pub fn write_file_with(
     let target = follow_links(path).map_err(|e| fail(e.to_string()))?;
     match fs::metadata(&target) {
         Ok(meta) if meta.is_dir() => Err(fail("it is a folder".to_owned())),
+        Ok(meta) if meta.is_file() && meta.permissions().readonly() => Err(fail(
+            "it is read-only; make it writable or choose another output".to_owned(),
+        )),
         Ok(meta) if !meta.is_file() => {
             write_in_place(&target, bytes).map_err(|e| fail(e.to_string()))
         }
@@ -305,6 +309,14 @@ mod tests {
         assert!(leftovers(&dir).is_empty());
         let e = write_file(&dir, b"new", &[]);
         assert!(e.is_err_and(|e| e.to_string().contains("folder")));
+        let mut read_only = fs::metadata(&path)
+            .map(|m| m.permissions())
+            .unwrap_or_else(|e| panic!("{e}"));
+        read_only.set_readonly(true);
+        fs::set_permissions(&path, read_only).unwrap_or_else(|e| panic!("{e}"));
+        let e = write_file(&path, b"new", &[]);
+        assert!(e.is_err_and(|e| e.to_string().contains("read-only")));
+        assert_eq!(fs::read_to_string(&path).unwrap_or_default(), "old");
         let _ = fs::remove_dir_all(&dir);
     }
 

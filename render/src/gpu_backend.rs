@@ -13,7 +13,6 @@ use skeletrace_core::frame::Frame;
 use skeletrace_core::methods::MethodId;
 
 use crate::gpu_renderer::GpuRenderer;
-use crate::shaders::GpuMethod;
 
 /// The GPU as a frame backend.
 pub struct GpuBackend {
@@ -84,15 +83,6 @@ impl FrameBackend for GpuBackend {
         compiled: &Arc<Compiled>,
         request: &FrameRequest,
     ) -> Result<Vec<Frame>, BackendError> {
-        let methods = request
-            .methods
-            .iter()
-            .map(|&id| {
-                GpuMethod::from_id(id).ok_or_else(|| {
-                    BackendError::Unsupported(format!("{id} has no GPU implementation"))
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
         if self
             .renderer
             .scene()
@@ -100,12 +90,6 @@ impl FrameBackend for GpuBackend {
         {
             self.renderer.set_scene(compiled)?;
         }
-        self.renderer.render(
-            &methods,
-            &request.camera,
-            &request.settings,
-            (request.width as u32, request.height as u32),
-            (request.view, request.shadows),
-        )
+        self.renderer.render(request)
     }
 }

@@ -1,4 +1,4 @@
-//! `stats --backend gpu`: the statistics protocol's rays (core `cpu/stats.rs`: the
+//! `stats --backend gpu`: the statistics protocol's rays (core `stats.rs`: the
 //! six axis directions, or random rays around the box under `paper-2023`) traced on the GPU in
 //! batches of a million, so that the papers' ten million rays per method take seconds. The
 //! screen tiles of a frame do not apply to these rays; [`RayLists`] gives each ray its

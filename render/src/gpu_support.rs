@@ -8,7 +8,7 @@
 //! the scene fits the GPU's limits (`PackedScene::check`), and on a software adapter the
 //! shaded view's field shading stays within its loop budget.
 
-use skeletrace_core::backend::{Capabilities, DeviceKind, FrameRequest};
+use skeletrace_core::backend::{BackendError, Capabilities, DeviceKind, FrameRequest};
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::frame::View;
 use skeletrace_core::methods::MethodId;
@@ -34,6 +34,19 @@ pub fn gpu_method(
     gpu.follows(request.settings.protocol)?;
     PackedScene::check(&compiled.program)?;
     Ok(gpu)
+}
+
+/// The GPU methods of `ids`, in order.
+///
+/// # Errors
+/// [`BackendError::Unsupported`] for a method without a GPU implementation.
+pub fn gpu_methods(ids: &[MethodId]) -> Result<Vec<GpuMethod>, BackendError> {
+    ids.iter()
+        .map(|&id| {
+            GpuMethod::from_id(id)
+                .ok_or_else(|| BackendError::Unsupported(format!("{id} has no GPU implementation")))
+        })
+        .collect()
 }
 
 impl Capabilities for GpuRenderer {

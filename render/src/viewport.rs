@@ -9,45 +9,30 @@
 
 use std::sync::Arc;
 
-use skeletrace_core::backend::BackendError;
+use skeletrace_core::backend::{BackendError, FrameRequest};
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::frame::{StepScale, View};
-use skeletrace_core::methods::TraceSettings;
-use skeletrace_core::model::scene::Camera;
 
 use crate::gpu_renderer::GpuRenderer;
-use crate::shaders::{GpuMethod, blit_source};
+use crate::gpu_support::gpu_methods;
+use crate::shaders::blit_source;
 use crate::step_statistics::{GridStatistics, StatisticsShape, StatisticsTag, StepStatistics};
 use crate::wgpu_util::entry;
 
-/// What a viewport frame depends on: the same key traces nothing again.
+/// A viewport frame: the compiled scene and the request, the same one the CPU and the GPU
+/// backends take. The same frame again traces nothing.
 #[derive(Clone, Debug)]
 pub struct ViewportFrame {
     /// The compiled scene (compared by identity: one compile per edit).
     pub compiled: Arc<Compiled>,
-    /// The shaded view's method, or the grid's methods (panels side by side).
-    pub methods: Vec<GpuMethod>,
-    /// The camera.
-    pub camera: Camera,
-    /// Trace settings.
-    pub settings: TraceSettings,
-    /// Frame size in pixels.
-    pub size: (u32, u32),
-    /// Shaded, or the step counts of a comparison.
-    pub view: View,
-    /// Exact shadow rays in the shaded view.
-    pub shadows: bool,
+    /// The shaded view's method, or the grid's methods (panels side by side), the camera, the
+    /// size of each panel, the view and the trace settings.
+    pub request: FrameRequest,
 }
 
 impl ViewportFrame {
     fn same_as(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.compiled, &other.compiled)
-            && self.methods == other.methods
-            && self.camera == other.camera
-            && self.settings == other.settings
-            && self.size == other.size
-            && self.view == other.view
-            && self.shadows == other.shadows
+        Arc::ptr_eq(&self.compiled, &other.compiled) && self.request.same_frame(&other.request)
     }
 }
 
@@ -200,15 +185,16 @@ impl ViewportPainter {
                 }
             }
         }
-        let mode = match (frame.view, scale) {
+        let request = &frame.request;
+        let mode = match (request.view, scale) {
             (View::Shaded(_), _) => 0_u32,
             (View::Steps { .. }, StepScale::Log) => 1,
             (View::Steps { .. }, StepScale::Linear) => 2,
         };
-        let panels = frame.methods.len() as u32;
+        let panels = request.methods.len() as u32;
         let uniforms = [
-            frame.size.0,
-            frame.size.1,
+            request.width as u32,
+            request.height as u32,
             panels,
             mode,
             u32::from(self.srgb_target),
@@ -217,7 +203,7 @@ impl ViewportPainter {
             0,
         ];
         queue.write_buffer(&self.uniforms, 0, bytemuck::cast_slice(&uniforms));
-        if matches!(frame.view, View::Steps { .. })
+        if matches!(request.view, View::Steps { .. })
             && let Some((_, steps)) = self.renderer.output_buffers()
         {
             let tag = StatisticsTag {
@@ -238,7 +224,8 @@ impl ViewportPainter {
         if !uploaded {
             self.renderer.set_scene(&frame.compiled)?;
         }
-        Ok(self.renderer.pipelines_compiling(&frame.methods))
+        let methods = gpu_methods(&frame.request.methods)?;
+        Ok(self.renderer.pipelines_compiling(&methods))
     }
 
     fn trace(
@@ -247,24 +234,18 @@ impl ViewportPainter {
         encoder: &mut wgpu::CommandEncoder,
         frame: &ViewportFrame,
     ) -> Result<(), BackendError> {
-        self.renderer.encode_frame(
-            encoder,
-            &frame.methods,
-            &frame.camera,
-            &frame.settings,
-            frame.size,
-            (frame.view, frame.shadows),
-        )?;
+        let request = &frame.request;
+        self.renderer.encode_frame(encoder, request)?;
         let (colour, steps) = self
             .renderer
             .output_buffers()
             .ok_or_else(|| BackendError::DeviceFailed("no trace output".to_owned()))?;
-        let top = if matches!(frame.view, View::Steps { .. }) {
+        let top = if matches!(request.view, View::Steps { .. }) {
             let shape = StatisticsShape {
-                width: frame.size.0,
-                height: frame.size.1,
-                panels: frame.methods.len() as u32,
-                bins: frame.settings.max_steps + 1,
+                width: request.width as u32,
+                height: request.height as u32,
+                panels: request.methods.len() as u32,
+                bins: request.settings.max_steps + 1,
             };
             let device = self.renderer.device();
             self.statistics.encode(device, queue, encoder, steps, shape);
@@ -293,7 +274,7 @@ impl ViewportPainter {
         let Some(group) = &self.bind_group else {
             return;
         };
-        let count = self.last.as_ref().map_or(0, |f| f.methods.len());
+        let count = self.last.as_ref().map_or(0, |f| f.request.methods.len());
         pass.set_pipeline(&self.blit);
         pass.set_bind_group(0, group, &[]);
         for (k, &[x, y, w, h]) in panels.iter().enumerate().take(count) {

@@ -17,6 +17,27 @@ use skeletrace::editor::{
 };
 use skeletrace_core::model::kernel::Kernel;
 
+/// The frame request of `methods` side by side, `size` each, through `camera`.
+fn frame_request(
+    methods: &[skeletrace_render::GpuMethod],
+    camera: skeletrace_core::model::scene::Camera,
+    settings: &skeletrace_core::methods::TraceSettings,
+    (width, height): (u32, u32),
+    view: skeletrace_core::frame::View,
+    shadows: bool,
+) -> skeletrace_core::backend::FrameRequest {
+    skeletrace_core::backend::FrameRequest {
+        camera,
+        width: width as usize,
+        height: height as usize,
+        methods: methods.iter().map(|m| m.id()).collect(),
+        view,
+        shadows,
+        settings: *settings,
+        cancel: skeletrace_core::backend::Cancel::new(),
+    }
+}
+
 fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"))
 }
@@ -669,13 +690,14 @@ fn gpu_viewport_harness(mut editor: Editor, ppp: f32) -> Harness<'static, Editor
         .into_iter()
         .filter_map(skeletrace_render::GpuMethod::from_id)
         .collect();
-    warm.render(
+    warm.render(&frame_request(
         &methods,
-        &editor.orbit().camera(),
+        editor.orbit().camera(),
         &compiled.settings,
         (8, 8),
-        (skeletrace_core::frame::View::Shaded(ui.shading), false),
-    )
+        skeletrace_core::frame::View::Shaded(ui.shading),
+        false,
+    ))
     .unwrap_or_else(|e| panic!("{e}"));
     let mut setup = egui_kittest::wgpu::default_wgpu_setup();
     if let eframe::egui_wgpu::WgpuSetup::CreateNew(new) = &mut setup {
@@ -771,13 +793,14 @@ fn viewport_samples(
         .set_scene(&compiled)
         .unwrap_or_else(|e| panic!("{e}"));
     let frame = reference
-        .render(
+        .render(&frame_request(
             &[method],
-            &h.state().orbit().camera(),
+            h.state().orbit().camera(),
             &compiled.settings,
             size,
-            (skeletrace_core::frame::View::Shaded(ui.shading), shadows),
-        )
+            skeletrace_core::frame::View::Shaded(ui.shading),
+            shadows,
+        ))
         .unwrap_or_else(|e| panic!("{e}"))
         .remove(0);
     let (x0, y0) = (
@@ -1029,18 +1052,16 @@ fn the_comparison_grid_on_the_gpu_reads_back_only_its_statistics() {
         .map(|&m| GpuMethod::from_id(m).unwrap_or_else(|| panic!("{m} runs on the GPU")))
         .collect();
     let frames = reference
-        .render(
+        .render(&frame_request(
             &gpu_methods,
-            &h.state().orbit().camera(),
+            h.state().orbit().camera(),
             &compiled.settings,
             size,
-            (
-                skeletrace_core::frame::View::Steps {
-                    steps_max: compiled.settings.max_steps,
-                },
-                false,
-            ),
-        )
+            skeletrace_core::frame::View::Steps {
+                steps_max: compiled.settings.max_steps,
+            },
+            false,
+        ))
         .unwrap_or_else(|e| panic!("{e}"));
     let histograms: Vec<_> = frames.iter().map(|f| f.step_histogram()).collect();
     for (k, (got, want)) in stats.histograms.iter().zip(&histograms).enumerate() {

@@ -127,6 +127,26 @@ fn shaded_frames(
     try_shaded_frames(gpu, methods, camera, settings).unwrap_or_else(|e| panic!("{label}: {e}"))
 }
 
+/// The request of `methods` side by side at [`SIZE`]² through `camera`.
+fn request(
+    methods: &[GpuMethod],
+    camera: &Camera,
+    settings: &skeletrace_core::methods::TraceSettings,
+    view: View,
+    shadows: bool,
+) -> skeletrace_core::backend::FrameRequest {
+    skeletrace_core::backend::FrameRequest {
+        camera: *camera,
+        width: SIZE,
+        height: SIZE,
+        methods: methods.iter().map(|m| m.id()).collect(),
+        view,
+        shadows,
+        settings: *settings,
+        cancel: skeletrace_core::backend::Cancel::new(),
+    }
+}
+
 /// [`shaded_frames`], with the renderer's error.
 fn try_shaded_frames(
     gpu: &mut GpuRenderer,
@@ -134,16 +154,13 @@ fn try_shaded_frames(
     camera: &Camera,
     settings: &skeletrace_core::methods::TraceSettings,
 ) -> Result<Vec<Frame>, String> {
-    gpu.render(
+    gpu.render(&request(
         methods,
         camera,
         settings,
-        (SIZE as u32, SIZE as u32),
-        (
-            View::Shaded(skeletrace_core::frame::FieldShading::default()),
-            false,
-        ),
-    )
+        View::Shaded(skeletrace_core::frame::FieldShading::default()),
+        false,
+    ))
     .map_err(|e| e.to_string())
 }
 
@@ -889,13 +906,13 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
         };
         let (shaded, plain) = (cpu(shading), cpu(Default::default()));
         let gpu_frame = gpu
-            .render(
+            .render(&request(
                 &[method],
                 &scene.camera,
                 &settings,
-                (SIZE as u32, SIZE as u32),
-                (View::Shaded(shading), false),
-            )
+                View::Shaded(shading),
+                false,
+            ))
             .unwrap_or_else(|e| panic!("{name}: {e}"))
             .remove(0);
         let both: Vec<usize> = (0..SIZE * SIZE)
@@ -1599,13 +1616,13 @@ fn secondary_rays_match_the_cpu_renderer() {
             let cpu_frame = cpu_render(&compiled, *shadows);
             let plain = cpu_render(&opaque, false);
             let gpu_frame = gpu
-                .render(
+                .render(&request(
                     &[method],
                     &scene.camera,
                     &settings,
-                    (SIZE as u32, SIZE as u32),
-                    (View::Shaded(Default::default()), *shadows),
-                )
+                    View::Shaded(Default::default()),
+                    *shadows,
+                ))
                 .unwrap_or_else(|e| panic!("{label}: {e}"))
                 .remove(0);
             let agreement = compare(&cpu_frame, &gpu_frame, settings.max_steps);

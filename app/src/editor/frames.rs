@@ -17,10 +17,9 @@ use std::time::{Duration, Instant};
 
 use eframe::egui;
 use skeletrace_core::Compiled;
-use skeletrace_core::backend::{BackendChoice, Cancel, DeviceKind};
-use skeletrace_core::frame::{FieldShading, Frame, StepHistogram, StepScale, shared_step_top};
+use skeletrace_core::backend::{BackendChoice, Cancel, DeviceKind, FrameRequest};
+use skeletrace_core::frame::{Frame, StepHistogram, StepScale, shared_step_top};
 use skeletrace_core::methods::MethodId;
-use skeletrace_core::model::scene::Camera;
 
 use super::ViewMode;
 use super::worker::{RenderWorker, Reply, Request};
@@ -87,31 +86,31 @@ pub(super) struct Shown {
     pub divisor: usize,
 }
 
-/// Everything a frame depends on; a request is sent only when it changes.
-#[derive(Clone, PartialEq)]
+/// Everything a frame depends on: the document's revision, the frame request and the backend
+/// choice. A request is sent only when it changes.
+#[derive(Clone)]
 struct RenderKey {
     revision: u64,
-    camera: Camera,
-    size: (usize, usize),
-    methods: Vec<MethodId>,
+    frame: FrameRequest,
     backend: BackendChoice,
-    shadows: bool,
-    shading: FieldShading,
 }
 
-/// What the viewport shows now.
+impl RenderKey {
+    fn same_as(&self, other: &Self) -> bool {
+        self.revision == other.revision
+            && self.backend == other.backend
+            && self.frame.same_frame(&other.frame)
+    }
+}
+
+/// What the viewport shows now: the request at full resolution, which a preview divides.
 pub(super) struct FrameOrder {
     /// The document's revision and its compiled scene.
     pub revision: u64,
     pub compiled: Arc<Compiled>,
-    pub camera: Camera,
-    /// Pixels of the viewport (or of one grid panel) at full resolution.
-    pub pixels: (usize, usize),
-    pub methods: Vec<MethodId>,
+    /// The frames at the viewport's (or one grid panel's) full resolution.
+    pub frame: FrameRequest,
     pub backend: BackendChoice,
-    pub shadows: bool,
-    pub shading: FieldShading,
-    pub view: ViewMode,
     /// The user is dragging or has just interacted: a preview will do.
     pub interacting: bool,
 }
@@ -183,18 +182,14 @@ impl ViewportFrames {
         let FrameOrder {
             revision,
             compiled,
-            camera,
-            pixels,
-            methods,
+            frame,
             backend,
-            shadows,
-            shading,
-            view,
             interacting,
         } = order;
+        let pixels = (frame.width, frame.height);
         self.viewport_pixels = pixels.0 * pixels.1;
         if interacting && let Some(last) = &self.requested {
-            if last.camera != camera {
+            if last.frame.camera != frame.camera {
                 self.interaction = PreviewKind::CameraMove;
             } else if last.revision != revision {
                 self.interaction = PreviewKind::Edit;
@@ -219,39 +214,29 @@ impl ViewportFrames {
         } else {
             1
         };
-        let size = ((pixels.0 / divisor).max(8), (pixels.1 / divisor).max(8));
-        let shaded = view == ViewMode::Shaded;
         let key = RenderKey {
             revision,
-            camera,
-            size,
-            methods: methods.clone(),
-            backend,
-            shadows: shadows && shaded,
-            shading: if shaded {
-                shading
-            } else {
-                FieldShading::default()
+            frame: FrameRequest {
+                width: (pixels.0 / divisor).max(8),
+                height: (pixels.1 / divisor).max(8),
+                cancel: Cancel::new(),
+                ..frame
             },
+            backend,
         };
         if interacting {
             ctx.request_repaint_after(REFINE_AFTER);
         }
-        if self.requested.as_ref() == Some(&key) {
+        if self.requested.as_ref().is_some_and(|r| r.same_as(&key)) {
             return;
         }
         let id = self.next_id();
         self.worker.request(Request {
             id,
             compiled,
-            camera,
-            size,
-            methods,
-            backend: key.backend,
-            shadows: key.shadows,
+            frame: key.frame.clone(),
+            backend,
             preview: interacting,
-            shading: key.shading,
-            cancel: Cancel::new(),
         });
         // A preview in flight goes on (the worker leaves it to finish); a full frame in flight
         // is cancelled by this request, which starts the wait afresh.

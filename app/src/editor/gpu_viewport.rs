@@ -19,7 +19,6 @@ use skeletrace_core::backend::{
 use skeletrace_core::frame::{StepScale, View};
 use skeletrace_core::methods::MethodId;
 use skeletrace_render::GpuRenderer;
-use skeletrace_render::gpu_support::gpu_method;
 use skeletrace_render::step_statistics::GridStatistics;
 use skeletrace_render::viewport::{ViewportFrame, ViewportPainter};
 
@@ -207,37 +206,24 @@ impl Editor {
         let request = worker::frame_request(
             &compiled,
             self.orbit.camera(),
-            (size.0 as usize, size.1 as usize),
+            (size.0.max(1) as usize, size.1.max(1) as usize),
             shaded && self.ui_state.shadows,
             self.ui_state.shading,
             Cancel::new(),
         );
-        let request = FrameRequest { view, ..request };
-        let choice = self.ui_state.backend;
-        let methods = self
-            .with_viewport_painter(|painter| {
-                let window = WindowGpu(painter.renderer());
-                methods
-                    .iter()
-                    .map(
-                        |&m| match decide(choice, Ok(&window), &compiled, m, &request) {
-                            Ok(Side::Gpu) => gpu_method(&compiled, m, &request).ok(),
-                            _ => None,
-                        },
-                    )
-                    .collect::<Option<Vec<_>>>()
-            })
-            .flatten()?;
-        let settings = compiled.settings;
-        Some(ViewportFrame {
-            compiled,
-            methods,
-            camera: self.orbit.camera(),
-            settings,
-            size: (size.0.max(1), size.1.max(1)),
+        let request = FrameRequest {
             view,
-            shadows: shaded && self.ui_state.shadows,
-        })
+            methods: methods.to_vec(),
+            ..request
+        };
+        let choice = self.ui_state.backend;
+        let on_gpu = self.with_viewport_painter(|painter| {
+            let window = WindowGpu(painter.renderer());
+            methods
+                .iter()
+                .all(|&m| decide(choice, Ok(&window), &compiled, m, &request) == Ok(Side::Gpu))
+        })?;
+        on_gpu.then_some(ViewportFrame { compiled, request })
     }
 
     /// The comparison grid's statistics the GPU viewport read back last, and whether they are

@@ -1134,14 +1134,12 @@ mod tests {
                 &worker::Request {
                     id: 1,
                     compiled: Arc::clone(&compiled),
-                    camera: scene.camera,
-                    size: (12, 10),
-                    methods: methods.clone(),
+                    frame: FrameRequest {
+                        methods: methods.clone(),
+                        ..request.clone()
+                    },
                     backend: BackendChoice::Gpu,
-                    shadows: false,
                     preview: false,
-                    shading: FieldShading::default(),
-                    cancel: Cancel::new(),
                 },
                 &mut backends,
             )

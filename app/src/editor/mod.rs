@@ -27,6 +27,8 @@ use std::time::Instant;
 
 use eframe::egui;
 use skeletrace_core::Scene;
+use skeletrace_core::backend::{Cancel, FrameRequest};
+use skeletrace_core::frame::FieldShading;
 use skeletrace_core::frame::Frame;
 use skeletrace_core::methods::MethodId;
 
@@ -261,25 +263,46 @@ impl Editor {
     /// Asks for the frames of the viewport (or of one grid panel of `pixels`) as they should be
     /// now; nothing is sent when nothing they depend on changed.
     fn request_frames(&mut self, ctx: &egui::Context, pixels: (usize, usize)) {
-        let methods = match self.ui_state.view {
-            ViewMode::Shaded => vec![self.ui_state.shaded_method],
-            ViewMode::Compare => self.ui_state.compare_methods.clone(),
-        };
         let interacting = self.view.gesture.is_active()
             || self.files.last_interaction.elapsed() < frames::REFINE_AFTER;
         let order = frames::FrameOrder {
             revision: self.doc.revision(),
             compiled: self.doc.compiled(),
-            camera: self.orbit.camera(),
-            pixels,
-            methods,
+            frame: self.view_request(pixels),
             backend: self.ui_state.backend,
-            shadows: self.ui_state.shadows,
-            shading: self.ui_state.shading,
-            view: self.ui_state.view,
             interacting,
         };
         self.frames.request(ctx, order);
+    }
+
+    /// The frame request of what the window shows, `size` pixels per panel: the shaded view's
+    /// method with its shadows and field shading, or the grid's methods as step counts, under
+    /// the scene's settings. The viewport, the grid and screenshots all ask for this one.
+    fn view_request(&self, size: (usize, usize)) -> FrameRequest {
+        let compiled = self.doc.compiled();
+        let (methods, shadows, shading) = match self.ui_state.view {
+            ViewMode::Shaded => (
+                vec![self.ui_state.shaded_method],
+                self.ui_state.shadows,
+                self.ui_state.shading,
+            ),
+            ViewMode::Compare => (
+                self.ui_state.compare_methods.clone(),
+                false,
+                FieldShading::default(),
+            ),
+        };
+        FrameRequest {
+            methods,
+            ..worker::frame_request(
+                &compiled,
+                self.orbit.camera(),
+                size,
+                shadows,
+                shading,
+                Cancel::new(),
+            )
+        }
     }
 
     /// Shows a device failure the render thread reported: the frames came from the CPU.
@@ -529,32 +552,24 @@ impl Editor {
     /// screenshot size and writes a PNG, on a thread of its own.
     fn screenshot(&mut self, ctx: &egui::Context, path: PathBuf) {
         let (width, height) = self.ui_state.screenshot_size;
-        let (methods, view) = match self.ui_state.view {
-            ViewMode::Shaded => (vec![self.ui_state.shaded_method], ViewMode::Shaded),
-            ViewMode::Compare => (self.ui_state.compare_methods.clone(), ViewMode::Compare),
-        };
+        let view = self.ui_state.view;
+        let panels = self.view_request((1, 1)).methods.len();
         let per_panel = if view == ViewMode::Compare {
-            let n = methods.len().clamp(1, crate::picture::COLUMNS);
+            let n = panels.clamp(1, crate::picture::COLUMNS);
             (
                 width / n,
-                height * methods.len().div_ceil(n).max(1) / methods.len().max(1),
+                height * panels.div_ceil(n).max(1) / panels.max(1),
             )
         } else {
             (width, height)
         };
-        let camera = self.orbit.camera();
         let id = self.frames.next_id();
         let request = Request {
             id,
             compiled: self.doc.compiled(),
-            camera,
-            size: (per_panel.0.max(8), per_panel.1.max(8)),
-            methods,
+            frame: self.view_request((per_panel.0.max(8), per_panel.1.max(8))),
             backend: self.ui_state.backend,
-            shadows: self.ui_state.shadows,
             preview: false,
-            shading: self.ui_state.shading,
-            cancel: skeletrace_core::backend::Cancel::new(),
         };
         let scale = self.ui_state.step_scale;
         let what = format!("screenshot {}", path.display());

@@ -29,32 +29,24 @@ use crate::backends::Backends;
 /// the wait ends with nothing rather than hanging.
 pub const LONGEST_FRAME: std::time::Duration = std::time::Duration::from_secs(600);
 
-/// One render: the compiled scene of a revision, a camera, methods and a size.
+/// One render: the compiled scene of a revision and the frame request (its methods, one frame
+/// each), the backend choice, and whether it is a preview.
 #[derive(Clone)]
 pub struct Request {
     /// Identifies the request in its reply.
     pub id: u64,
     /// The compiled scene (the document's, shared).
     pub compiled: Arc<Compiled>,
-    /// Camera.
-    pub camera: Camera,
-    /// Frame size in pixels.
-    pub size: (usize, usize),
-    /// Methods, one frame each.
-    pub methods: Vec<MethodId>,
+    /// What to trace: camera, size, methods, view, shadows, settings. Its cancel flag is set
+    /// by [`RenderWorker::request`] when a newer request replaces this one (unless this is a
+    /// preview), or by [`RenderWorker::cancel_all`]: the CPU tracer stops mid-frame and no
+    /// reply is sent.
+    pub frame: FrameRequest,
     /// Backend choice.
     pub backend: BackendChoice,
-    /// Shadow rays in the shaded view (CPU only).
-    pub shadows: bool,
     /// A reduced-resolution frame while the user interacts: a newer request does not cancel
     /// it once it is traced.
     pub preview: bool,
-    /// Field soft shadows and ambient occlusion in the shaded view.
-    pub shading: FieldShading,
-    /// Set by [`RenderWorker::request`] when a newer request replaces this one (unless this is
-    /// a preview), or by [`RenderWorker::cancel_all`]: the CPU tracer stops mid-frame and no
-    /// reply is sent.
-    pub cancel: Cancel,
 }
 
 /// One traced frame.
@@ -126,7 +118,7 @@ impl RenderWorker {
     pub fn request(&self, request: Request) {
         if let Ok(mut newest) = self.newest.lock()
             && let Some((previous, false)) =
-                newest.replace((request.cancel.clone(), request.preview))
+                newest.replace((request.frame.cancel.clone(), request.preview))
         {
             previous.cancel();
         }
@@ -202,7 +194,7 @@ fn serve(
         });
         backends.open_gpu_for(request.backend);
         if let Ok(mut running) = running.lock() {
-            *running = Some(request.cancel.clone());
+            *running = Some(request.frame.cancel.clone());
         }
         let traced = trace(&request, backends);
         if let Ok(mut running) = running.lock() {
@@ -225,16 +217,11 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
     let mut frames = Vec::new();
     let mut skipped = Vec::new();
     let mut device_failure = None;
-    for &method in &request.methods {
-        let mut frame_request = frame_request(
-            &request.compiled,
-            request.camera,
-            request.size,
-            request.shadows,
-            request.shading,
-            request.cancel.clone(),
-        );
-        frame_request.methods = vec![method];
+    for &method in &request.frame.methods {
+        let frame_request = FrameRequest {
+            methods: vec![method],
+            ..request.frame.clone()
+        };
         if let Err(why) = method.method().supports(&request.compiled.program) {
             skipped.push(format!("{method}: {why}"));
             continue;
@@ -323,17 +310,24 @@ mod tests {
     /// cancel flag of its own; tests change what they need with `..`.
     fn default_request(id: u64, size: (usize, usize), methods: Vec<MethodId>) -> Request {
         let scene = crate::editor::default_scene();
+        let compiled = skeletrace_core::compile(&scene);
+        let frame = FrameRequest {
+            methods,
+            ..frame_request(
+                &compiled,
+                scene.camera,
+                size,
+                false,
+                FieldShading::default(),
+                Cancel::new(),
+            )
+        };
         Request {
             id,
-            compiled: skeletrace_core::compile(&scene),
-            camera: scene.camera,
-            size,
-            methods,
+            compiled,
+            frame,
             backend: BackendChoice::Cpu,
-            shadows: false,
             preview: false,
-            shading: FieldShading::default(),
-            cancel: Cancel::new(),
         }
     }
 
@@ -384,13 +378,13 @@ mod tests {
     fn a_cancelled_request_gets_no_reply() {
         let mut backends = Backends::open(BackendChoice::Cpu);
         let request = default_request(1, (640, 480), vec![MethodId::Sphere]);
-        request.cancel.cancel();
+        request.frame.cancel.cancel();
         assert!(trace(&request, &mut backends).is_none());
         // Through the thread: the first request is cancelled by the second, which is answered.
         let worker = RenderWorker::start(|| {});
         let first = default_request(2, (640, 480), vec![MethodId::Sphere]);
         let second = default_request(3, (8, 6), vec![MethodId::Sphere]);
-        let first_cancel = first.cancel.clone();
+        let first_cancel = first.frame.cancel.clone();
         worker.request(first);
         worker.request(second);
         assert!(first_cancel.is_cancelled());
@@ -412,7 +406,7 @@ mod tests {
         };
         let worker = RenderWorker::start(|| {});
         let (preview, full, newest) = (request(1, true), request(2, false), request(3, true));
-        let cancels = [&preview, &full, &newest].map(|r| r.cancel.clone());
+        let cancels = [&preview, &full, &newest].map(|r| r.frame.cancel.clone());
         worker.request(preview);
         worker.request(full);
         assert!(!cancels[0].is_cancelled(), "a superseded preview finishes");
@@ -444,11 +438,9 @@ mod tests {
         // A request every 2 ms for a second, each a frame of the creature that takes tens of
         // milliseconds to trace (or none, where the frame before it can be copied whole).
         for id in 1..=500 {
-            worker.request(Request {
-                id,
-                cancel: Cancel::new(),
-                ..drag.clone()
-            });
+            let mut next = Request { id, ..drag.clone() };
+            next.frame.cancel = Cancel::new();
+            worker.request(next);
             for reply in worker.replies.try_iter() {
                 answered += 1;
                 newest = newest.max(reply.id);

@@ -200,34 +200,35 @@ pub(super) fn dispatch_marches(
     Ok(())
 }
 
+/// How a frame's passes are submitted: with timestamp queries where the device has them, and
+/// whether the binning is submitted and waited for before the trace passes are recorded.
+#[derive(Clone, Copy)]
+pub(super) struct Submission<'a> {
+    pub queries: Option<&'a wgpu::QuerySet>,
+    pub wait: bool,
+}
+
+/// The camera's geometry of `request`'s frame, its depth bands over `compiled`'s supports.
+fn frame_geometry(compiled: &Compiled, request: &FrameRequest) -> FrameGeometry {
+    FrameGeometry::new(&request.camera, request.width as u32, request.height as u32)
+        .with_depth_bands(&compiled.program.support_bounds())
+}
+
 impl GpuRenderer {
-    /// Renders `methods` side by side (`width × height` each) through `camera` on the uploaded
-    /// scene; one frame per method. With `shadows`, the shaded view casts exact shadow rays
-    /// towards every light (core `RenderOptions::shadows`); transparent groups reflect and
-    /// refract in either view (main.wgsl `trace_path`).
+    /// Renders the methods of `request` side by side (`width × height` each) through its
+    /// camera on the uploaded scene; one frame per method. With `shadows`, the shaded view
+    /// casts exact shadow rays towards every light (core `RenderOptions::shadows`); transparent
+    /// groups reflect and refract in either view (main.wgsl `trace_path`).
     ///
     /// # Errors
     /// [`BackendError::Unsupported`] when no scene is uploaded, or a method or the field shading
     /// does not apply to it; [`BackendError::DeviceFailed`] on a GPU error.
-    pub fn render(
-        &mut self,
-        methods: &[GpuMethod],
-        camera: &Camera,
-        settings: &TraceSettings,
-        (width, height): (u32, u32),
-        (view, shadows): (View, bool),
-    ) -> Result<Vec<Frame>, BackendError> {
-        let compiled = self.ready_for(methods, view, settings)?;
-        let geometry = FrameGeometry::new(camera, width, height)
-            .with_depth_bands(&compiled.program.support_bounds());
-        self.trace_frames(
-            &compiled.program,
-            methods,
-            &geometry,
-            settings,
-            (view, shadows),
-        )
-        .map_err(BackendError::DeviceFailed)
+    pub fn render(&mut self, request: &FrameRequest) -> Result<Vec<Frame>, BackendError> {
+        let methods = gpu_methods(&request.methods)?;
+        let compiled = self.ready_for(&methods, request.view, &request.settings)?;
+        let geometry = frame_geometry(&compiled, request);
+        self.trace_frames(&compiled.program, &methods, &geometry, request)
+            .map_err(BackendError::DeviceFailed)
     }
 
     /// Records the trace of `methods` (side by side) through `camera` into `encoder` without
@@ -241,23 +242,22 @@ impl GpuRenderer {
     pub fn encode_frame(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
-        methods: &[GpuMethod],
-        camera: &Camera,
-        settings: &TraceSettings,
-        (width, height): (u32, u32),
-        (view, shadows): (View, bool),
+        request: &FrameRequest,
     ) -> Result<(), BackendError> {
-        let compiled = self.ready_for(methods, view, settings)?;
-        let geometry = FrameGeometry::new(camera, width, height)
-            .with_depth_bands(&compiled.program.support_bounds());
+        let methods = gpu_methods(&request.methods)?;
+        let compiled = self.ready_for(&methods, request.view, &request.settings)?;
+        let geometry = frame_geometry(&compiled, request);
+        let unwaited = Submission {
+            queries: None,
+            wait: false,
+        };
         self.encode_trace(
             encoder,
             &compiled.program,
-            methods,
+            &methods,
             &geometry,
-            settings,
-            (view, shadows),
-            (None, false),
+            request,
+            unwaited,
         )
         .map_err(BackendError::DeviceFailed)
     }
@@ -295,16 +295,14 @@ impl GpuRenderer {
         program: &FieldProgram,
         methods: &[GpuMethod],
         geometry: &FrameGeometry,
-        settings: &TraceSettings,
-        look: (View, bool),
+        request: &FrameRequest,
     ) -> Result<Vec<Frame>, String> {
         // Timestamps: count pass, fill pass, then one trace pass per method (begin and end each);
         // none for frames with secondary rays, whose passes are submitted in batches.
         let passes = 2 + methods.len() as u32;
-        let secondary = self
-            .scene
-            .as_ref()
-            .is_some_and(|scene| secondary_rays(&scene.packed, look.1, look.0).0 != 0);
+        let secondary = self.scene.as_ref().is_some_and(|scene| {
+            secondary_rays(&scene.packed, request.shadows, request.view).0 != 0
+        });
         let queries = (self.timestamps && !secondary).then(|| {
             self.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("pass timestamps"),
@@ -315,15 +313,11 @@ impl GpuRenderer {
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        self.encode_trace(
-            &mut encoder,
-            program,
-            methods,
-            geometry,
-            settings,
-            look,
-            (queries.as_ref(), true),
-        )?;
+        let waited = Submission {
+            queries: queries.as_ref(),
+            wait: true,
+        };
+        self.encode_trace(&mut encoder, program, methods, geometry, request, waited)?;
         let d = &self.device;
         let (width, height) = (geometry.width, geometry.height);
         let pixels = u64::from(width * methods.len() as u32) * u64::from(height);
@@ -383,20 +377,16 @@ impl GpuRenderer {
     /// `encoder`, writing the output buffers (panels side by side). With `wait`, the binning is
     /// submitted first and its total read back, so the lists are whole (a frame read back
     /// waits anyway); without, nothing waits ([`GpuRenderer::poll_tile_lists`]).
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "the frame's encoder, scene, methods, geometry, settings and options all differ per call"
-    )]
     pub(super) fn encode_trace(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         program: &FieldProgram,
         methods: &[GpuMethod],
         geometry: &FrameGeometry,
-        settings: &TraceSettings,
-        (view, shadows): (View, bool),
-        (queries, wait): (Option<&wgpu::QuerySet>, bool),
+        request: &FrameRequest,
+        Submission { queries, wait }: Submission<'_>,
     ) -> Result<(), String> {
+        let (settings, view, shadows) = (&request.settings, request.view, request.shadows);
         let scene = self.scene.as_ref().ok_or("no scene uploaded")?;
         let n_prims = scene.packed.primitives.len() as u32;
         let (tile_lists, total, geometry) = self.binning.encode_lists(

@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 use skeletrace_core::FieldProgram;
-use skeletrace_core::backend::{BackendError, DeviceKind, PassTimes};
+use skeletrace_core::backend::{BackendError, DeviceKind, FrameRequest, PassTimes};
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::field::primitives::Primitive;
 use skeletrace_core::frame::MAX_BOUNCES;
@@ -23,11 +23,11 @@ use skeletrace_core::frame::{
     AO_SAMPLES, FieldShading, Frame, SOFT_SHADOW_STEPS, View, far_distance, shading_scale,
 };
 use skeletrace_core::methods::TraceSettings;
-use skeletrace_core::model::scene::Camera;
 use wgpu::util::DeviceExt;
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
+use crate::gpu_support::gpu_methods;
 use crate::ray_bvh::RayBvh;
 use crate::ray_lists::{GpuStatsRay, RayCrossings, RayLists, UploadedRayLists};
 use crate::shaders::GpuMethod;
