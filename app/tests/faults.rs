@@ -6,7 +6,9 @@
 //! with one clear line and a failure status, or succeeds correctly; nothing a user had is lost.
 //!
 //! `SKELETRACE_BIN` runs the suite against another build of the binary (an older commit, to
-//! see which cases it fails).
+//! see which cases it fails). Careful: run as root against a build without the safe writer, the
+//! device case replaces `/dev/full` with a regular file, the very fault it checks (restore it
+//! with `mknod -m 666 /dev/full c 1 7`).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
