@@ -22,7 +22,6 @@ use skeletrace_core::methods::{Method, MethodId, Protocol, TraceMode, TraceSetti
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::stats;
 use skeletrace_core::{FieldProgram, Scene};
-use skeletrace_render::gpu_support::gpu_method;
 use skeletrace_render::{GpuMethod, GpuRenderer};
 
 use cli::{Cli, Command};
@@ -220,7 +219,7 @@ fn chosen_methods(
 fn stats_sides(
     args: &cli::StatsArgs,
     compiled: &skeletrace_core::Compiled,
-    chosen: Vec<MethodId>,
+    chosen: &[MethodId],
     protocol: Protocol,
     skipped: &mut Vec<Skipped>,
 ) -> Result<StatsSides, String> {
@@ -243,17 +242,15 @@ fn stats_sides(
         cancel: Cancel::new(),
     };
     let (mut on_cpu, mut on_gpu) = (Vec::new(), Vec::new());
-    for id in chosen {
+    for &id in chosen {
         let capabilities = gpu
             .as_ref()
             .map(|g| g as &dyn Capabilities)
             .map_err(String::as_str);
         match decide(args.backend, capabilities, compiled, id, &request) {
             Ok(Side::Cpu) => on_cpu.push(id.method()),
-            Ok(Side::Gpu) => on_gpu.push(
-                gpu_method(compiled, id, &request)
-                    .map_err(|why| format!("method '{id}' does not run on the GPU: {why}"))?,
-            ),
+            // The decision asked the GPU's support already: `id` has a GPU method.
+            Ok(Side::Gpu) => on_gpu.extend(GpuMethod::from_id(id)),
             Err(BackendError::Unsupported(reason)) if args.methods == "all" => {
                 eprintln!("skeletrace: skipping {id}: {reason}");
                 skipped.push(Skipped {
@@ -338,7 +335,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         on_cpu,
         on_gpu,
         gpu,
-    } = stats_sides(args, &compiled, chosen, setup.protocol, &mut skipped)?;
+    } = stats_sides(args, &compiled, &chosen, setup.protocol, &mut skipped)?;
     check_stats_rays(args.rays, on_cpu.is_empty() && !on_gpu.is_empty())?;
     let mut methods = Vec::new();
     let (mut rays, mut protocol) = (args.rays, args.protocol);
@@ -367,8 +364,7 @@ fn run_stats(args: &cli::StatsArgs) -> Result<(), String> {
         methods.extend(traced.methods);
     }
     // In the order asked, whichever side traced them.
-    let order: Vec<&str> = MethodId::ALL.iter().map(|m| m.name()).collect();
-    methods.sort_by_key(|m| order.iter().position(|n| *n == m.name));
+    methods.sort_by_key(|m| chosen.iter().position(|id| id.name() == m.name));
     let stats = stats::SceneStats {
         scene: name.clone(),
         rays,

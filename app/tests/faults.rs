@@ -120,6 +120,19 @@ fn writers(scene: &Path, out_stem: &Path) -> Vec<(&'static str, Vec<String>, Pat
     ]
 }
 
+/// `args` with the output `out` replaced by `target`.
+fn retargeted(args: &[String], out: &Path, target: &Path) -> Vec<String> {
+    args.iter()
+        .map(|a| {
+            if Path::new(a) == out {
+                s(target).to_owned()
+            } else {
+                a.clone()
+            }
+        })
+        .collect()
+}
+
 fn run(args: &[String]) -> Output {
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     skeletrace(&args)
@@ -165,17 +178,7 @@ fn symlinks_are_written_through_and_permissions_kept() {
         ));
         let _ = std::fs::remove_file(&link);
         std::os::unix::fs::symlink(&out, &link).unwrap_or_else(|e| panic!("{e}"));
-        let args: Vec<String> = args
-            .iter()
-            .map(|a| {
-                if Path::new(a) == out {
-                    s(&link).to_owned()
-                } else {
-                    a.clone()
-                }
-            })
-            .collect();
-        let o = run(&args);
+        let o = run(&retargeted(&args, &out, &link));
         assert!(o.status.success(), "{name}: {}", text(&o.stderr));
         let link_meta = std::fs::symlink_metadata(&link).unwrap_or_else(|e| panic!("{e}"));
         assert!(
@@ -213,17 +216,7 @@ fn a_device_gets_the_bytes_or_its_error_and_stays_a_device() {
                 if name == "export" && target == Path::new(device) {
                     continue;
                 }
-                let args: Vec<String> = args
-                    .iter()
-                    .map(|a| {
-                        if Path::new(a) == out {
-                            s(target).to_owned()
-                        } else {
-                            a.clone()
-                        }
-                    })
-                    .collect();
-                let o = run(&args);
+                let o = run(&retargeted(&args, &out, target));
                 let case = format!("{name} -o {}", target.display());
                 if device == "/dev/full" {
                     assert_one_line_failure(&o, &[s(target), "No space left"], &case);

@@ -10,30 +10,33 @@
 
 use skeletrace_core::backend::{BackendError, Capabilities, DeviceKind, FrameRequest};
 use skeletrace_core::compile::Compiled;
-use skeletrace_core::frame::View;
-use skeletrace_core::methods::MethodId;
+use skeletrace_core::frame::{FieldShading, View};
+use skeletrace_core::methods::{MethodId, TraceSettings};
 
 use crate::buffers::PackedScene;
 use crate::gpu_renderer::{GpuRenderer, check_shading_walks};
 use crate::ray_bvh::RayBvh;
 use crate::shaders::GpuMethod;
 
-/// The GPU method that traces `method` on `compiled` under `request`'s settings, whatever the
-/// device.
+/// The GPU method of `id`.
+fn of_id(id: MethodId) -> Result<GpuMethod, String> {
+    GpuMethod::from_id(id).ok_or_else(|| format!("{id} has no GPU implementation"))
+}
+
+/// `Err` with the reason when the GPU's `method` cannot trace `compiled` under `settings`,
+/// whatever the device: a scene its WGSL does not take, a profile it does not follow, a scene
+/// past the GPU's limits. The renderer checks this again before it builds pipelines.
 ///
 /// # Errors
 /// What the GPU lacks for this method, scene or profile.
-pub fn gpu_method(
+pub fn check_method(
     compiled: &Compiled,
-    method: MethodId,
-    request: &FrameRequest,
-) -> Result<GpuMethod, String> {
-    let gpu =
-        GpuMethod::from_id(method).ok_or_else(|| format!("{method} has no GPU implementation"))?;
-    gpu.supports(&compiled.program)?;
-    gpu.follows(request.settings.protocol)?;
-    PackedScene::check(&compiled.program)?;
-    Ok(gpu)
+    method: GpuMethod,
+    settings: &TraceSettings,
+) -> Result<(), String> {
+    method.supports(&compiled.program)?;
+    method.follows(settings.protocol)?;
+    PackedScene::check(&compiled.program)
 }
 
 /// The GPU methods of `ids`, in order.
@@ -42,11 +45,23 @@ pub fn gpu_method(
 /// [`BackendError::Unsupported`] for a method without a GPU implementation.
 pub fn gpu_methods(ids: &[MethodId]) -> Result<Vec<GpuMethod>, BackendError> {
     ids.iter()
-        .map(|&id| {
-            GpuMethod::from_id(id)
-                .ok_or_else(|| BackendError::Unsupported(format!("{id} has no GPU implementation")))
-        })
+        .map(|&id| of_id(id).map_err(BackendError::Unsupported))
         .collect()
+}
+
+/// What a GPU supports: [`check_method`] for `method` under `request`'s settings, and in the
+/// shaded view its field shading within `budget` (the device's loop limit).
+fn supports_within(
+    compiled: &Compiled,
+    method: MethodId,
+    request: &FrameRequest,
+    budget: impl FnOnce(FieldShading) -> Result<(), String>,
+) -> Result<(), String> {
+    check_method(compiled, of_id(method)?, &request.settings)?;
+    match request.view {
+        View::Shaded(shading) => budget(shading),
+        View::Steps { .. } => Ok(()),
+    }
 }
 
 impl Capabilities for GpuRenderer {
@@ -60,11 +75,9 @@ impl Capabilities for GpuRenderer {
         method: MethodId,
         request: &FrameRequest,
     ) -> Result<(), String> {
-        gpu_method(compiled, method, request)?;
-        if let View::Shaded(shading) = request.view {
-            self.check_shading_budget(compiled, shading)?;
-        }
-        Ok(())
+        supports_within(compiled, method, request, |shading| {
+            self.check_shading_budget(compiled, shading)
+        })
     }
 }
 
@@ -85,14 +98,13 @@ impl Capabilities for GpuOfKind {
         method: MethodId,
         request: &FrameRequest,
     ) -> Result<(), String> {
-        gpu_method(compiled, method, request)?;
-        match request.view {
-            View::Shaded(shading) if self.0 != DeviceKind::HardwareGpu => {
-                check_shading_walks(compiled, shading, || {
-                    RayBvh::new(&compiled.program).point_walk_bound()
-                })
+        supports_within(compiled, method, request, |shading| {
+            if self.0 == DeviceKind::HardwareGpu {
+                return Ok(());
             }
-            _ => Ok(()),
-        }
+            check_shading_walks(compiled, shading, || {
+                RayBvh::new(&compiled.program).point_walk_bound()
+            })
+        })
     }
 }

@@ -40,7 +40,7 @@ impl Editor {
         let steps_view = View::Steps {
             steps_max: self.doc.compiled().settings.max_steps,
         };
-        let gpu_frame = self.gpu_viewport_frame(&methods, steps_view, full);
+        let gpu_frame = self.gpu_viewport_frame(steps_view, full);
         self.view.viewport_on_gpu = gpu_frame.is_some();
         if gpu_frame.is_none() {
             // Heat maps trace every chosen method: half resolution keeps the grid responsive.

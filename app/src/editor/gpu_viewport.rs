@@ -14,7 +14,7 @@ use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, RenderState};
 use eframe::wgpu;
 use skeletrace_core::Compiled;
 use skeletrace_core::backend::{
-    BackendChoice, Cancel, Capabilities, DeviceKind, FrameRequest, Side, decide,
+    BackendChoice, Capabilities, DeviceKind, FrameRequest, Side, decide,
 };
 use skeletrace_core::frame::{StepScale, View};
 use skeletrace_core::methods::MethodId;
@@ -22,7 +22,7 @@ use skeletrace_render::GpuRenderer;
 use skeletrace_render::step_statistics::GridStatistics;
 use skeletrace_render::viewport::{ViewportFrame, ViewportPainter};
 
-use super::{Editor, worker};
+use super::Editor;
 
 /// The paint callback of one viewport frame or comparison grid.
 struct ViewportCallback {
@@ -176,19 +176,21 @@ impl Editor {
         renderer.callback_resources.get::<ViewportPainter>().map(f)
     }
 
-    /// The GPU viewport's frame of `methods` in `view` at `size`, when it takes this frame: a
-    /// GPU viewport exists, its last frame did not fail, and the backend decision
-    /// (`skeletrace_core::backend::decide`, asked of the window's GPU) puts every method on
-    /// the GPU.
+    /// The GPU viewport's frame of what the window shows ([`Editor::view_request`]) in `view`
+    /// at `size`, when it takes this frame: a GPU viewport exists, its last frame did not fail,
+    /// and the backend decision (`skeletrace_core::backend::decide`, asked of the window's
+    /// GPU) puts every method on the GPU.
     pub(super) fn gpu_viewport_frame(
         &mut self,
-        methods: &[MethodId],
         view: View,
         size: (u32, u32),
     ) -> Option<ViewportFrame> {
         let state = self.view.gpu_viewport.as_ref()?;
-        let shaded = matches!(view, View::Shaded(_));
-        if self.ui_state.backend == BackendChoice::Cpu || methods.is_empty() {
+        let request = FrameRequest {
+            view,
+            ..self.view_request((size.0.max(1) as usize, size.1.max(1) as usize))
+        };
+        if self.ui_state.backend == BackendChoice::Cpu || request.methods.is_empty() {
             return None;
         }
         let failure = state
@@ -203,23 +205,11 @@ impl Editor {
             return None;
         }
         let compiled = self.doc.compiled();
-        let request = worker::frame_request(
-            &compiled,
-            self.orbit.camera(),
-            (size.0.max(1) as usize, size.1.max(1) as usize),
-            shaded && self.ui_state.shadows,
-            self.ui_state.shading,
-            Cancel::new(),
-        );
-        let request = FrameRequest {
-            view,
-            methods: methods.to_vec(),
-            ..request
-        };
         let choice = self.ui_state.backend;
         let on_gpu = self.with_viewport_painter(|painter| {
             let window = WindowGpu(painter.renderer());
-            methods
+            request
+                .methods
                 .iter()
                 .all(|&m| decide(choice, Ok(&window), &compiled, m, &request) == Ok(Side::Gpu))
         })?;

@@ -96,7 +96,6 @@ impl Editor {
             (rect.height() * ppp) as usize,
         );
         let gpu_frame = self.gpu_viewport_frame(
-            &[self.ui_state.shaded_method],
             View::Shaded(self.ui_state.shading),
             (pixels.0 as u32, pixels.1 as u32),
         );

@@ -27,7 +27,7 @@ use wgpu::util::DeviceExt;
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::buffers::{GpuMaterial, GpuPrimitive, PackedScene};
-use crate::gpu_support::gpu_methods;
+use crate::gpu_support::{check_method, gpu_methods};
 use crate::ray_bvh::RayBvh;
 use crate::ray_lists::{GpuStatsRay, RayCrossings, RayLists, UploadedRayLists};
 use crate::shaders::GpuMethod;

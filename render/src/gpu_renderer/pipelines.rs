@@ -10,9 +10,9 @@ impl PendingPipeline {
 }
 
 impl GpuRenderer {
-    /// The uploaded scene, after checking that `methods` and `view` apply to it and that the
-    /// methods follow the settings' profile ([`GpuMethod::follows`]); builds the
-    /// methods' pipelines.
+    /// The uploaded scene, after checking that `methods` and `view` apply to it
+    /// ([`check_method`]: the scene, the settings' profile, the limits; the shading budget);
+    /// builds the methods' pipelines.
     pub(super) fn ready_for(
         &mut self,
         methods: &[GpuMethod],
@@ -24,13 +24,8 @@ impl GpuRenderer {
             .as_ref()
             .map(|s| Arc::clone(&s.compiled))
             .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
-        let program = &compiled.program;
-        for m in methods {
-            m.follows(settings.protocol)
-                .map_err(BackendError::Unsupported)?;
-        }
-        for m in methods {
-            m.supports(program).map_err(BackendError::Unsupported)?;
+        for &m in methods {
+            check_method(&compiled, m, settings).map_err(BackendError::Unsupported)?;
         }
         if let View::Shaded(shading) = view {
             self.check_shading_budget(&compiled, shading)
