@@ -776,3 +776,21 @@ fn stats_on_the_gpu_compares_the_first_rays_with_the_reference() {
     assert_eq!(hits(&json), hits(&cpu), "GPU {json}\nCPU {cpu}");
     assert!(cpu.contains("\"compared\": 1200"), "{cpu}");
 }
+
+/// `stats` reports the methods in the order they were asked for, not in the table's order.
+#[test]
+fn stats_reports_methods_in_the_order_asked() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes/blobs.ron");
+    let o = skeletrace(&[
+        "stats",
+        scene.to_str().unwrap_or_default(),
+        "--methods",
+        "quadratic-taylor,segment",
+        "--rays",
+        "60",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let value = parse_json(&text(&o.stdout));
+    assert_eq!(names(&value, "methods"), ["quadratic-taylor", "segment"]);
+}
