@@ -96,6 +96,30 @@ pub struct BenchArgs {
     /// how many edits copied nothing (traced in full).
     #[arg(long)]
     pub after_edits: bool,
+    /// Time frames while one parameter changes, as a slider dragged in the editor: `--steps`
+    /// values applied in turn to every group, primitive or operator that has the parameter,
+    /// one frame traced after each; reports the pipelines compiled after the first frame, the
+    /// median and slowest frame, and how far the frames are from the CPU tracer's.
+    #[arg(long, value_enum, conflicts_with = "after_edits")]
+    pub sweep: Option<SweepParam>,
+    /// Values of a `--sweep`, 1 to 10 000.
+    #[arg(long, default_value_t = 20, value_parser = parse_frames, requires = "sweep")]
+    pub steps: usize,
+}
+
+/// A parameter `bench --sweep` changes.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepParam {
+    /// Every group's kernel scale σ.
+    KernelScale,
+    /// Every skeleton vertex's and point blob's radius.
+    Radius,
+    /// The scene's isovalue.
+    Isovalue,
+    /// Every smooth union's and smooth intersection's width.
+    SmoothWidth,
+    /// Every Ricci blend's exponent.
+    RicciExponent,
 }
 
 /// What a render shows.

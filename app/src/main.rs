@@ -4,6 +4,7 @@
 //! and the item, and exits with a non-zero status; nothing here panics on user input.
 
 mod bench_cmd;
+mod bench_sweep;
 mod cli;
 mod render_cmd;
 mod stdout;
@@ -35,7 +36,10 @@ fn main() -> ExitCode {
         Some(Command::Generate(args)) => run_generate(&args),
         Some(Command::Stats(args)) => run_stats(&args),
         Some(Command::Bench(args)) => {
-            load(Some(&args.scene)).and_then(|s| bench_cmd::run(&args, &s))
+            load(Some(&args.scene)).and_then(|s| match args.sweep {
+                Some(param) => bench_sweep::run(&args, &s, param),
+                None => bench_cmd::run(&args, &s),
+            })
         }
         Some(Command::Render(args)) => {
             load(Some(&args.scene)).and_then(|s| render_cmd::run(&args, &s))

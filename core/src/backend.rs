@@ -190,6 +190,12 @@ pub trait FrameBackend: Capabilities {
         None
     }
 
+    /// Pipelines the backend has compiled since it was opened, where it compiles any (the
+    /// GPU's trace pipelines); `None` otherwise.
+    fn pipelines_compiled(&self) -> Option<u64> {
+        None
+    }
+
     /// Traces one frame per method of `request`.
     ///
     /// # Errors

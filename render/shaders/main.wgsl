@@ -461,7 +461,9 @@ fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let pixel = id.y * globals.width + id.x;
-    if (suspensions[pixel].flags & FINISHED) != 0u {
+    // The host uploads at least one blend parameter; asking keeps the binding in the layout
+    // wgpu derives from what the entry point uses, whatever the blend tree.
+    if (suspensions[pixel].flags & FINISHED) != 0u || arrayLength(&blend_parameters) == 0u {
         return;
     }
     steps_left = globals.steps_per_dispatch;
@@ -536,7 +538,8 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     if k >= globals.width {
         return;
     }
-    if (suspensions[k].flags & FINISHED) != 0u {
+    // As in trace_pixels: keeps the blend parameters' binding in the layout.
+    if (suspensions[k].flags & FINISHED) != 0u || arrayLength(&blend_parameters) == 0u {
         return;
     }
     steps_left = globals.steps_per_dispatch;

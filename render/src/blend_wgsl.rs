@@ -12,8 +12,13 @@
 //! this module only nests their calls in the tree's shape, operands in the tree's order, so the
 //! smooth operators (not associative) fold as on the CPU. Straight-line code keeps every slot
 //! index constant: an interpreter over a stack indexed at run time made lavapipe's compile of
-//! each pipeline take minutes. A scene whose tree changes gets new pipelines
-//! (`GpuRenderer::set_scene`); edits of primitives do not change the tree.
+//! each pipeline take minutes.
+//!
+//! The code holds the tree's structure only. The operators' parameters (a smooth blend's width,
+//! a Ricci exponent) are data: `blend_parameters[k]` at a constant index `k`, one slot per
+//! parametrised operator in pre-order ([`blend_parameters`]), uploaded with the scene. Dragging a
+//! parameter's slider therefore compiles nothing; a scene whose tree changes shape or operators
+//! gets new pipelines (`GpuRenderer::set_scene`).
 
 use std::fmt::Write as _;
 
@@ -79,13 +84,68 @@ impl BlendWgsl {
     }
 }
 
+/// The operators' parameters of `tree`, one per smooth blend (its width) and Ricci blend (its
+/// exponent), in pre-order: the slot `k` of `blend_parameters[k]` in [`BlendWgsl`]'s code.
+#[must_use]
+pub fn blend_parameters(tree: &BlendTree) -> Vec<f32> {
+    fn walk(tree: &BlendTree, out: &mut Vec<f32>) {
+        if let Some(value) = parameter_of(tree) {
+            out.push(value as f32);
+        }
+        for child in children(tree) {
+            walk(child, out);
+        }
+    }
+    let mut out = Vec::new();
+    walk(tree, &mut out);
+    out
+}
+
+/// The parameter of an operator that has one.
+fn parameter_of(tree: &BlendTree) -> Option<f64> {
+    match tree {
+        BlendTree::Ricci { p, .. } => Some(*p),
+        BlendTree::SmoothUnion { width, .. } | BlendTree::SmoothIntersection { width, .. } => {
+            Some(*width)
+        }
+        _ => None,
+    }
+}
+
+/// An operator's operands, in order.
+fn children(tree: &BlendTree) -> Vec<&BlendTree> {
+    match tree {
+        BlendTree::Group(_) => Vec::new(),
+        BlendTree::Difference(a, b) => vec![a, b],
+        BlendTree::Sum(v) | BlendTree::Max(v) | BlendTree::Min(v) => v.iter().collect(),
+        BlendTree::Ricci { of, .. }
+        | BlendTree::SmoothUnion { of, .. }
+        | BlendTree::SmoothIntersection { of, .. } => of.iter().collect(),
+    }
+}
+
 /// A function body under construction: `let` statements naming each node's result.
 struct Body {
     text: String,
     next: usize,
+    /// The next parameter slot, in pre-order.
+    next_parameter: usize,
 }
 
 impl Body {
+    /// The parameter slot of the operator being written (visited in pre-order, before its
+    /// operands), bound to a name.
+    fn parameter(&mut self) -> String {
+        let k = self.next_parameter;
+        self.next_parameter += 1;
+        self.bind(&format!("blend_parameters[{k}]"))
+    }
+
+    /// Passes over the parameter slots of a subtree whose code is not written.
+    fn skip_parameters(&mut self, tree: &BlendTree) {
+        self.next_parameter += blend_parameters(tree).len();
+    }
+
     /// Binds `expression` to a fresh name and returns the name.
     fn bind(&mut self, expression: &str) -> String {
         let name = format!("n{}", self.next);
@@ -101,14 +161,10 @@ fn function(signature: &str, tree: &BlendTree, node: Node) -> String {
     let mut body = Body {
         text: String::new(),
         next: 0,
+        next_parameter: 0,
     };
     let result = node(tree, &mut body);
     format!("fn {signature} {{\n{}    return {result};\n}}\n", body.text)
-}
-
-/// A WGSL float literal of `v` (as f32).
-fn float(v: f64) -> String {
-    format!("{:?}", v as f32)
 }
 
 /// The tree's operator with its operands, in the tree's order.
@@ -117,9 +173,9 @@ enum Operator<'a> {
     Max(&'a [BlendTree]),
     Min(&'a [BlendTree]),
     Difference(&'a BlendTree, &'a BlendTree),
-    Ricci(f64, &'a [BlendTree]),
-    SmoothUnion(f64, &'a [BlendTree]),
-    SmoothIntersection(f64, &'a [BlendTree]),
+    Ricci(&'a [BlendTree]),
+    SmoothUnion(&'a [BlendTree]),
+    SmoothIntersection(&'a [BlendTree]),
 }
 
 fn operator(tree: &BlendTree) -> Result<Operator<'_>, u32> {
@@ -129,9 +185,9 @@ fn operator(tree: &BlendTree) -> Result<Operator<'_>, u32> {
         BlendTree::Max(v) => Operator::Max(v),
         BlendTree::Min(v) => Operator::Min(v),
         BlendTree::Difference(a, b) => Operator::Difference(a, b),
-        BlendTree::Ricci { p, of } => Operator::Ricci(*p, of),
-        BlendTree::SmoothUnion { width, of } => Operator::SmoothUnion(*width, of),
-        BlendTree::SmoothIntersection { width, of } => Operator::SmoothIntersection(*width, of),
+        BlendTree::Ricci { of, .. } => Operator::Ricci(of),
+        BlendTree::SmoothUnion { of, .. } => Operator::SmoothUnion(of),
+        BlendTree::SmoothIntersection { of, .. } => Operator::SmoothIntersection(of),
     })
 }
 
@@ -265,16 +321,17 @@ fn node_in(tree: &BlendTree, body: &mut Body, words: &Vocabulary) -> String {
             let (a, b) = (node(a, body), node(b, body));
             Some(body.bind(&(words.difference)(&a, &b)))
         }
-        Operator::Ricci(p, v) => {
+        Operator::Ricci(v) => {
+            let p = body.parameter();
             let names: Vec<String> = v.iter().map(|c| node(c, body)).collect();
-            Some((words.ricci)(&names, &float(p), body))
+            Some((words.ricci)(&names, &p, body))
         }
-        Operator::SmoothUnion(w, v) => {
-            let w = float(w);
+        Operator::SmoothUnion(v) => {
+            let w = body.parameter();
             fold(v, body, node, None, |a, b| (words.smooth_max)(a, b, &w))
         }
-        Operator::SmoothIntersection(w, v) => {
-            let w = float(w);
+        Operator::SmoothIntersection(v) => {
+            let w = body.parameter();
             fold(v, body, node, None, |a, b| (words.smooth_min)(a, b, &w))
         }
     }
@@ -291,9 +348,9 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
         Operator::Sum(v) => fold(v, body, lipschitz_node, Some("0.0"), |a, b| {
             format!("{a} + {b}")
         }),
-        Operator::Ricci(p, v) => {
+        Operator::Ricci(v) => {
             // The p-norm of the operands' bounds (Hölder), relative to the largest.
-            let p = float(p);
+            let p = body.parameter();
             let names: Vec<String> = v.iter().map(|c| lipschitz_node(c, body)).collect();
             let mut scale = "0.0".to_owned();
             for n in &names {
@@ -308,10 +365,11 @@ fn lipschitz_node(tree: &BlendTree, body: &mut Body) -> String {
             let names = vec![lipschitz_node(a, body), lipschitz_node(b, body)];
             fold_names(names, body, Some("0.0"), max)
         }
-        Operator::Max(v)
-        | Operator::Min(v)
-        | Operator::SmoothUnion(_, v)
-        | Operator::SmoothIntersection(_, v) => fold(v, body, lipschitz_node, Some("0.0"), max),
+        Operator::SmoothUnion(v) | Operator::SmoothIntersection(v) => {
+            body.next_parameter += 1;
+            fold(v, body, lipschitz_node, Some("0.0"), max)
+        }
+        Operator::Max(v) | Operator::Min(v) => fold(v, body, lipschitz_node, Some("0.0"), max),
     }
     .unwrap_or_else(|| body.bind("0.0"))
 }
@@ -365,7 +423,8 @@ fn compose_node(tree: &BlendTree, body: &mut Body) -> String {
             let h = hull(items, body);
             Some(body.bind(&format!("composed_neg({h})")))
         }
-        Operator::Ricci(_, v) => {
+        Operator::Ricci(v) => {
+            body.next_parameter += 1;
             let mut acc = "ricci_inclusion_start()".to_owned();
             for c in v {
                 let n = compose_node(c, body);
@@ -376,7 +435,10 @@ fn compose_node(tree: &BlendTree, body: &mut Body) -> String {
         Operator::Max(_)
         | Operator::Min(_)
         | Operator::SmoothUnion(..)
-        | Operator::SmoothIntersection(..) => None,
+        | Operator::SmoothIntersection(..) => {
+            body.skip_parameters(tree);
+            None
+        }
     }
     .unwrap_or_else(|| body.bind(no_rule))
 }
@@ -399,22 +461,24 @@ mod tests {
         assert_eq!(
             wgsl.values,
             "fn blend_groups(values: array<vec4<f32>, GROUPS>) -> vec4<f32> {
-    let n0 = values[0];
-    let n1 = values[1];
-    let n2 = value_difference(n0, n1);
-    let n3 = values[2];
-    let n4 = ricci_scale(0.0, n2);
-    let n5 = ricci_scale(n4, n3);
-    let n6 = 0.0 + ricci_power(n2, n5, 4.0);
-    let n7 = n6 + ricci_power(n3, n5, 4.0);
-    let n8 = ricci_root(n7, n5, 4.0);
-    let n9 = vec3<f32>(0.0) + ricci_slope(n2, n8, 4.0);
-    let n10 = n9 + ricci_slope(n3, n8, 4.0);
-    let n11 = vec4<f32>(n8, n10);
-    return n11;
+    let n0 = blend_parameters[0];
+    let n1 = values[0];
+    let n2 = values[1];
+    let n3 = value_difference(n1, n2);
+    let n4 = values[2];
+    let n5 = ricci_scale(0.0, n3);
+    let n6 = ricci_scale(n5, n4);
+    let n7 = 0.0 + ricci_power(n3, n6, n0);
+    let n8 = n7 + ricci_power(n4, n6, n0);
+    let n9 = ricci_root(n8, n6, n0);
+    let n10 = vec3<f32>(0.0) + ricci_slope(n3, n9, n0);
+    let n11 = n10 + ricci_slope(n4, n9, n0);
+    let n12 = vec4<f32>(n9, n11);
+    return n12;
 }
 "
         );
+        assert_eq!(blend_parameters(&tree), vec![4.0]);
         // The smooth intersection folds left to right on the negations; a sum starts at 0.
         let tree = BlendTree::SmoothIntersection {
             width: 0.25,
@@ -424,12 +488,80 @@ mod tests {
             ],
         };
         let values = BlendWgsl::new(&tree, 3).values;
-        assert!(values.contains("let n2 = vec4<f32>(0.0) + n0;"), "{values}");
-        assert!(values.contains("let n3 = n2 + n1;"), "{values}");
+        assert!(values.contains("let n0 = blend_parameters[0];"), "{values}");
+        assert!(values.contains("let n3 = vec4<f32>(0.0) + n1;"), "{values}");
+        assert!(values.contains("let n4 = n3 + n2;"), "{values}");
         assert!(
-            values.contains("let n5 = -smooth_max(-n3, -n4, 0.25);"),
+            values.contains("let n6 = -smooth_max(-n4, -n5, n0);"),
             "{values}"
         );
+    }
+
+    /// A tree with a parameter under every kind of parametrised operator, nested, and under a
+    /// smooth blend (which the composition has no rule for, so its code skips the subtree).
+    fn nested(width: f64, p: f64, inner_width: f64) -> BlendTree {
+        BlendTree::Sum(vec![
+            BlendTree::SmoothUnion {
+                width,
+                of: vec![
+                    BlendTree::Ricci {
+                        p,
+                        of: vec![BlendTree::Group(0), BlendTree::Group(1)],
+                    },
+                    BlendTree::Group(2),
+                ],
+            },
+            BlendTree::Ricci {
+                p: p + 1.0,
+                of: vec![
+                    BlendTree::SmoothIntersection {
+                        width: inner_width,
+                        of: vec![BlendTree::Group(3), BlendTree::Group(1)],
+                    },
+                    BlendTree::Group(0),
+                ],
+            },
+        ])
+    }
+
+    /// The code holds the tree's structure only: changing every parameter changes the uploaded
+    /// slots, not one character of the four functions, and no parameter's value appears in
+    /// them as a literal.
+    #[test]
+    fn parameters_are_data_at_constant_slots() {
+        let a = nested(0.125, 3.0, 0.375);
+        let b = nested(0.5, 7.5, 0.0625);
+        assert_eq!(BlendWgsl::new(&a, 4), BlendWgsl::new(&b, 4));
+        assert_eq!(blend_parameters(&a), vec![0.125, 3.0, 4.0, 0.375]);
+        assert_eq!(blend_parameters(&b), vec![0.5, 7.5, 8.5, 0.0625]);
+        let wgsl = BlendWgsl::new(&a, 4);
+        let all = format!("{}{}{}", wgsl.values, wgsl.jets_and_lipschitz, wgsl.composition);
+        for literal in ["0.125", "3.0", "4.0", "0.375"] {
+            assert!(!all.contains(literal), "{literal} in\n{all}");
+        }
+    }
+
+    /// Each function reads an operator's parameter from the same slot: the slot of the
+    /// operator's pre-order position, also where a function writes no code for a subtree.
+    #[test]
+    fn every_function_reads_each_operator_from_its_own_slot() {
+        let wgsl = BlendWgsl::new(&nested(0.125, 3.0, 0.375), 4);
+        let slots = |text: &str| -> Vec<usize> {
+            text.match_indices("blend_parameters[")
+                .map(|(i, m)| {
+                    let rest = &text[i + m.len()..];
+                    rest[..rest.find(']').unwrap()].parse().unwrap()
+                })
+                .collect()
+        };
+        assert_eq!(slots(&wgsl.values), vec![0, 1, 2, 3]);
+        let (jets, lipschitz) = wgsl
+            .jets_and_lipschitz
+            .split_at(wgsl.jets_and_lipschitz.find("fn blend_lipschitz").unwrap());
+        assert_eq!(slots(jets), vec![0, 1, 2, 3]);
+        // The Lipschitz bound needs only the Ricci exponents (max bounds a smooth blend).
+        assert_eq!(slots(lipschitz), vec![1, 2]);
+        assert_eq!(slots(&wgsl.composition), Vec::<usize>::new());
     }
 
     /// Operators without operands give the CPU's empty results, and the composition has no rule

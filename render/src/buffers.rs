@@ -15,7 +15,7 @@ use skeletrace_core::field::primitives::{Primitive, Solid};
 use skeletrace_core::model::kernel::Kernel;
 use skeletrace_core::model::scene::Light;
 
-use crate::blend_wgsl::BlendWgsl;
+use crate::blend_wgsl::{BlendWgsl, blend_parameters};
 pub use crate::shared::MAX_GROUPS;
 use crate::shared::{KernelFamily, KindSet, LightKind, PrimitiveKind};
 
@@ -115,8 +115,11 @@ pub struct PackedScene {
     pub materials: Vec<GpuMaterial>,
     /// Lights.
     pub lights: Vec<GpuLight>,
-    /// The blend tree as WGSL.
+    /// The blend tree's structure as WGSL.
     pub blend: BlendWgsl,
+    /// Its operators' parameters, the slots its code reads ([`blend_parameters`]); never empty
+    /// (a storage binding holds at least one value).
+    pub blend_parameters: Vec<f32>,
     /// The kinds its pipelines are compiled for: the tier covering those of
     /// [`PackedScene::primitives`] ([`KindSet::covering`]).
     pub kinds: KindSet,
@@ -310,6 +313,10 @@ impl PackedScene {
         let groups = program.group_count();
         Self::check(program)?;
         let blend = BlendWgsl::new(program.blend(), groups);
+        let mut blend_parameters = blend_parameters(program.blend());
+        if blend_parameters.is_empty() {
+            blend_parameters.push(0.0);
+        }
         let occluding = occluding_groups(program.blend(), groups);
         let mut primitives = Vec::with_capacity(program.primitives().len());
         let mut boxes = Vec::new();
@@ -468,6 +475,7 @@ impl PackedScene {
                 })
                 .collect(),
             blend,
+            blend_parameters,
         })
     }
 }

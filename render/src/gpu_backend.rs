@@ -78,6 +78,10 @@ impl FrameBackend for GpuBackend {
         })
     }
 
+    fn pipelines_compiled(&self) -> Option<u64> {
+        Some(self.renderer.pipelines_compiled())
+    }
+
     fn render(
         &mut self,
         compiled: &Arc<Compiled>,

@@ -154,10 +154,10 @@ impl ViewportPainter {
         }
         let same = self.last.as_ref().is_some_and(|l| l.same_as(frame));
         if !same || self.bind_group.is_none() {
-            // A new blend tree or primitive kind, or a method not shown before, needs
+            // A new blend structure or primitive kind, or a method not shown before, needs
             // pipelines, which the driver takes seconds to compile: they are compiled on
-            // threads of their own, and the window keeps drawing the last frame (with its own
-            // uniforms) instead of waiting for them.
+            // threads of their own, and the window draws the render thread's frames of the new
+            // scene instead of waiting for them.
             match self.pipelines_compiling(frame) {
                 Ok(true) => {
                     self.compiling = true;
@@ -271,7 +271,7 @@ impl ViewportPainter {
     /// Draws the last prepared frame: panel `k` into `panels[k]`, a rectangle `[x, y, width,
     /// height]` in physical pixels of the render target (the shaded view is one panel).
     pub fn paint(&self, pass: &mut wgpu::RenderPass<'static>, panels: &[[f32; 4]]) {
-        let Some(group) = &self.bind_group else {
+        let Some(group) = self.bind_group.as_ref().filter(|_| !self.compiling) else {
             return;
         };
         let count = self.last.as_ref().map_or(0, |f| f.request.methods.len());
@@ -309,8 +309,14 @@ impl ViewportPainter {
         self.renderer.tile_lists_unchecked() || self.compiling
     }
 
-    /// Whether the frame asked for last waits for its pipelines (the last frame stays on
-    /// screen meanwhile).
+    /// Whether `frame` is the frame traced last (its scene and request).
+    #[must_use]
+    pub fn last_is(&self, frame: &ViewportFrame) -> bool {
+        self.last.as_ref().is_some_and(|l| l.same_as(frame))
+    }
+
+    /// Whether the frame asked for last waits for its pipelines (nothing is drawn meanwhile:
+    /// the editor shows the render thread's frame of the new scene).
     #[must_use]
     pub fn compiling(&self) -> bool {
         self.compiling

@@ -774,6 +774,97 @@ fn pipelines_compiled_in_the_background_trace_the_same_frames() {
     }
 }
 
+/// A parameter is data on the GPU (blend_wgsl.rs): a smooth blend's width, a Ricci exponent, a
+/// kernel's scale, radii, the isovalue and materials change uploaded buffers, never the shader
+/// code, so editing them compiles no pipeline, and the frames that follow still agree with the
+/// CPU tracer's. The first frame compiles one pipeline per method (the counter counts), a
+/// scene of another blend structure needs new ones.
+#[test]
+fn parameter_edits_compile_no_pipelines_and_match_the_cpu() {
+    let Some(mut gpu) = gpu_or_skip("parameter_edits_compile_no_pipelines_and_match_the_cpu")
+    else {
+        return;
+    };
+    let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
+    fn tree(outer: f64, p: f64, inner: f64) -> Blend {
+        let g = Blend::Group;
+        Blend::SmoothUnion {
+            width: outer,
+            of: vec![
+                Blend::Ricci {
+                    p,
+                    of: vec![Blend::Difference(Box::new(g(0)), Box::new(g(1))), g(2)],
+                },
+                Blend::SmoothIntersection {
+                    width: inner,
+                    of: vec![g(0), g(2)],
+                },
+            ],
+        }
+    }
+    let base = Scene {
+        blend: Some(tree(0.2, 4.0, 0.1)),
+        ..load("operators")
+    };
+    let mut failures = Vec::new();
+    let before = gpu.pipelines_compiled();
+    let camera = [base.camera];
+    check_methods_agreement(&mut gpu, "base", &base, &camera, &methods, &mut failures);
+    assert_eq!(
+        gpu.pipelines_compiled(),
+        before + methods.len() as u64,
+        "the first frame compiles one pipeline per method"
+    );
+    let first = gpu.pipelines_compiled();
+    type Edit = fn(&mut Scene);
+    let edits: [(&str, Edit); 8] = [
+        ("smooth union width", |s| s.blend = Some(tree(0.45, 4.0, 0.1))),
+        ("ricci exponent", |s| s.blend = Some(tree(0.2, 7.0, 0.1))),
+        ("smooth intersection width", |s| {
+            s.blend = Some(tree(0.2, 4.0, 0.3));
+        }),
+        ("kernel scale", |s| {
+            for group in &mut s.groups {
+                group.kernel = group.kernel.scaled(1.1);
+            }
+        }),
+        ("radius", |s| {
+            for blob in s.groups.iter_mut().flat_map(|g| &mut g.blobs) {
+                blob.radius *= 1.15;
+            }
+            for v in s
+                .groups
+                .iter_mut()
+                .flat_map(|g| &mut g.skeletons)
+                .flat_map(|k| &mut k.vertices)
+            {
+                v.radius *= 1.15;
+            }
+        }),
+        ("isovalue", |s| s.isovalue *= 0.85),
+        ("colour and opacity", |s| {
+            s.groups[1].material.color = [0.9, 0.2, 0.1];
+        }),
+        ("every parameter at once", |s| {
+            s.blend = Some(tree(0.3, 2.5, 0.2));
+            s.isovalue *= 1.1;
+            s.groups[0].kernel = s.groups[0].kernel.scaled(1.1);
+        }),
+    ];
+    for (name, edit) in edits {
+        let mut scene = base.clone();
+        edit(&mut scene);
+        assert_ne!(scene, base, "{name} changes the scene");
+        check_methods_agreement(&mut gpu, name, &scene, &camera, &methods, &mut failures);
+        assert_eq!(
+            gpu.pipelines_compiled(),
+            first,
+            "editing the {name} compiled pipelines"
+        );
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
 /// The operator nodes in `blend`.
 fn count_operators(blend: &Blend) -> usize {
     match blend {

@@ -40,14 +40,16 @@ impl Editor {
         let steps_view = View::Steps {
             steps_max: self.doc.compiled().settings.max_steps,
         };
-        let gpu_frame = self.gpu_viewport_frame(steps_view, full);
-        self.view.viewport_on_gpu = gpu_frame.is_some();
+        let (gpu_frame, compiling) = self.gpu_viewport_frame_or_compiling(steps_view, full);
         if gpu_frame.is_none() {
             // Heat maps trace every chosen method: half resolution keeps the grid responsive.
             self.request_frames(ui.ctx(), ((full.0 / 2) as usize, (full.1 / 2) as usize));
         }
         let response = ui.allocate_rect(rect, egui::Sense::click());
         let painter = ui.painter_at(rect);
+        if let Some(frame) = compiling {
+            self.keep_compiling(&painter, rect, frame);
+        }
         let Some(GridPanels {
             size,
             mut infos,
@@ -138,7 +140,11 @@ impl Editor {
                 top: None,
             });
         }
-        let shown = self.frames.shown.as_ref()?;
+        let shown = if self.view.gpu_compiling {
+            self.frames.shown_of(self.doc.revision())?
+        } else {
+            self.frames.shown.as_ref()?
+        };
         let size = shown
             .frames
             .first()

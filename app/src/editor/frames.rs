@@ -72,6 +72,8 @@ pub(super) struct ShownFrame {
 /// The latest reply from the renderer thread.
 pub(super) struct Shown {
     pub id: u64,
+    /// The document revision it was traced from.
+    pub revision: u64,
     pub frames: Vec<ShownFrame>,
     pub skipped: Vec<String>,
     pub adapter: String,
@@ -140,6 +142,8 @@ pub(super) struct ViewportFrames {
     /// The ids and kinds of the latest preview requests (a preview at full resolution is
     /// timed as a preview).
     preview_ids: std::collections::VecDeque<(u64, PreviewKind)>,
+    /// The ids of the latest requests with the document revision each was for.
+    revisions: std::collections::VecDeque<(u64, u64)>,
 }
 
 impl ViewportFrames {
@@ -160,7 +164,14 @@ impl ViewportFrames {
             waiting: None,
             newest_sent: 0,
             preview_ids: std::collections::VecDeque::new(),
+            revisions: std::collections::VecDeque::new(),
         }
+    }
+
+    /// The frames on screen, when they are of the document's `revision`.
+    #[must_use]
+    pub fn shown_of(&self, revision: u64) -> Option<&Shown> {
+        self.shown.as_ref().filter(|s| s.revision == revision)
     }
 
     /// A fresh request id.
@@ -246,6 +257,10 @@ impl ViewportFrames {
         };
         self.waiting = Some(since);
         self.newest_sent = id;
+        if self.revisions.len() == 16 {
+            self.revisions.pop_front();
+        }
+        self.revisions.push_back((id, revision));
         if interacting {
             if self.preview_ids.len() == 8 {
                 self.preview_ids.pop_front();
@@ -393,8 +408,14 @@ impl ViewportFrames {
                 }
             })
             .collect();
+        let revision = self
+            .revisions
+            .iter()
+            .find(|(id, _)| *id == reply.id)
+            .map_or(0, |(_, revision)| *revision);
         self.shown = Some(Shown {
             id: reply.id,
+            revision,
             frames,
             skipped: reply.skipped,
             adapter: reply.adapter,

@@ -216,6 +216,38 @@ impl Editor {
         on_gpu.then_some(ViewportFrame { compiled, request })
     }
 
+    /// [`Editor::gpu_viewport_frame`] split by whether the GPU viewport draws it now:
+    /// `(drawn, compiling)`. While the GPU viewport compiles the frame's pipelines (a new blend
+    /// structure or primitive kind), the frame is `compiling`, for [`Editor::keep_compiling`],
+    /// and the view is traced by the render thread on the CPU meanwhile. Notes which of the two
+    /// the view shows.
+    pub(super) fn gpu_viewport_frame_or_compiling(
+        &mut self,
+        view: View,
+        size: (u32, u32),
+    ) -> (Option<ViewportFrame>, Option<ViewportFrame>) {
+        let frame = self.gpu_viewport_frame(view, size);
+        let compiling = frame.is_some() && self.gpu_viewport_compiling();
+        self.view.gpu_compiling = compiling;
+        self.view.viewport_on_gpu = frame.is_some() && !compiling;
+        if compiling {
+            (None, frame)
+        } else {
+            (frame, None)
+        }
+    }
+
+    /// Hands `frame`, whose pipelines the GPU viewport compiles, to its paint callback, which
+    /// polls the compilation and draws nothing until it traces the frame.
+    pub(super) fn keep_compiling(
+        &self,
+        painter: &egui::Painter,
+        area: egui::Rect,
+        frame: ViewportFrame,
+    ) {
+        self.paint_gpu_viewport(painter, area, frame, Vec::new(), (StepScale::Log, None));
+    }
+
     /// The comparison grid's statistics the GPU viewport read back last, and whether they are
     /// those of the frame on screen with the hovered pixel's counts.
     #[must_use]
@@ -230,7 +262,8 @@ impl Editor {
 
     /// Adds the paint callback of `frame` over `area`, panel `k` drawn into `panels[k]`; asks
     /// for another frame while the last one's tile lists are being checked, and every 50 ms
-    /// while its pipelines compile.
+    /// while its pipelines compile or until the painter has taken it up (it may start
+    /// compiling pipelines for it).
     pub(super) fn paint_gpu_viewport(
         &self,
         painter: &egui::Painter,
@@ -239,7 +272,10 @@ impl Editor {
         panels: Vec<egui::Rect>,
         (scale, probe): (StepScale, Option<(u32, u32)>),
     ) {
-        if self.gpu_viewport_compiling() {
+        let taken_up = self
+            .with_viewport_painter(|p| p.last_is(&frame))
+            .unwrap_or(true);
+        if self.gpu_viewport_compiling() || !taken_up {
             painter
                 .ctx()
                 .request_repaint_after(std::time::Duration::from_millis(50));

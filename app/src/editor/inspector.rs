@@ -768,13 +768,16 @@ impl Editor {
                 ui.monospace(format!(
                     "{what} on the window's GPU ({traced} frames traced, no frame read back)"
                 ));
-                if self.gpu_viewport_compiling() {
-                    ui.separator();
-                    ui.label("compiling its pipelines: the last frame stays on screen");
-                }
                 ui.separator();
                 ui.weak(adapter);
             } else if let Some(shown) = &self.frames.shown {
+                if self.view.gpu_compiling {
+                    ui.colored_label(
+                        egui::Color32::from_rgb(240, 180, 90),
+                        "the window's GPU compiles this scene's pipelines: traced on the CPU meanwhile",
+                    );
+                    ui.separator();
+                }
                 for f in &shown.frames {
                     let backend = if f.on_gpu { "GPU" } else { "CPU" };
                     let copied = f.pixels_copied.filter(|share| *share > 0.0).map_or(

@@ -263,13 +263,21 @@ impl Editor {
     /// Asks for the frames of the viewport (or of one grid panel of `pixels`) as they should be
     /// now; nothing is sent when nothing they depend on changed.
     fn request_frames(&mut self, ctx: &egui::Context, pixels: (usize, usize)) {
-        let interacting = self.view.gesture.is_active()
+        // While the window's GPU compiles the scene's pipelines, the CPU traces previews of it
+        // (a GPU on the render thread would compile the same pipelines first).
+        let compiling = self.view.gpu_compiling;
+        let interacting = compiling
+            || self.view.gesture.is_active()
             || self.files.last_interaction.elapsed() < frames::REFINE_AFTER;
         let order = frames::FrameOrder {
             revision: self.doc.revision(),
             compiled: self.doc.compiled(),
             frame: self.view_request(pixels),
-            backend: self.ui_state.backend,
+            backend: if compiling {
+                BackendChoice::Cpu
+            } else {
+                self.ui_state.backend
+            },
             interacting,
         };
         self.frames.request(ctx, order);

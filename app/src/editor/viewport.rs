@@ -82,6 +82,9 @@ pub(super) struct ViewportState {
     pub gpu_viewport: Option<eframe::egui_wgpu::RenderState>,
     /// The shaded viewport or the comparison grid was last drawn by the GPU viewport.
     pub viewport_on_gpu: bool,
+    /// The GPU viewport compiles the pipelines of the frame asked for: the render thread
+    /// traces the view on the CPU meanwhile, and its frames of this revision are shown.
+    pub gpu_compiling: bool,
 }
 
 impl Editor {
@@ -95,17 +98,19 @@ impl Editor {
             (rect.width() * ppp) as usize,
             (rect.height() * ppp) as usize,
         );
-        let gpu_frame = self.gpu_viewport_frame(
+        let (gpu_frame, compiling) = self.gpu_viewport_frame_or_compiling(
             View::Shaded(self.ui_state.shading),
             (pixels.0 as u32, pixels.1 as u32),
         );
         let on_gpu = gpu_frame.is_some();
-        self.view.viewport_on_gpu = on_gpu;
         if gpu_frame.is_none() {
             self.request_frames(ui.ctx(), pixels);
         }
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
         let painter = ui.painter_at(rect);
+        if let Some(frame) = compiling {
+            self.keep_compiling(&painter, rect, frame);
+        }
         self.paint_viewport_frame(&painter, rect, gpu_frame);
         let Some((projection, to_screen)) = self.viewport_projection() else {
             return;
@@ -167,7 +172,8 @@ impl Editor {
     }
 
     /// The viewport's frame: the GPU viewport's paint callback, the render thread's last
-    /// frame, or "tracing…" before the first.
+    /// frame (while the GPU viewport compiles, only one of the scene as it is now), or
+    /// "tracing…" before the first.
     fn paint_viewport_frame(
         &self,
         painter: &egui::Painter,
@@ -175,9 +181,14 @@ impl Editor {
         gpu_frame: Option<ViewportFrame>,
     ) {
         painter.rect_filled(rect, 0.0, Color32::from_rgb(20, 22, 26));
+        let shown = if self.view.gpu_compiling {
+            self.frames.shown_of(self.doc.revision())
+        } else {
+            self.frames.shown.as_ref()
+        };
         if let Some(frame) = gpu_frame {
             self.paint_gpu_viewport(painter, rect, frame, vec![rect], (StepScale::Log, None));
-        } else if let Some(f) = self.frames.shown.as_ref().and_then(|s| s.frames.first()) {
+        } else if let Some(f) = shown.and_then(|s| s.frames.first()) {
             painter.image(
                 f.texture.id(),
                 rect,

@@ -69,6 +69,24 @@ impl TryFrom<KernelSpec> for Kernel {
 }
 
 impl Kernel {
+    /// The same family and degree with the scale σ multiplied by `factor`.
+    #[must_use]
+    pub fn scaled(self, factor: f64) -> Self {
+        match self {
+            Self::CompactPolynomial { degree, scale } => Self::CompactPolynomial {
+                degree,
+                scale: scale * factor,
+            },
+            Self::Cauchy { degree, scale } => Self::Cauchy {
+                degree,
+                scale: scale * factor,
+            },
+            Self::Gaussian { scale } => Self::Gaussian {
+                scale: scale * factor,
+            },
+        }
+    }
+
     /// Checks degree and scale, and that the clipped support reaches past the prescribed
     /// radius. The file loader and `Scene::validate` both call it.
     ///

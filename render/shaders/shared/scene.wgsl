@@ -130,6 +130,11 @@ struct BvhNode {
 @group(0) @binding(15) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(16) var<storage, read> bvh_items: array<u32>;
 
+// The blend operators' parameters (smooth widths, Ricci exponents), one slot per parametrised
+// operator in pre-order, which the generated blend functions read at constant indices
+// (blend_wgsl.rs): a parameter's new value is an upload, not a new pipeline.
+@group(0) @binding(17) var<storage, read> blend_parameters: array<f32>;
+
 const INF: f32 = 3.0e38;
 
 struct Ray {

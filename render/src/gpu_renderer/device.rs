@@ -160,6 +160,7 @@ impl GpuRenderer {
                 STEPS_PER_DISPATCH
             },
             last_tile_items: 0,
+            pipelines_compiled: Arc::new(AtomicU64::new(0)),
         };
         renderer.check().map_err(BackendError::DeviceFailed)?;
         Ok(renderer)
@@ -266,6 +267,15 @@ impl GpuRenderer {
     /// same supports (those left out are ones its ray misses), so the frames are the same.
     pub fn set_hull_culling(&mut self, on: bool) {
         self.binning.hulls = on;
+    }
+
+    /// Trace pipelines compiled since the renderer was opened, in place or in the background
+    /// (counted when their compilation starts). A pipeline depends on a scene's structure only
+    /// (blend tree shape and operators, group count, primitive kinds) and on the method: an
+    /// edit of a parameter compiles none.
+    #[must_use]
+    pub fn pipelines_compiled(&self) -> u64 {
+        self.pipelines_compiled.load(Ordering::Relaxed)
     }
 
     /// (primitive, tile) pairs in the tile lists of the last frame.

@@ -495,6 +495,7 @@ impl GpuRenderer {
                     entry(14, &outputs.unfinished[0]),
                     entry(15, &scene.bvh_nodes),
                     entry(16, &scene.bvh_items),
+                    entry(17, &scene.blend_parameters),
                 ],
             });
             // A marching method goes on from where each ray stopped until every budget is spent;
@@ -618,12 +619,14 @@ impl GpuRenderer {
             .scene
             .as_ref()
             .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
+        let compiled = &self.pipelines_compiled;
         let pipeline = self
             .ray_pipelines
             .entry(method)
             .or_insert_with(|| {
-                pipeline(
+                trace_pipeline(
                     d,
+                    compiled,
                     &method.source(&scene.packed.blend, scene.packed.kinds),
                     "trace_rays",
                 )
@@ -684,6 +687,7 @@ impl GpuRenderer {
                 entry(14, &unfinished[0]),
                 entry(15, &scene.bvh_nodes),
                 entry(16, &scene.bvh_items),
+                entry(17, &scene.blend_parameters),
             ],
         });
         let dispatches = if method.resumable() {

@@ -10,6 +10,7 @@
 //! statistics rays) and `readback` (frames and pass times back from the GPU).
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use bytemuck::{Pod, Zeroable};
@@ -173,6 +174,8 @@ struct SceneBuffers {
     boxes: wgpu::Buffer,
     bvh_nodes: wgpu::Buffer,
     bvh_items: wgpu::Buffer,
+    /// [`PackedScene::blend_parameters`].
+    blend_parameters: wgpu::Buffer,
     /// [`RayBvh::point_walk_bound`] of `packed.bvh`, computed when a frame's field shading
     /// first needs it.
     point_walk_bound: OnceLock<usize>,
@@ -229,6 +232,8 @@ pub struct GpuRenderer {
     steps_per_dispatch: u32,
     /// (primitive, tile) pairs in the tile lists of the last frame.
     last_tile_items: u64,
+    /// [`GpuRenderer::pipelines_compiled`], shared with the background compilations.
+    pipelines_compiled: Arc<AtomicU64>,
 }
 
 /// Per-pixel outputs of the trace passes and their `MAP_READ` copies.
@@ -259,5 +264,6 @@ mod upload;
 
 pub(crate) use device::check_shading_walks;
 pub use device::device_descriptor;
+use pipelines::trace_pipeline;
 use readback::{pass_times, split_panels};
 use upload::buffer_of;

@@ -3,6 +3,17 @@
 
 use super::*;
 
+/// The trace shader's `entry` pipeline of the WGSL `source`, counted in `compiled`.
+pub(super) fn trace_pipeline(
+    device: &wgpu::Device,
+    compiled: &AtomicU64,
+    source: &str,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    compiled.fetch_add(1, Ordering::Relaxed);
+    pipeline(device, source, entry)
+}
+
 impl PendingPipeline {
     pub(super) fn is_for(&self, scene: &PackedScene) -> bool {
         self.blend == scene.blend && self.kinds == scene.kinds
@@ -44,8 +55,9 @@ impl GpuRenderer {
                     .filter(|p| p.is_for(&scene.packed))
                     .and_then(|p| p.compiled.join().ok());
                 let compiled = background.unwrap_or_else(|| {
-                    pipeline(
+                    trace_pipeline(
                         &self.device,
+                        &self.pipelines_compiled,
                         &m.source(&scene.packed.blend, scene.packed.kinds),
                         "trace_pixels",
                     )
@@ -63,8 +75,7 @@ impl GpuRenderer {
     /// rest ([`GpuRenderer::encode_frame`]). One compiles per method at a time: a pipeline
     /// started for an earlier blend tree or set of primitive kinds (a driver's compilation
     /// cannot be cancelled) is left to finish and dropped before this scene's starts, so that
-    /// a slider dragged over a blend's width or Ricci exponent, which are in the shader's code,
-    /// does not start one compilation per value it passes.
+    /// a run of structural edits does not queue one compilation per edit.
     pub fn pipelines_compiling(&mut self, methods: &[GpuMethod]) -> bool {
         let Some(scene) = &self.scene else {
             return false;
@@ -89,9 +100,11 @@ impl GpuRenderer {
                 // None started, or one for an earlier scene, done: this scene's starts.
                 _ => {
                     let device = self.device.clone();
+                    let count = Arc::clone(&self.pipelines_compiled);
                     let source = m.source(&scene.packed.blend, scene.packed.kinds);
-                    let compiled =
-                        std::thread::spawn(move || pipeline(&device, &source, "trace_pixels"));
+                    let compiled = std::thread::spawn(move || {
+                        trace_pipeline(&device, &count, &source, "trace_pixels")
+                    });
                     self.pending_pipelines.insert(
                         m,
                         PendingPipeline {

@@ -103,8 +103,9 @@ impl GpuRenderer {
     pub fn set_scene(&mut self, compiled: &Arc<Compiled>) -> Result<(), BackendError> {
         let program = &compiled.program;
         let packed = PackedScene::new(compiled).map_err(BackendError::Unsupported)?;
-        // The pipelines hold the blend tree's code (blend_wgsl.rs) and the code of the scene's
-        // primitive kinds (shared.rs KindSet): a new tree or a new kind needs new ones.
+        // The pipelines hold the blend tree's structure (blend_wgsl.rs; its parameters are
+        // uploaded) and the code of the scene's primitive kinds (shared.rs KindSet): a tree of
+        // another shape or a new kind needs new ones.
         if self
             .scene
             .as_ref()
@@ -123,6 +124,7 @@ impl GpuRenderer {
             && old.packed.boxes.len() == packed.boxes.len()
             && old.packed.bvh.nodes.len() == packed.bvh.nodes.len()
             && old.packed.bvh.items.len() == packed.bvh.items.len()
+            && old.packed.blend_parameters.len() == packed.blend_parameters.len()
         {
             let changed: Vec<usize> = (0..packed.primitives.len())
                 .filter(|&i| old.packed.primitives[i] != packed.primitives[i])
@@ -141,6 +143,11 @@ impl GpuRenderer {
                 .write_buffer(&old.lights, 0, bytemuck::cast_slice(&packed.lights));
             self.queue
                 .write_buffer(&old.boxes, 0, bytemuck::cast_slice(&packed.boxes));
+            self.queue.write_buffer(
+                &old.blend_parameters,
+                0,
+                bytemuck::cast_slice(&packed.blend_parameters),
+            );
             if old.packed.bvh != packed.bvh {
                 old.point_walk_bound = OnceLock::new();
                 let (nodes, items) = (&packed.bvh.nodes, &packed.bvh.items);
@@ -166,6 +173,11 @@ impl GpuRenderer {
             boxes: storage(d, "HRBF boxes", bytemuck::cast_slice(&packed.boxes)),
             bvh_nodes: storage(d, "BVH nodes", bytemuck::cast_slice(&packed.bvh.nodes)),
             bvh_items: storage(d, "BVH items", bytemuck::cast_slice(&packed.bvh.items)),
+            blend_parameters: storage(
+                d,
+                "blend parameters",
+                bytemuck::cast_slice(&packed.blend_parameters),
+            ),
             point_walk_bound: OnceLock::new(),
             compiled: Arc::clone(compiled),
             packed,
