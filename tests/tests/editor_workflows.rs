@@ -12,8 +12,8 @@ use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use skeletrace::editor::{
-    BackendChoice, DialogRequest, Document, Editor, FileDialogs, FilePurpose, Item, UiState,
-    ViewMode,
+    BackendChoice, DialogRequest, Document, Edit, Editor, FileDialogs, FilePurpose, Item,
+    UiState, ViewMode,
 };
 use skeletrace_core::model::kernel::Kernel;
 
@@ -922,6 +922,72 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
         one,
         "an edit of one blob uploads one primitive"
     );
+}
+
+/// A structural edit (a blend tree of another shape: new pipelines) in the GPU viewport on
+/// lavapipe: until the new pipelines are compiled, the window shows the new scene traced on the
+/// CPU at a preview's resolution, never the last GPU frame, and the status bar says so; then
+/// the GPU traces the new scene. The new tree nests the blobs' tree in sums and Ricci blends of
+/// one operand, as many and in the order the clock's nanoseconds pick, so that Mesa's shader
+/// cache has not seen its shaders and their compilation is as cold as on a fresh machine.
+#[test]
+fn a_structural_edit_shows_the_new_scene_on_the_cpu_while_the_gpu_compiles() {
+    if skeletrace_tests::skip_without_gpu("a_structural_edit_shows_the_new_scene_on_the_cpu") {
+        return;
+    }
+    const PPP: f32 = 0.3;
+    let ui_state = UiState {
+        backend: BackendChoice::Auto,
+        shaded_method: skeletrace_core::MethodId::QuadraticTaylor,
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
+    settle_gpu_viewport(&mut h);
+    assert_eq!(h.state().viewport_source(), Some(true), "the GPU draws the view");
+    let (traced, _, _) = h.state().gpu_viewport_counts().unwrap_or_default();
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let depth = 1 + nanos % 40;
+    let applied = h.state_mut().apply(Edit::new("nest the blend"), |scene| {
+        use skeletrace_core::model::scene::Blend;
+        let mut blend = scene.blend.take().unwrap_or_else(|| panic!("blobs blend"));
+        for level in 0..depth {
+            // A sum or a Ricci blend of one operand (the blobs' fields are not negative):
+            // the field stays, the code grows.
+            blend = if (nanos >> (6 + level % 24)) & 1 == 0 {
+                Blend::Sum(vec![blend])
+            } else {
+                Blend::Ricci {
+                    p: 2.0,
+                    of: vec![blend],
+                }
+            };
+        }
+        scene.blend = Some(blend);
+    });
+    assert!(applied, "the edit is applied");
+    let (mut cpu_draws, mut labelled) = (0, false);
+    draw_until(&mut h, "the GPU frame of the new scene", |h, _| {
+        let editor = h.state();
+        if editor.gpu_viewport_compiling() && editor.viewport_source() == Some(false) {
+            cpu_draws += 1;
+            labelled |= h
+                .query_by_label_contains("traced on the CPU meanwhile")
+                .is_some();
+        }
+        let (now, _, _) = editor.gpu_viewport_counts().unwrap_or_default();
+        (now > traced && !editor.gpu_viewport_compiling()).then_some(())
+    });
+    eprintln!("{cpu_draws} draws showed the CPU's frame of the new scene (nesting {depth})");
+    assert!(
+        cpu_draws > 0,
+        "the new scene's CPU frame was shown before its GPU pipelines were compiled"
+    );
+    assert!(labelled, "the status bar says the CPU traces meanwhile");
+    settle_gpu_viewport(&mut h);
+    assert_eq!(h.state().viewport_source(), Some(true), "the GPU draws again");
 }
 
 /// With "shadow rays" on, the GPU viewport traces a shadow ray from each hit to each

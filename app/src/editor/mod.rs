@@ -149,6 +149,24 @@ impl Editor {
             .unwrap_or_default()
     }
 
+    /// What the shaded viewport or the grid shows: `Some(true)` the window's GPU, `Some(false)`
+    /// the render thread's frames of the document's current revision while the window's GPU
+    /// compiles its pipelines, `None` otherwise (the render thread's frames without a GPU
+    /// viewport, or nothing yet).
+    #[must_use]
+    pub fn viewport_source(&self) -> Option<bool> {
+        if self.view.viewport_on_gpu {
+            Some(true)
+        } else if self.view.gpu_compiling {
+            self.frames
+                .shown_of(self.doc.revision())
+                .is_some_and(|s| !s.frames.is_empty())
+                .then_some(false)
+        } else {
+            None
+        }
+    }
+
     /// Blocks until the renderer has answered every request sent so far and shows the answer
     /// (tests: the frame then reflects the current scene).
     pub fn wait_for_frames(&mut self, ctx: &egui::Context) {
@@ -217,8 +235,9 @@ impl Editor {
         });
     }
 
-    /// Applies an edit, reporting a refused one in the status bar.
-    fn apply(&mut self, edit: Edit, change: impl FnOnce(&mut Scene)) -> bool {
+    /// Applies an edit as the inspector does (undoable, compiled once), reporting a refused
+    /// one in the status bar; whether it was applied.
+    pub fn apply(&mut self, edit: Edit, change: impl FnOnce(&mut Scene)) -> bool {
         match self.doc.apply(edit, change) {
             Ok(()) => true,
             Err(why) => {

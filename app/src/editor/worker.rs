@@ -81,14 +81,25 @@ pub struct Reply {
     pub device_failure: Option<String>,
 }
 
+/// The newest request sent to the thread.
+struct Newest {
+    cancel: Cancel,
+    preview: bool,
+    id: u64,
+}
+
 /// Handle on the renderer thread.
 pub struct RenderWorker {
     requests: Option<Sender<Request>>,
-    /// The cancel flag of the newest request sent, and whether it is a preview.
-    newest: Mutex<Option<(Cancel, bool)>>,
+    /// The newest request sent: its cancel flag, whether it is a preview, its id. Held while
+    /// a request is sent, so that the newest is the last in the channel also when several
+    /// threads send at once (else the thread could take a cancelled one last and answer
+    /// none).
+    newest: Mutex<Option<Newest>>,
     /// The cancel flag of the request the thread is tracing.
     running: Arc<Mutex<Option<Cancel>>>,
-    replies: Receiver<Reply>,
+    /// Behind a lock so that the handle can be shared by threads that send requests.
+    replies: Mutex<Receiver<Reply>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -108,19 +119,28 @@ impl RenderWorker {
             requests: Some(request_tx),
             newest: Mutex::new(None),
             running,
-            replies: reply_rx,
+            replies: Mutex::new(reply_rx),
             thread,
         }
     }
 
     /// Queues a request: the one sent before is cancelled unless it is a preview (a preview
-    /// being traced finishes); older queued ones are dropped by the thread.
+    /// being traced finishes); older queued ones are dropped by the thread. The newest request
+    /// is always answered (unless [`RenderWorker::cancel_all`] cancels it).
     pub fn request(&self, request: Request) {
-        if let Ok(mut newest) = self.newest.lock()
-            && let Some((previous, false)) =
-                newest.replace((request.frame.cancel.clone(), request.preview))
+        let mut newest = self
+            .newest
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let now = Newest {
+            cancel: request.frame.cancel.clone(),
+            preview: request.preview,
+            id: request.id,
+        };
+        if let Some(previous) = newest.replace(now)
+            && !previous.preview
         {
-            previous.cancel();
+            previous.cancel.cancel();
         }
         if let Some(tx) = &self.requests {
             // A closed channel means the thread ended; the UI then shows its last frame.
@@ -128,13 +148,19 @@ impl RenderWorker {
         }
     }
 
+    /// The id of the newest request sent.
+    #[cfg(test)]
+    fn newest_id(&self) -> Option<u64> {
+        self.newest.lock().ok()?.as_ref().map(|n| n.id)
+    }
+
     /// Cancels the request being traced and the newest one sent: none of them gets a reply
     /// (an overrunning preview, before a coarser one is asked for).
     pub fn cancel_all(&self) {
         if let Ok(newest) = self.newest.lock()
-            && let Some((cancel, _)) = newest.as_ref()
+            && let Some(newest) = newest.as_ref()
         {
-            cancel.cancel();
+            newest.cancel.cancel();
         }
         if let Ok(running) = self.running.lock()
             && let Some(cancel) = running.as_ref()
@@ -146,7 +172,7 @@ impl RenderWorker {
     /// The newest reply since the last call, if any.
     #[must_use]
     pub fn latest(&self) -> Option<Reply> {
-        self.replies.try_iter().last()
+        self.replies.lock().ok()?.try_iter().last()
     }
 
     /// Waits for the reply to request `id` (tests and offscreen screenshots), at most
@@ -154,9 +180,10 @@ impl RenderWorker {
     #[must_use]
     pub fn wait_for(&self, id: u64, deadline: std::time::Duration) -> Option<Reply> {
         let end = Instant::now() + deadline;
+        let replies = self.replies.lock().ok()?;
         loop {
             let left = end.checked_duration_since(Instant::now())?;
-            match self.replies.recv_timeout(left) {
+            match replies.recv_timeout(left) {
                 Ok(reply) if reply.id >= id => return Some(reply),
                 Ok(_) => {}
                 Err(_) => return None,
@@ -441,7 +468,12 @@ mod tests {
             let mut next = Request { id, ..drag.clone() };
             next.frame.cancel = Cancel::new();
             worker.request(next);
-            for reply in worker.replies.try_iter() {
+            for reply in worker
+                .replies
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .try_iter()
+            {
                 answered += 1;
                 newest = newest.max(reply.id);
             }
@@ -454,6 +486,63 @@ mod tests {
                 .wait_for(500, TEST_DEADLINE)
                 .unwrap_or_else(|| panic!("a reply to the newest request"));
             assert_eq!(last.id, 500);
+        }
+    }
+
+    /// Requests from racing threads (a UI and a screenshot, say), thousands of them in bursts
+    /// that start together, with random delays, previews and full frames mixed: after each
+    /// burst the newest request is answered, within a deadline. (When a request was sent after
+    /// its cancel flag was registered, outside one lock, two senders could leave a cancelled
+    /// request last in the channel: the thread took it, traced nothing and answered nothing.)
+    #[test]
+    fn the_newest_of_racing_requests_is_always_answered() {
+        use skeletrace_core::model::rng::SplitMix64;
+        use std::sync::Barrier;
+        use std::sync::atomic::{AtomicU64, Ordering};
+        const SENDERS: u64 = 4;
+        let base = default_request(0, (8, 6), vec![MethodId::QuadraticTaylor]);
+        let worker = RenderWorker::start(|| {});
+        let ids = AtomicU64::new(1);
+        let start = Barrier::new(SENDERS as usize);
+        for burst in 0..300_u64 {
+            std::thread::scope(|scope| {
+                for sender in 0..SENDERS {
+                    let (worker, ids, base, start) = (&worker, &ids, &base, &start);
+                    scope.spawn(move || {
+                        let mut rng = SplitMix64::new(burst * SENDERS + sender + 1);
+                        start.wait();
+                        for _ in 0..1 + rng.below(4) {
+                            let mut request = Request {
+                                id: ids.fetch_add(1, Ordering::Relaxed),
+                                preview: rng.unit() < 0.3,
+                                ..base.clone()
+                            };
+                            request.frame.cancel = Cancel::new();
+                            worker.request(request);
+                            let pause = (rng.unit() * 200.0) as u64;
+                            std::thread::sleep(std::time::Duration::from_micros(pause));
+                        }
+                    });
+                }
+            });
+            let newest = worker
+                .newest_id()
+                .unwrap_or_else(|| panic!("requests were sent"));
+            let end = Instant::now() + TEST_DEADLINE;
+            let replies = worker
+                .replies
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            loop {
+                let left = end
+                    .checked_duration_since(Instant::now())
+                    .unwrap_or_else(|| panic!("burst {burst}: request {newest} never answered"));
+                match replies.recv_timeout(left) {
+                    Ok(reply) if reply.id == newest => break,
+                    Ok(_) => {}
+                    Err(e) => panic!("burst {burst}: request {newest} never answered ({e})"),
+                }
+            }
         }
     }
 }
