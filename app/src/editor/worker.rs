@@ -85,6 +85,10 @@ pub struct Reply {
 struct Newest {
     cancel: Cancel,
     preview: bool,
+    #[cfg_attr(
+        not(test),
+        expect(dead_code, reason = "the tests ask which request is the newest")
+    )]
     id: u64,
 }
 
