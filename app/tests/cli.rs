@@ -794,3 +794,44 @@ fn stats_reports_methods_in_the_order_asked() {
     let value = parse_json(&text(&o.stdout));
     assert_eq!(names(&value, "methods"), ["quadratic-taylor", "segment"]);
 }
+
+/// `bench --sweep`: on the CPU (no pipelines to count: the field is absent), every value is
+/// traced and compared with the CPU tracer (the same frames: no difference); a scene without
+/// the parameter, or a sweep without `--sweep`'s values, fails in one line naming it.
+#[test]
+fn bench_sweep_reports_each_value_and_refuses_a_scene_without_the_parameter() {
+    let asset = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(format!("../assets/scenes/{name}.ron"))
+            .display()
+            .to_string()
+    };
+    let (operators, blobs) = (asset("operators"), asset("blobs"));
+    let operators = operators.as_str();
+    let out = skeletrace(&[
+        "bench", operators, "--sweep", "ricci-exponent", "--steps", "3", "--size", "24x16",
+        "--methods", "segment", "--json",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report = parse_json(&text(&out.stdout));
+    assert_eq!(report["param"], "ricci-exponent");
+    assert_eq!(report["targets"], 1);
+    assert_eq!(report["frames"], 3);
+    assert!(report.get("pipelines_compiled").is_none(), "{report}");
+    assert_eq!(report["max_pixel_difference_to_cpu"], 0.0, "{report}");
+    assert_eq!(report["min_hit_mask_agreement"], 1.0, "{report}");
+    assert_eq!(names(&report, "methods"), ["segment"]);
+
+    let out = skeletrace(&[
+        "bench", &blobs, "--sweep", "smooth-width", "--steps", "2",
+    ]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("--sweep smooth-width") && stderr.contains("no smooth union or intersection"),
+        "{stderr}"
+    );
+    let out = skeletrace(&["bench", operators, "--steps", "4"]);
+    assert!(!out.status.success(), "--steps needs --sweep");
+}

@@ -924,6 +924,65 @@ fn the_gpu_viewport_paints_the_traced_frame_in_the_window() {
     );
 }
 
+/// The comparison grid never waits for its slowest panel: the render thread traces the grid's
+/// methods cheapest first and hands each frame over as it comes, so quadratic Taylor's panel is
+/// at full resolution while sphere tracing's (tens of times slower on the creature) still shows
+/// its preview; then both are at full resolution.
+#[test]
+fn the_grid_shows_fast_panels_at_full_resolution_while_a_slow_one_refines() {
+    if skeletrace_tests::skip_without_gpu("the_grid_shows_fast_panels_at_full_resolution") {
+        return;
+    }
+    use skeletrace_core::MethodId;
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        view: ViewMode::Compare,
+        compare_methods: vec![MethodId::Sphere, MethodId::QuadraticTaylor],
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(720.0, 420.0))
+        .wgpu()
+        .build_ui_state(
+            |ui, editor: &mut Editor| editor.ui(ui),
+            Editor::new(doc, ui_state, None, || {}),
+        );
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(600);
+    let (mut mixed, mut first) = (None, None);
+    loop {
+        h.step();
+        let frames = h.state().shown_frames();
+        let pixels = |method| {
+            frames
+                .iter()
+                .find(|(m, _)| *m == method)
+                .map(|(_, f)| f.width * f.height)
+        };
+        if let (Some(sphere), Some(taylor)) =
+            (pixels(MethodId::Sphere), pixels(MethodId::QuadraticTaylor))
+        {
+            let smallest = *first.get_or_insert(sphere.min(taylor));
+            if taylor > sphere {
+                mixed.get_or_insert((sphere, taylor));
+            } else if sphere == taylor && sphere > smallest {
+                // Both past the first preview's size: both at full resolution.
+                break;
+            }
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the grid never reached both panels at full resolution"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let (sphere, taylor) =
+        mixed.unwrap_or_else(|| panic!("quadratic Taylor's panel never led sphere tracing's"));
+    eprintln!(
+        "quadratic-taylor at {taylor} pixels while sphere tracing showed {sphere}; then both full"
+    );
+}
+
 /// A structural edit (a blend tree of another shape: new pipelines) in the GPU viewport on
 /// lavapipe: until the new pipelines are compiled, the window shows the new scene traced on the
 /// CPU at a preview's resolution, never the last GPU frame, and the status bar says so; then

@@ -21,6 +21,9 @@ struct PanelInfo {
     histogram: Option<StepHistogram>,
     /// Its step count at the hovered pixel, once known.
     hovered_steps: Option<u32>,
+    /// A frame below the grid's resolution or of an earlier request, while this method's
+    /// frame is still being traced: how it stands.
+    progress: Option<String>,
 }
 
 impl Editor {
@@ -132,6 +135,7 @@ impl Editor {
                     on_gpu: true,
                     histogram: None,
                     hovered_steps: None,
+                    progress: None,
                 })
                 .collect();
             return Some(GridPanels {
@@ -145,18 +149,35 @@ impl Editor {
         } else {
             self.frames.shown.as_ref()?
         };
+        // Panels may hold frames of different sizes (a slow method's preview beside the others'
+        // full frames): the largest is the grid's.
         let size = shown
             .frames
-            .first()
-            .map_or((1, 1), |f| (f.frame.width as u32, f.frame.height as u32));
+            .iter()
+            .map(|f| (f.frame.width as u32, f.frame.height as u32))
+            .max_by_key(|&(w, h)| w * h)
+            .unwrap_or((1, 1));
         let infos = shown
             .frames
             .iter()
-            .map(|f| PanelInfo {
-                method: f.method,
-                on_gpu: f.on_gpu,
-                histogram: Some(f.histogram.clone()),
-                hovered_steps: None,
+            .map(|f| {
+                let preview = (f.frame.width as u32) < size.0;
+                let progress = match (f.earlier, preview) {
+                    (false, false) => None,
+                    (earlier, true) => Some(format!(
+                        "preview 1/{}{}",
+                        (size.0 as usize).div_ceil(f.frame.width.max(1)),
+                        if earlier { ", refining…" } else { "" }
+                    )),
+                    (true, false) => Some("refining…".to_owned()),
+                };
+                PanelInfo {
+                    method: f.method,
+                    on_gpu: f.on_gpu,
+                    histogram: Some(f.histogram.clone()),
+                    hovered_steps: None,
+                    progress,
+                }
             })
             .collect();
         Some(GridPanels {
@@ -209,8 +230,17 @@ impl Editor {
         infos: &mut [PanelInfo],
     ) {
         if let (Some(shown), Some((u, v))) = (&self.frames.shown, self.view.hovered_pixel) {
+            // The hovered pixel is in the largest frame's pixels: scaled to each frame's.
+            let (w, h) = shown
+                .frames
+                .iter()
+                .map(|f| (f.frame.width, f.frame.height))
+                .max_by_key(|&(w, h)| w * h)
+                .unwrap_or((1, 1));
             for (info, f) in infos.iter_mut().zip(&shown.frames) {
-                info.hovered_steps = Some(f.frame.steps[v * f.frame.width + u]);
+                let x = (u * f.frame.width / w.max(1)).min(f.frame.width.saturating_sub(1));
+                let y = (v * f.frame.height / h.max(1)).min(f.frame.height.saturating_sub(1));
+                info.hovered_steps = f.frame.steps.get(y * f.frame.width + x).copied();
             }
         }
         for (f, image_rect) in self.frames.shown.iter().flat_map(|s| &s.frames).zip(panels) {
@@ -506,10 +536,14 @@ fn panel_caption(
     cell_w: f32,
 ) {
     let backend = if info.on_gpu { "GPU" } else { "CPU" };
+    let progress = info
+        .progress
+        .as_ref()
+        .map_or(String::new(), |p| format!(", {p}"));
     painter.text(
         egui::pos2(x + 4.0, y + 2.0),
         egui::Align2::LEFT_TOP,
-        format!("{} ({backend})", info.method),
+        format!("{} ({backend}{progress})", info.method),
         egui::FontId::proportional(14.0),
         egui::Color32::WHITE,
     );

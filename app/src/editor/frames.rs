@@ -22,7 +22,7 @@ use skeletrace_core::frame::{Frame, StepHistogram, StepScale, shared_step_top};
 use skeletrace_core::methods::MethodId;
 
 use super::ViewMode;
-use super::worker::{RenderWorker, Reply, Request};
+use super::worker::{RenderWorker, Reply, Request, Traced};
 use crate::picture::Canvas;
 
 /// Preview resolution divisor at start: half the viewport's width and height.
@@ -67,6 +67,9 @@ pub(super) struct ShownFrame {
     pub ms: f64,
     /// On the CPU, the share of pixels copied from an earlier frame.
     pub pixels_copied: Option<f64>,
+    /// The frame of an earlier request, kept on screen while this method's frame of the newest
+    /// one is being traced (the grid's other panels already show theirs).
+    pub earlier: bool,
 }
 
 /// The latest reply from the renderer thread.
@@ -142,8 +145,9 @@ pub(super) struct ViewportFrames {
     /// The ids and kinds of the latest preview requests (a preview at full resolution is
     /// timed as a preview).
     preview_ids: std::collections::VecDeque<(u64, PreviewKind)>,
-    /// The ids of the latest requests with the document revision each was for.
-    revisions: std::collections::VecDeque<(u64, u64)>,
+    /// The ids of the latest requests with the document revision and the methods each was
+    /// for.
+    revisions: std::collections::VecDeque<(u64, u64, Vec<MethodId>)>,
 }
 
 impl ViewportFrames {
@@ -260,7 +264,7 @@ impl ViewportFrames {
         if self.revisions.len() == 16 {
             self.revisions.pop_front();
         }
-        self.revisions.push_back((id, revision));
+        self.revisions.push_back((id, revision, key.frame.methods.clone()));
         if interacting {
             if self.preview_ids.len() == 8 {
                 self.preview_ids.pop_front();
@@ -342,8 +346,10 @@ impl ViewportFrames {
                 .max(1.0) as usize
         });
         // The newest request answered, the renderer is idle; an older one, it starts the next.
-        self.waiting = (reply.id < self.newest_sent).then(Instant::now);
-        if let Some(first) = reply.frames.first() {
+        if !reply.partial {
+            self.waiting = (reply.id < self.newest_sent).then(Instant::now);
+        }
+        if let Some(first) = reply.frames.first().filter(|_| !reply.partial) {
             let ms = reply.frames.iter().map(|t| t.ms).sum();
             let size = (first.frame.width, first.frame.height);
             let copied = reply.frames.iter().any(|t| t.pixels_copied > Some(0.0));
@@ -380,17 +386,44 @@ impl ViewportFrames {
                 None => {}
             }
         }
-        let histograms: Vec<StepHistogram> = reply
-            .frames
+        let (revision, methods) = self
+            .revisions
             .iter()
-            .map(|t| t.frame.step_histogram())
-            .collect();
+            .find(|(id, _, _)| *id == reply.id)
+            .map_or((0, Vec::new()), |(_, revision, methods)| {
+                (*revision, methods.clone())
+            });
+        let previous = self.shown.take();
+        // A partial reply's methods not traced yet keep their frames of an earlier request.
+        let (mut kept, adapter, gpu, skipped) = match previous {
+            Some(p) if reply.partial => (p.frames, p.adapter, p.gpu, p.skipped),
+            _ => (Vec::new(), reply.adapter, reply.gpu, reply.skipped),
+        };
+        // Each panel's frame in the request's order: (traced, its histogram, earlier).
+        let mut traced = reply.frames;
+        let mut panels: Vec<(Traced, StepHistogram, bool)> = Vec::new();
+        for method in methods {
+            if let Some(k) = traced.iter().position(|t| t.method == method) {
+                let t = traced.swap_remove(k);
+                let histogram = t.frame.step_histogram();
+                panels.push((t, histogram, false));
+            } else if let Some(k) = kept.iter().position(|f| f.method == method) {
+                let f = kept.swap_remove(k);
+                let t = Traced {
+                    method: f.method,
+                    frame: f.frame,
+                    on_gpu: f.on_gpu,
+                    ms: f.ms,
+                    pixels_copied: f.pixels_copied,
+                };
+                panels.push((t, f.histogram, true));
+            }
+        }
+        let histograms: Vec<StepHistogram> = panels.iter().map(|p| p.1.clone()).collect();
         let steps_max = shared_step_top(&histograms);
-        let frames = reply
-            .frames
+        let frames = panels
             .into_iter()
-            .zip(histograms)
-            .map(|(t, histogram)| {
+            .map(|(t, histogram, earlier)| {
                 let image = frame_image(&t.frame, view, steps_max, scale);
                 let texture = ctx.load_texture(
                     format!("frame-{}", t.method),
@@ -405,21 +438,17 @@ impl ViewportFrames {
                     on_gpu: t.on_gpu,
                     ms: t.ms,
                     pixels_copied: t.pixels_copied,
+                    earlier,
                 }
             })
             .collect();
-        let revision = self
-            .revisions
-            .iter()
-            .find(|(id, _)| *id == reply.id)
-            .map_or(0, |(_, revision)| *revision);
         self.shown = Some(Shown {
             id: reply.id,
             revision,
             frames,
-            skipped: reply.skipped,
-            adapter: reply.adapter,
-            gpu: reply.gpu,
+            skipped,
+            adapter,
+            gpu,
             steps_max,
             scale,
             refined,

@@ -6,6 +6,10 @@
 //! continuous drag shows a preview every preview time instead of none until it pauses (the UI
 //! cancels one that overruns, `RenderWorker::cancel_all`).
 //!
+//! A request of several methods (the comparison grid) traces the cheapest first, by each
+//! method's last time per pixel, and sends a partial reply after each method but the last, so
+//! that no panel waits for the slowest: the grid shows each method's frame as it comes.
+//!
 //! A request carries the document's `Arc<Compiled>`, never a scene to compile: moving the
 //! camera compiles nothing, and the GPU re-uploads only when the compiled scene changes. Every
 //! frame says where it was traced. A GPU that fails (device lost, a shader that does not build)
@@ -50,6 +54,7 @@ pub struct Request {
 }
 
 /// One traced frame.
+#[derive(Clone)]
 pub struct Traced {
     /// The method.
     pub method: MethodId,
@@ -79,6 +84,8 @@ pub struct Reply {
     /// A device failure met while tracing this request (the GPU is then dropped and the
     /// request traced on the CPU).
     pub device_failure: Option<String>,
+    /// More frames of this request follow: these are the methods traced so far.
+    pub partial: bool,
 }
 
 /// The newest request sent to the thread.
@@ -188,7 +195,7 @@ impl RenderWorker {
         loop {
             let left = end.checked_duration_since(Instant::now())?;
             match replies.recv_timeout(left) {
-                Ok(reply) if reply.id >= id => return Some(reply),
+                Ok(reply) if reply.id >= id && !reply.partial => return Some(reply),
                 Ok(_) => {}
                 Err(_) => return None,
             }
@@ -212,6 +219,7 @@ fn serve(
     wake: &dyn Fn(),
 ) {
     let mut backends: Option<Backends> = None;
+    let mut costs = MethodCosts::default();
     while let Ok(mut request) = requests.recv() {
         while let Ok(newer) = requests.try_recv() {
             request = newer;
@@ -227,7 +235,12 @@ fn serve(
         if let Ok(mut running) = running.lock() {
             *running = Some(request.frame.cancel.clone());
         }
-        let traced = trace(&request, backends);
+        let mut send_partial = |reply: Reply| {
+            if replies.send(reply).is_ok() {
+                wake();
+            }
+        };
+        let traced = trace_cheapest_first(&request, backends, &mut costs, &mut send_partial);
         if let Ok(mut running) = running.lock() {
             *running = None;
         }
@@ -242,13 +255,65 @@ fn serve(
     }
 }
 
-/// Traces every method of `request`, each on the backend chosen for it; `None` when the request
-/// was cancelled meanwhile.
+/// Each method's last milliseconds per pixel on the render thread.
+#[derive(Default)]
+struct MethodCosts(std::collections::HashMap<MethodId, f64>);
+
+impl MethodCosts {
+    /// The methods of `request` cheapest first (those not timed yet first of all).
+    fn order(&self, methods: &[MethodId]) -> Vec<MethodId> {
+        let mut ordered = methods.to_vec();
+        ordered.sort_by(|a, b| {
+            let cost = |m| self.0.get(m).copied().unwrap_or(0.0);
+            cost(a).total_cmp(&cost(b))
+        });
+        ordered
+    }
+
+    fn note(&mut self, traced: &[Traced]) {
+        for t in traced {
+            let pixels = (t.frame.width * t.frame.height).max(1) as f64;
+            self.0.insert(t.method, t.ms / pixels);
+        }
+    }
+}
+
+/// [`trace`] of the request's methods, cheapest first by `costs`, handing a partial reply (the
+/// frames so far, in request order) to `partial` after each method but the last; the full
+/// reply, its frames in request order, at the end.
+fn trace_cheapest_first(
+    request: &Request,
+    backends: &mut Backends,
+    costs: &mut MethodCosts,
+    partial: &mut dyn FnMut(Reply),
+) -> Option<Reply> {
+    let order = costs.order(&request.frame.methods);
+    let mut reply = trace_in_order(request, backends, &order, partial)?;
+    costs.note(&reply.frames);
+    let position = |m: MethodId| request.frame.methods.iter().position(|&r| r == m);
+    reply.frames.sort_by_key(|t| position(t.method));
+    Some(reply)
+}
+
+/// Traces every method of `request` in its order, each on the backend chosen for it; `None`
+/// when the request was cancelled meanwhile (the tests' way to trace as the thread does).
+#[cfg(test)]
 pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
-    let mut frames = Vec::new();
+    trace_in_order(request, backends, &request.frame.methods, &mut |_| {})
+}
+
+/// [`trace`] of `order` (the request's methods), handing the frames so far to `partial` after
+/// each method but the last.
+fn trace_in_order(
+    request: &Request,
+    backends: &mut Backends,
+    order: &[MethodId],
+    partial: &mut dyn FnMut(Reply),
+) -> Option<Reply> {
+    let mut frames: Vec<Traced> = Vec::new();
     let mut skipped = Vec::new();
     let mut device_failure = None;
-    for &method in &request.frame.methods {
+    for (k, &method) in order.iter().enumerate() {
         let frame_request = FrameRequest {
             methods: vec![method],
             ..request.frame.clone()
@@ -281,13 +346,26 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
         };
         match traced {
             Err(BackendError::Cancelled) => return None,
-            Ok((frame, on_gpu)) => frames.push(Traced {
-                method,
-                frame,
-                on_gpu,
-                ms: start.elapsed().as_secs_f64() * 1e3,
-                pixels_copied: (!on_gpu).then(|| backends.cpu.share_of_pixels_reused()),
-            }),
+            Ok((frame, on_gpu)) => {
+                frames.push(Traced {
+                    method,
+                    frame,
+                    on_gpu,
+                    ms: start.elapsed().as_secs_f64() * 1e3,
+                    pixels_copied: (!on_gpu).then(|| backends.cpu.share_of_pixels_reused()),
+                });
+                if k + 1 < order.len() {
+                    partial(Reply {
+                        id: request.id,
+                        frames: frames.iter().map(Traced::clone).collect(),
+                        skipped: Vec::new(),
+                        adapter: String::new(),
+                        gpu: None,
+                        device_failure: None,
+                        partial: true,
+                    });
+                }
+            }
             Err(e) => skipped.push(format!("{method}: {e}")),
         }
     }
@@ -302,6 +380,7 @@ pub fn trace(request: &Request, backends: &mut Backends) -> Option<Reply> {
         adapter,
         gpu,
         device_failure,
+        partial: false,
     })
 }
 
