@@ -73,9 +73,10 @@ impl SweepParam {
                 }
                 count
             }
-            Self::SmoothWidth | Self::RicciExponent => {
-                scene.blend.as_mut().map_or(0, |b| scale_operators(b, self, factor))
-            }
+            Self::SmoothWidth | Self::RicciExponent => scene
+                .blend
+                .as_mut()
+                .map_or(0, |b| scale_operators(b, self, factor)),
         }
     }
 }
@@ -260,10 +261,10 @@ pub fn run(args: &BenchArgs, scene: &Scene, param: SweepParam) -> Result<(), Str
         if !devices.contains(&device) {
             devices.push(device.clone());
         }
-        methods.push(sweep_method(
-            backend, &mut cpu, method, &request, &compiled, &swept,
-        )
-        .map_err(|e| format!("{method} on {device}: {e}"))?);
+        methods.push(
+            sweep_method(backend, &mut cpu, method, &request, &compiled, &swept)
+                .map_err(|e| format!("{method} on {device}: {e}"))?,
+        );
     }
     let report = SweepReport {
         scene: &args.scene.display().to_string(),
@@ -275,7 +276,10 @@ pub fn run(args: &BenchArgs, scene: &Scene, param: SweepParam) -> Result<(), Str
         frames: args.steps,
         pipelines_compiled: methods.iter().map(|m| m.pipelines_compiled).sum(),
         ms_per_frame_median: median(methods.iter().map(|m| m.ms_per_frame_median).collect()),
-        ms_per_frame_max: methods.iter().map(|m| m.ms_per_frame_max).fold(0.0, f64::max),
+        ms_per_frame_max: methods
+            .iter()
+            .map(|m| m.ms_per_frame_max)
+            .fold(0.0, f64::max),
         max_pixel_difference_to_cpu: methods
             .iter()
             .map(|m| m.max_pixel_difference_to_cpu)

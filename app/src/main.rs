@@ -35,12 +35,10 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Command::Generate(args)) => run_generate(&args),
         Some(Command::Stats(args)) => run_stats(&args),
-        Some(Command::Bench(args)) => {
-            load(Some(&args.scene)).and_then(|s| match args.sweep {
-                Some(param) => bench_sweep::run(&args, &s, param),
-                None => bench_cmd::run(&args, &s),
-            })
-        }
+        Some(Command::Bench(args)) => load(Some(&args.scene)).and_then(|s| match args.sweep {
+            Some(param) => bench_sweep::run(&args, &s, param),
+            None => bench_cmd::run(&args, &s),
+        }),
         Some(Command::Render(args)) => {
             load(Some(&args.scene)).and_then(|s| render_cmd::run(&args, &s))
         }

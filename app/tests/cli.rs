@@ -809,8 +809,17 @@ fn bench_sweep_reports_each_value_and_refuses_a_scene_without_the_parameter() {
     let (operators, blobs) = (asset("operators"), asset("blobs"));
     let operators = operators.as_str();
     let out = skeletrace(&[
-        "bench", operators, "--sweep", "ricci-exponent", "--steps", "3", "--size", "24x16",
-        "--methods", "segment", "--json",
+        "bench",
+        operators,
+        "--sweep",
+        "ricci-exponent",
+        "--steps",
+        "3",
+        "--size",
+        "24x16",
+        "--methods",
+        "segment",
+        "--json",
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let report = parse_json(&text(&out.stdout));
@@ -822,14 +831,13 @@ fn bench_sweep_reports_each_value_and_refuses_a_scene_without_the_parameter() {
     assert_eq!(report["min_hit_mask_agreement"], 1.0, "{report}");
     assert_eq!(names(&report, "methods"), ["segment"]);
 
-    let out = skeletrace(&[
-        "bench", &blobs, "--sweep", "smooth-width", "--steps", "2",
-    ]);
+    let out = skeletrace(&["bench", &blobs, "--sweep", "smooth-width", "--steps", "2"]);
     assert!(!out.status.success());
     let stderr = text(&out.stderr);
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(
-        stderr.contains("--sweep smooth-width") && stderr.contains("no smooth union or intersection"),
+        stderr.contains("--sweep smooth-width")
+            && stderr.contains("no smooth union or intersection"),
         "{stderr}"
     );
     let out = skeletrace(&["bench", operators, "--steps", "4"]);

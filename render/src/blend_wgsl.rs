@@ -535,7 +535,10 @@ mod tests {
         assert_eq!(blend_parameters(&a), vec![0.125, 3.0, 4.0, 0.375]);
         assert_eq!(blend_parameters(&b), vec![0.5, 7.5, 8.5, 0.0625]);
         let wgsl = BlendWgsl::new(&a, 4);
-        let all = format!("{}{}{}", wgsl.values, wgsl.jets_and_lipschitz, wgsl.composition);
+        let all = format!(
+            "{}{}{}",
+            wgsl.values, wgsl.jets_and_lipschitz, wgsl.composition
+        );
         for literal in ["0.125", "3.0", "4.0", "0.375"] {
             assert!(!all.contains(literal), "{literal} in\n{all}");
         }

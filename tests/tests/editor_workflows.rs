@@ -12,8 +12,8 @@ use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use skeletrace::editor::{
-    BackendChoice, DialogRequest, Document, Edit, Editor, FileDialogs, FilePurpose, Item,
-    UiState, ViewMode,
+    BackendChoice, DialogRequest, Document, Edit, Editor, FileDialogs, FilePurpose, Item, UiState,
+    ViewMode,
 };
 use skeletrace_core::model::kernel::Kernel;
 
@@ -1003,7 +1003,11 @@ fn a_structural_edit_shows_the_new_scene_on_the_cpu_while_the_gpu_compiles() {
     let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
     let mut h = gpu_viewport_harness(Editor::new(doc, ui_state, None, || {}), PPP);
     settle_gpu_viewport(&mut h);
-    assert_eq!(h.state().viewport_source(), Some(true), "the GPU draws the view");
+    assert_eq!(
+        h.state().viewport_source(),
+        Some(true),
+        "the GPU draws the view"
+    );
     let (traced, _, _) = h.state().gpu_viewport_counts().unwrap_or_default();
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -1046,7 +1050,11 @@ fn a_structural_edit_shows_the_new_scene_on_the_cpu_while_the_gpu_compiles() {
     );
     assert!(labelled, "the status bar says the CPU traces meanwhile");
     settle_gpu_viewport(&mut h);
-    assert_eq!(h.state().viewport_source(), Some(true), "the GPU draws again");
+    assert_eq!(
+        h.state().viewport_source(),
+        Some(true),
+        "the GPU draws again"
+    );
 }
 
 /// With "shadow rays" on, the GPU viewport traces a shadow ray from each hit to each

@@ -818,7 +818,9 @@ fn parameter_edits_compile_no_pipelines_and_match_the_cpu() {
     let first = gpu.pipelines_compiled();
     type Edit = fn(&mut Scene);
     let edits: [(&str, Edit); 8] = [
-        ("smooth union width", |s| s.blend = Some(tree(0.45, 4.0, 0.1))),
+        ("smooth union width", |s| {
+            s.blend = Some(tree(0.45, 4.0, 0.1))
+        }),
         ("ricci exponent", |s| s.blend = Some(tree(0.2, 7.0, 0.1))),
         ("smooth intersection width", |s| {
             s.blend = Some(tree(0.2, 4.0, 0.3));

@@ -264,7 +264,8 @@ impl ViewportFrames {
         if self.revisions.len() == 16 {
             self.revisions.pop_front();
         }
-        self.revisions.push_back((id, revision, key.frame.methods.clone()));
+        self.revisions
+            .push_back((id, revision, key.frame.methods.clone()));
         if interacting {
             if self.preview_ids.len() == 8 {
                 self.preview_ids.pop_front();
