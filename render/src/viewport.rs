@@ -50,8 +50,8 @@ pub struct ViewportPainter {
     last: Option<ViewportFrame>,
     traced: u64,
     failure: Option<String>,
-    /// The frame asked for waits for its pipelines, compiled off the window's thread; the last
-    /// frame stays on screen meanwhile.
+    /// The frame asked for waits for its pipelines, compiled off the window's thread; nothing
+    /// is drawn meanwhile (the editor shows the render thread's frame of the new scene).
     compiling: bool,
 }
 

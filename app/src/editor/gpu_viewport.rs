@@ -163,7 +163,7 @@ impl Editor {
     }
 
     /// Whether the GPU viewport waits for the pipelines of the frame asked for, compiled off
-    /// the window's thread (the last frame stays on screen meanwhile).
+    /// the window's thread (the render thread's CPU frame of the scene is shown meanwhile).
     #[must_use]
     pub fn gpu_viewport_compiling(&self) -> bool {
         self.with_viewport_painter(ViewportPainter::compiling)

@@ -1,5 +1,5 @@
 //! The trace pipelines of a scene's methods: compiled in place, or on threads of their own
-//! while the last frame stays on screen.
+//! while the window shows the scene traced on the CPU.
 
 use super::*;
 
