@@ -553,14 +553,19 @@ mod tests {
             text.match_indices("blend_parameters[")
                 .map(|(i, m)| {
                     let rest = &text[i + m.len()..];
-                    rest[..rest.find(']').unwrap()].parse().unwrap()
+                    let end = rest.find(']').unwrap_or_else(|| panic!("unclosed slot"));
+                    rest[..end]
+                        .parse()
+                        .unwrap_or_else(|e| panic!("slot {}: {e}", &rest[..end]))
                 })
                 .collect()
         };
         assert_eq!(slots(&wgsl.values), vec![0, 1, 2, 3]);
-        let (jets, lipschitz) = wgsl
-            .jets_and_lipschitz
-            .split_at(wgsl.jets_and_lipschitz.find("fn blend_lipschitz").unwrap());
+        let (jets, lipschitz) = wgsl.jets_and_lipschitz.split_at(
+            wgsl.jets_and_lipschitz
+                .find("fn blend_lipschitz")
+                .unwrap_or_else(|| panic!("no blend_lipschitz")),
+        );
         assert_eq!(slots(jets), vec![0, 1, 2, 3]);
         // The Lipschitz bound needs only the Ricci exponents (max bounds a smooth blend).
         assert_eq!(slots(lipschitz), vec![1, 2]);
