@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use skeletrace_core::backend::{
-    BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest, TileLists,
+    BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest, PipelineCacheState, TileLists,
 };
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::frame::{FieldShading, View};
@@ -194,6 +194,9 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     if args.after_edits && args.backend != BackendChoice::Cpu {
         return Err("--after-edits times the CPU backend: use --backend cpu".to_owned());
     }
+    // What the GPU's pipeline cache held when it opened: the first frames' times are those of
+    // a cold cache (empty) or a warm one.
+    let pipeline_cache = backends.gpu.as_ref().ok().and_then(|g| g.pipeline_cache());
     let mut rows: Vec<Row> = Vec::new();
     let mut devices: Vec<String> = Vec::new();
     for method in chosen {
@@ -263,6 +266,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             width,
             height,
             frames,
+            pipeline_cache: pipeline_cache.map(CacheRecord::of),
             methods,
             skipped,
         })
@@ -277,6 +281,18 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
             "{}: {width}x{height} on {device}, {timed}\n",
             args.scene.display()
         );
+        if let Some(cache) = &pipeline_cache {
+            let _ = writeln!(
+                text,
+                "pipeline cache {}: {}",
+                cache.path,
+                if cache.loaded_bytes == 0 {
+                    "cold (empty)".to_owned()
+                } else {
+                    format!("warm ({} bytes)", cache.loaded_bytes)
+                }
+            );
+        }
         for row in rows {
             let passes = row.passes.map_or(String::new(), |(trace, binning)| {
                 format!("   (GPU: trace {trace:.3} ms, binning {binning:.3} ms)")
@@ -320,9 +336,35 @@ struct BenchReport<'a> {
     width: usize,
     height: usize,
     frames: usize,
+    /// The GPU's persistent pipeline cache when it opened, where it keeps one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pipeline_cache: Option<CacheRecord>,
     methods: Vec<BenchMethod>,
     /// Methods `all` left out, with the reason.
     skipped: Vec<Skipped>,
+}
+
+/// `pipeline_cache` of `bench --json`.
+#[derive(serde::Serialize)]
+struct CacheRecord {
+    path: String,
+    /// `cold` (it started empty) or `warm`.
+    state: &'static str,
+    loaded_bytes: u64,
+}
+
+impl CacheRecord {
+    fn of(cache: PipelineCacheState) -> Self {
+        Self {
+            state: if cache.loaded_bytes == 0 {
+                "cold"
+            } else {
+                "warm"
+            },
+            path: cache.path,
+            loaded_bytes: cache.loaded_bytes,
+        }
+    }
 }
 
 /// One method of `bench --json`; the fields a backend or mode lacks are left out.

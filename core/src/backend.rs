@@ -173,6 +173,15 @@ pub trait Capabilities {
     ) -> Result<(), String>;
 }
 
+/// A persistent pipeline cache as a backend opened it.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct PipelineCacheState {
+    /// Its file.
+    pub path: String,
+    /// Bytes of compiled pipelines it started from: 0 when cold.
+    pub loaded_bytes: u64,
+}
+
 /// A way of tracing frames of a compiled scene.
 pub trait FrameBackend: Capabilities {
     /// The device in words (adapter name, or the CPU with its threads).
@@ -193,6 +202,12 @@ pub trait FrameBackend: Capabilities {
     /// Pipelines the backend has compiled since it was opened, where it compiles any (the
     /// GPU's trace pipelines); `None` otherwise.
     fn pipelines_compiled(&self) -> Option<u64> {
+        None
+    }
+
+    /// The pipeline cache the backend keeps across runs, as it was when it opened; `None`
+    /// where it keeps none.
+    fn pipeline_cache(&self) -> Option<PipelineCacheState> {
         None
     }
 

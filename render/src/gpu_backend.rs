@@ -6,7 +6,8 @@
 use std::sync::Arc;
 
 use skeletrace_core::backend::{
-    BackendError, Capabilities, DeviceKind, FrameBackend, FrameRequest, PassTimes, TileLists,
+    BackendError, Capabilities, DeviceKind, FrameBackend, FrameRequest, PassTimes,
+    PipelineCacheState, TileLists,
 };
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::frame::Frame;
@@ -80,6 +81,13 @@ impl FrameBackend for GpuBackend {
 
     fn pipelines_compiled(&self) -> Option<u64> {
         Some(self.renderer.pipelines_compiled())
+    }
+
+    fn pipeline_cache(&self) -> Option<PipelineCacheState> {
+        self.renderer.pipeline_cache().map(|c| PipelineCacheState {
+            path: c.path().display().to_string(),
+            loaded_bytes: c.loaded_bytes(),
+        })
     }
 
     fn render(

@@ -15,6 +15,7 @@ pub mod gpu_stats;
 pub mod gpu_support;
 #[cfg(test)]
 mod layout_tests;
+pub mod pipeline_cache;
 pub mod ray_bvh;
 pub mod ray_lists;
 pub mod shaders;

@@ -23,6 +23,16 @@ pub(crate) fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu:
 
 /// The compute pipeline of `entry` in the WGSL `source`.
 pub(crate) fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {
+    cached_pipeline(device, source, entry, None)
+}
+
+/// [`pipeline`] through a pipeline cache, where there is one.
+pub(crate) fn cached_pipeline(
+    device: &wgpu::Device,
+    source: &str,
+    entry: &str,
+    cache: Option<&wgpu::PipelineCache>,
+) -> wgpu::ComputePipeline {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(entry),
         source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -33,7 +43,7 @@ pub(crate) fn pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu
         module: &module,
         entry_point: Some(entry),
         compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
+        cache,
     })
 }
 

@@ -867,6 +867,92 @@ fn parameter_edits_compile_no_pipelines_and_match_the_cpu() {
     assert!(failures.is_empty(), "{failures:?}");
 }
 
+/// Compiled pipelines are kept across runs in a pipeline cache file per adapter and driver
+/// (`render/src/pipeline_cache.rs`): a renderer on a fresh directory starts cold and writes the
+/// file once its pipelines compile, the next starts from it (warm) and traces the same frames,
+/// and a corrupt file is ignored with a warning (the frames are the same again) and written
+/// anew. On Vulkan, lavapipe included, the device has a cache; what its data holds is the
+/// driver's (lavapipe keeps only Vulkan's header, a hardware driver its compiled code).
+#[test]
+fn pipelines_are_kept_across_runs_and_a_corrupt_cache_is_ignored() {
+    if skeletrace_tests::skip_without_gpu("pipelines_are_kept_across_runs") {
+        return;
+    }
+    let dir =
+        std::env::temp_dir().join(format!("skeletrace-pipeline-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = load("blobs");
+    let compiled = compile(&scene);
+    let run = |label: &str| {
+        let mut gpu = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+        gpu.set_pipeline_cache_dir(Some(&dir));
+        gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
+        let frames = shaded_frames(
+            &mut gpu,
+            &[GpuMethod::Segment],
+            &scene.camera,
+            &compiled.settings,
+            label,
+        );
+        (
+            gpu,
+            frames
+                .into_iter()
+                .next()
+                .unwrap_or_else(|| panic!("a frame")),
+        )
+    };
+    let (cold, first) = run("cold");
+    if cold.graphics_api() != eframe::wgpu::Backend::Vulkan {
+        eprintln!("no pipeline cache on {:?}", cold.graphics_api());
+        return;
+    }
+    let cache = cold
+        .pipeline_cache()
+        .unwrap_or_else(|| panic!("a Vulkan device has a pipeline cache"));
+    assert_eq!(cache.loaded_bytes(), 0, "a fresh directory starts cold");
+    let file = cache.path().to_path_buf();
+    let written = std::fs::read(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    let data = skeletrace_render::pipeline_cache::unwrap(&written)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .len();
+    assert!(data > 0, "the driver's data is kept");
+
+    let (warm, second) = run("warm");
+    let cache = warm.pipeline_cache().unwrap_or_else(|| panic!("a cache"));
+    assert_eq!(
+        cache.loaded_bytes(),
+        data as u64,
+        "the next run starts warm"
+    );
+    assert!(cache.warning().is_none());
+    assert_eq!(second.steps, first.steps);
+    assert_eq!(second.colour, first.colour);
+
+    let mut corrupt = written;
+    let last = corrupt.len() - 1;
+    corrupt[last] ^= 0xff;
+    std::fs::write(&file, &corrupt).unwrap_or_else(|e| panic!("{e}"));
+    let (ignored, third) = run("corrupt");
+    let cache = ignored
+        .pipeline_cache()
+        .unwrap_or_else(|| panic!("a cache"));
+    assert_eq!(cache.loaded_bytes(), 0, "a corrupt file is not used");
+    assert!(
+        cache.warning().is_some_and(|w| w.contains("ignored")),
+        "{:?}",
+        cache.warning()
+    );
+    assert_eq!(third.steps, first.steps);
+    assert_eq!(third.colour, first.colour);
+    let rewritten = std::fs::read(&file).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        skeletrace_render::pipeline_cache::unwrap(&rewritten).is_ok(),
+        "written anew"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The operator nodes in `blend`.
 fn count_operators(blend: &Blend) -> usize {
     match blend {

@@ -4,18 +4,15 @@
 use super::*;
 
 /// What the renderer asks of a device: the adapter's own limits (the trace passes bind more
-/// storage buffers than wgpu's defaults allow) and pass timestamps where the adapter has them.
-/// The editor opens eframe's device with it, so that the viewport can trace on that device.
+/// storage buffers than wgpu's defaults allow), pass timestamps and a pipeline cache
+/// ([`crate::pipeline_cache`]) where the adapter has them. The editor opens eframe's device
+/// with it, so that the viewport can trace on that device.
 #[must_use]
 pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
-    let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::PIPELINE_CACHE;
     wgpu::DeviceDescriptor {
         label: Some("skeletrace"),
-        required_features: if timestamps {
-            wgpu::Features::TIMESTAMP_QUERY
-        } else {
-            wgpu::Features::empty()
-        },
+        required_features: adapter.features() & wanted,
         required_limits: adapter.limits(),
         ..Default::default()
     }
@@ -161,9 +158,42 @@ impl GpuRenderer {
             },
             last_tile_items: 0,
             pipelines_compiled: Arc::new(AtomicU64::new(0)),
+            adapter_info: info.clone(),
+            pipeline_cache: None,
         };
+        let mut renderer = renderer;
+        renderer.set_pipeline_cache_dir(crate::pipeline_cache::default_dir().as_deref());
         renderer.check().map_err(BackendError::DeviceFailed)?;
         Ok(renderer)
+    }
+
+    /// Keeps the compiled pipelines in `dir` from now on (`None`: nowhere), starting from the
+    /// cache file there for this adapter and driver where there is a valid one
+    /// ([`crate::pipeline_cache`]). Pipelines compiled before keep working.
+    pub fn set_pipeline_cache_dir(&mut self, dir: Option<&std::path::Path>) {
+        self.pipeline_cache = dir.and_then(|dir| {
+            crate::pipeline_cache::PersistentCache::open(&self.device, &self.adapter_info, dir)
+                .map(Arc::new)
+        });
+    }
+
+    /// The persistent pipeline cache, where the device has one.
+    #[must_use]
+    pub fn pipeline_cache(&self) -> Option<&crate::pipeline_cache::PersistentCache> {
+        self.pipeline_cache.as_deref()
+    }
+
+    /// Writes the pipeline cache to its file after new pipelines compiled; a failure is
+    /// reported on standard error (the pipelines themselves are fine).
+    pub(super) fn save_pipeline_cache(&self) {
+        if let Some(cache) = &self.pipeline_cache
+            && let Err(why) = cache.save()
+        {
+            eprintln!(
+                "skeletrace: cannot keep the pipeline cache {}: {why}",
+                cache.path().display()
+            );
+        }
     }
 
     /// Adapter name, backend and type.

@@ -619,19 +619,23 @@ impl GpuRenderer {
             .scene
             .as_ref()
             .ok_or_else(|| BackendError::Unsupported("no scene uploaded".to_owned()))?;
-        let compiled = &self.pipelines_compiled;
+        let new_pipeline = !self.ray_pipelines.contains_key(&method);
+        let counted = (&*self.pipelines_compiled, self.pipeline_cache.as_deref());
         let pipeline = self
             .ray_pipelines
             .entry(method)
             .or_insert_with(|| {
                 trace_pipeline(
                     d,
-                    compiled,
+                    counted,
                     &method.source(&scene.packed.blend, scene.packed.kinds),
                     "trace_rays",
                 )
             })
             .clone();
+        if new_pipeline {
+            self.save_pipeline_cache();
+        }
         let n = rays.len() as u32;
         let globals = GpuGlobals {
             width: n,

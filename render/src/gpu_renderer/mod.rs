@@ -34,7 +34,9 @@ use crate::ray_lists::{GpuStatsRay, RayCrossings, RayLists, UploadedRayLists};
 use crate::shaders::GpuMethod;
 use crate::shared::{DEPTH_BANDS, KindSet, PATH_BYTES, STATS_ROW, SUSPENSION_BYTES, secondary};
 use crate::tile_binning::{FrameGeometry, TILE, TileBinning};
-use crate::wgpu_util::{entry, f3, map_for_reading, pipeline, read_back, storage, timestamps_at};
+use crate::wgpu_util::{
+    cached_pipeline, entry, f3, map_for_reading, read_back, storage, timestamps_at,
+};
 
 /// Steps a marching method takes per ray in one dispatch on a GPU (parts.wgsl): the 2 048-step
 /// budget in eight dispatches, none of them long (the scalis 2021 paper bounds sphere tracing
@@ -234,6 +236,10 @@ pub struct GpuRenderer {
     last_tile_items: u64,
     /// [`GpuRenderer::pipelines_compiled`], shared with the background compilations.
     pipelines_compiled: Arc<AtomicU64>,
+    /// The adapter, whose driver keys the pipeline cache's file.
+    adapter_info: wgpu::AdapterInfo,
+    /// Pipelines kept across runs ([`crate::pipeline_cache`]), where the device has a cache.
+    pipeline_cache: Option<Arc<crate::pipeline_cache::PersistentCache>>,
 }
 
 /// Per-pixel outputs of the trace passes and their `MAP_READ` copies.

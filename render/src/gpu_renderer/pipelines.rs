@@ -3,15 +3,16 @@
 
 use super::*;
 
-/// The trace shader's `entry` pipeline of the WGSL `source`, counted in `compiled`.
+/// The trace shader's `entry` pipeline of the WGSL `source`, counted in `compiled`, through
+/// the persistent `cache` where there is one.
 pub(super) fn trace_pipeline(
     device: &wgpu::Device,
-    compiled: &AtomicU64,
+    (compiled, cache): (&AtomicU64, Option<&crate::pipeline_cache::PersistentCache>),
     source: &str,
     entry: &str,
 ) -> wgpu::ComputePipeline {
     compiled.fetch_add(1, Ordering::Relaxed);
-    pipeline(device, source, entry)
+    cached_pipeline(device, source, entry, cache.map(|c| c.cache()))
 }
 
 impl PendingPipeline {
@@ -42,6 +43,7 @@ impl GpuRenderer {
             self.check_shading_budget(&compiled, shading)
                 .map_err(BackendError::Unsupported)?;
         }
+        let mut new_pipelines = false;
         if let Some(scene) = &self.scene {
             for &m in methods {
                 if self.trace_pipelines.contains_key(&m) {
@@ -57,13 +59,17 @@ impl GpuRenderer {
                 let compiled = background.unwrap_or_else(|| {
                     trace_pipeline(
                         &self.device,
-                        &self.pipelines_compiled,
+                        (&self.pipelines_compiled, self.pipeline_cache.as_deref()),
                         &m.source(&scene.packed.blend, scene.packed.kinds),
                         "trace_pixels",
                     )
                 });
                 self.trace_pipelines.insert(m, compiled);
+                new_pipelines = true;
             }
+        }
+        if new_pipelines {
+            self.save_pipeline_cache();
         }
         Ok(compiled)
     }
@@ -80,7 +86,7 @@ impl GpuRenderer {
         let Some(scene) = &self.scene else {
             return false;
         };
-        let mut compiling = false;
+        let (mut compiling, mut done_now) = (false, false);
         for &m in methods {
             if self.trace_pipelines.contains_key(&m) {
                 continue;
@@ -95,15 +101,17 @@ impl GpuRenderer {
                     // it and reports the error as any other.
                     if let Ok(done) = p.compiled.join() {
                         self.trace_pipelines.insert(m, done);
+                        done_now = true;
                     }
                 }
                 // None started, or one for an earlier scene, done: this scene's starts.
                 _ => {
                     let device = self.device.clone();
                     let count = Arc::clone(&self.pipelines_compiled);
+                    let cache = self.pipeline_cache.clone();
                     let source = m.source(&scene.packed.blend, scene.packed.kinds);
                     let compiled = std::thread::spawn(move || {
-                        trace_pipeline(&device, &count, &source, "trace_pixels")
+                        trace_pipeline(&device, (&count, cache.as_deref()), &source, "trace_pixels")
                     });
                     self.pending_pipelines.insert(
                         m,
@@ -116,6 +124,9 @@ impl GpuRenderer {
                     compiling = true;
                 }
             }
+        }
+        if done_now {
+            self.save_pipeline_cache();
         }
         compiling
     }
