@@ -397,6 +397,85 @@ impl FileDialogs for ScriptedDialogs {
     }
 }
 
+/// File > New > Empty scene starts from nothing: one empty group over the ground and sketch
+/// mode on. Clicks in the viewport start a skeleton where the user clicks (on the plane through
+/// the view's focus) and extend it, each new vertex with its parent's radius. The window title
+/// names the document and marks unsaved changes.
+#[test]
+fn file_new_empty_scene_then_sketch_a_skeleton() {
+    if skeletrace_tests::skip_without_gpu("file_new_empty_scene_then_sketch_a_skeleton") {
+        return;
+    }
+    let doc = Document::open(&asset("creature")).unwrap_or_else(|e| panic!("{e}"));
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    assert_eq!(h.state().title(), "creature.ron — skeletrace");
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "File")
+        .click();
+    h.step();
+    h.step();
+    h.get_by_label("New").hover();
+    for _ in 0..4 {
+        h.step();
+    }
+    let ctrl_n = h.ctx.format_shortcut(&egui::KeyboardShortcut::new(
+        Modifiers::COMMAND,
+        egui::Key::N,
+    ));
+    h.get_by_label(&format!("Empty scene {ctrl_n}")).click();
+    h.step();
+    settle(&mut h);
+    let scene = h.state().document().scene().clone();
+    assert_eq!(scene.groups.len(), 2, "a group to sketch in and the ground");
+    assert_eq!(scene.counts().vertices + scene.counts().blobs, 0);
+    assert_eq!(h.state().document().path(), None);
+    assert_eq!(h.state().title(), "untitled — skeletrace");
+    assert!(
+        h.state()
+            .notice()
+            .is_some_and(|n| n.contains("sketch mode")),
+        "{:?}",
+        h.state().notice()
+    );
+    let rect = h
+        .state()
+        .viewport_rect()
+        .unwrap_or_else(|| panic!("the viewport is drawn"));
+    let click = |h: &mut Harness<'static, Editor>, at: Pos2| {
+        h.hover_at(at);
+        h.step();
+        press(h, at, true);
+        press(h, at, false);
+        h.step();
+    };
+    click(&mut h, rect.center());
+    click(&mut h, rect.center() + egui::vec2(80.0, -40.0));
+    let scene = h.state().document().scene();
+    let skeleton = &scene.groups[0].skeletons[..];
+    assert_eq!(skeleton.len(), 1, "one skeleton started");
+    let vertices = &skeleton[0].vertices;
+    assert_eq!(vertices.len(), 2);
+    assert_eq!(
+        skeleton[0].edges.len(),
+        1,
+        "the second vertex grows from the first"
+    );
+    assert_eq!(
+        vertices[1].radius, vertices[0].radius,
+        "its parent's radius"
+    );
+    // Both on the plane through the focus, facing the camera: the click to the right is to the
+    // right of the first vertex and above it.
+    assert!(vertices[1].position[0] > vertices[0].position[0]);
+    assert!(vertices[1].position[1] > vertices[0].position[1]);
+    assert!(h.state().document().is_dirty());
+    assert_eq!(h.state().title(), "untitled* — skeletrace");
+}
+
 /// Clicks File → `entry` and runs frames until the dialog's answer has been taken.
 fn file_menu(h: &mut Harness<'static, Editor>, entry: &str) {
     h.get_by_role_and_label(egui::accesskit::Role::Button, "File")

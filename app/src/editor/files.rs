@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use eframe::egui;
 use skeletrace_core::Scene;
 
-use super::{AUTOSAVE_SECONDS, Document, Editor, OrbitCamera, default_scene};
+use super::{AUTOSAVE_SECONDS, Document, Editor, OrbitCamera};
 
 /// What a file dialog is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,6 +171,8 @@ pub(super) struct FileState {
     pub dialog_failure: Option<String>,
     /// Screenshots and meshes being written on threads of their own.
     pub background_writes: Vec<BackgroundWrite>,
+    /// The title last sent to the window.
+    pub window_title: Option<String>,
     pub last_interaction: Instant,
     pub last_autosave: Instant,
     /// The document revision the recovery file holds.
@@ -194,6 +196,7 @@ impl FileState {
             pending_dialog: None,
             dialog_failure: None,
             background_writes: Vec::new(),
+            window_title: None,
             last_interaction: Instant::now(),
             last_autosave: Instant::now(),
             autosaved_revision: None,
@@ -216,8 +219,8 @@ pub(super) struct BackgroundWrite {
 /// What replaces the document once unsaved changes are dealt with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(super) enum Replacement {
-    /// A new scene (the embedded creature).
-    New,
+    /// A new scene from a template.
+    New(super::Template),
     /// A scene file.
     Open(PathBuf),
 }
@@ -417,7 +420,7 @@ impl Editor {
 
     fn carry_out(&mut self, replacement: Replacement) {
         match replacement {
-            Replacement::New => self.load_new_scene(),
+            Replacement::New(template) => self.load_new_scene(template),
             Replacement::Open(path) => self.load_path(&path),
         }
     }
@@ -437,7 +440,9 @@ impl Editor {
             return;
         };
         let what = match &replacement {
-            Replacement::New => "starting a new scene".to_owned(),
+            Replacement::New(template) => {
+                format!("starting a new scene ({})", template.label().to_lowercase())
+            }
             Replacement::Open(path) => format!("opening {}", path.display()),
         };
         let named = self.doc.path().map(Path::to_path_buf);
@@ -487,13 +492,25 @@ impl Editor {
         }
     }
 
-    fn load_new_scene(&mut self) {
-        let scene = default_scene();
+    fn load_new_scene(&mut self, template: super::Template) {
+        let scene = template.scene();
         self.orbit = OrbitCamera::from_camera(&scene.camera);
         self.doc = Document::new(scene, None);
         self.selection.clear();
+        self.active_group = 0;
         self.files.path_field.clear();
-        self.tell("new scene (the embedded creature)");
+        // An empty scene has nothing to select: sketching starts where the user clicks, on the
+        // plane through the view's focus.
+        let empty = self.doc.scene().counts().vertices + self.doc.scene().counts().blobs == 0;
+        self.view.sketch = empty;
+        self.tell(if empty {
+            format!(
+                "new scene: {} — sketch mode: click to place the first vertex",
+                template.label().to_lowercase()
+            )
+        } else {
+            format!("new scene: {}", template.label().to_lowercase())
+        });
     }
 
     /// Saves to `path` (the path field when `None` is given and the document has no file).

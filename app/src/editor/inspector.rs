@@ -47,7 +47,7 @@ pub const SHORTCUTS: [(&str, &str); 27] = [
     ("Ctrl+D", "duplicate the selection"),
     ("Ctrl+Z", "undo"),
     ("Ctrl+Shift+Z / Ctrl+Y", "redo"),
-    ("Ctrl+N", "new scene"),
+    ("Ctrl+N", "new empty scene (File > New: templates)"),
     ("Ctrl+O", "open a scene (file dialog)"),
     ("Ctrl+S", "save (asks for a file when the scene has none)"),
     ("Ctrl+Shift+S", "save as (file dialog)"),
@@ -75,9 +75,22 @@ impl Editor {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
                 let ctx = ui.ctx().clone();
-                if ui.button("New").clicked() {
-                    self.replace_document(Replacement::New);
-                }
+                ui.menu_button("New", |ui| {
+                    for template in super::Template::ALL {
+                        let mut button = egui::Button::new(template.label());
+                        if template == super::Template::Empty {
+                            button = button.shortcut_text(ui.ctx().format_shortcut(
+                                &egui::KeyboardShortcut::new(
+                                    egui::Modifiers::COMMAND,
+                                    egui::Key::N,
+                                ),
+                            ));
+                        }
+                        if ui.add(button).clicked() {
+                            self.replace_document(Replacement::New(template));
+                        }
+                    }
+                });
                 if ui.button("Open…").clicked() {
                     self.ask_for_file(&ctx, FilePurpose::Open);
                 }

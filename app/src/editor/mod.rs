@@ -18,6 +18,7 @@ mod ray_inspector;
 mod selection;
 mod shape_tools;
 mod state;
+mod templates;
 mod view;
 mod viewport;
 mod worker;
@@ -38,6 +39,7 @@ pub use selection::{Item, Selection};
 pub use skeletrace_core::backend::BackendChoice;
 use state::{MethodTag, Notice, TagsKey};
 pub use state::{UI_STATE_KEY, UiState, ViewMode};
+pub use templates::Template;
 pub use view::OrbitCamera;
 
 use crate::picture::{Canvas, Panels, compose, shared_scale};
@@ -259,6 +261,7 @@ impl Editor {
         self.handle_dropped_files(&ctx);
         self.handle_shortcuts(&ctx);
         self.handle_close(&ctx);
+        self.update_title(&ctx);
         egui::Panel::top("menu").show(ui, |ui| self.menu_bar(ui));
         egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
         egui::Panel::left("inspector")
@@ -332,6 +335,26 @@ impl Editor {
         }
     }
 
+    /// The window's title: the document's file name (or "untitled"), `*` while it has unsaved
+    /// changes, sent to the window when it changes.
+    #[must_use]
+    pub fn title(&self) -> String {
+        let name = self.doc.path().and_then(|p| p.file_name()).map_or_else(
+            || "untitled".to_owned(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let dirty = if self.doc.is_dirty() { "*" } else { "" };
+        format!("{name}{dirty} — skeletrace")
+    }
+
+    fn update_title(&mut self, ctx: &egui::Context) {
+        let title = self.title();
+        if self.files.window_title.as_deref() != Some(title.as_str()) {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
+            self.files.window_title = Some(title);
+        }
+    }
+
     /// Shows a device failure the render thread reported: the frames came from the CPU.
     fn report_device_failure(&mut self, failure: Option<String>) {
         if let Some(text) = failure {
@@ -368,7 +391,7 @@ impl Editor {
             self.ask_for_file(ctx, files::FilePurpose::Open);
         }
         if shortcut(Modifiers::COMMAND, Key::N) {
-            self.replace_document(files::Replacement::New);
+            self.replace_document(files::Replacement::New(Template::Empty));
         }
         if shortcut(Modifiers::COMMAND, Key::D) {
             self.duplicate();
