@@ -151,6 +151,18 @@ impl Editor {
             .unwrap_or_default()
     }
 
+    /// How many of the render thread's frames on screen were traced on a GPU and read back (the
+    /// GPU viewport reads none back: its frames stay on the device).
+    #[must_use]
+    pub fn render_thread_gpu_frames(&self) -> usize {
+        self.frames
+            .shown
+            .iter()
+            .flat_map(|s| &s.frames)
+            .filter(|f| f.on_gpu)
+            .count()
+    }
+
     /// What the shaded viewport or the grid shows: `Some(true)` the window's GPU, `Some(false)`
     /// the render thread's frames of the document's current revision while the window's GPU
     /// compiles its pipelines, `None` otherwise (the render thread's frames without a GPU
