@@ -27,6 +27,9 @@ pub enum Command {
     Generate(GenerateArgs),
     /// Validate a scene and print its counts, kernels and bounding box.
     Info(InfoArgs),
+    /// Read an SWC morphology file (`id type x y z radius parent` per line) as a scene: one
+    /// group per structure type, one skeleton per tree, the file's radii.
+    Import(ImportArgs),
     /// Ray statistics of the root-finding methods against the reference tracer.
     Stats(StatsArgs),
     /// Render a scene to PNG: shaded, or step-count heat maps of one or several methods.
@@ -61,6 +64,16 @@ pub struct ExportArgs {
     /// Grid cells along the longest side of the field's support box (8 to 1024).
     #[arg(long, default_value_t = 128, value_parser = parse_resolution)]
     pub resolution: usize,
+}
+
+/// Arguments of `import`.
+#[derive(Args, Debug)]
+pub struct ImportArgs {
+    /// SWC file.
+    pub input: PathBuf,
+    /// Output scene file (.ron).
+    #[arg(short, long)]
+    pub output: PathBuf,
 }
 
 /// Arguments of `bench`.

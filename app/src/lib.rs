@@ -4,6 +4,7 @@
 pub mod backends;
 pub mod editor;
 pub mod export;
+pub mod import;
 pub mod picture;
 pub mod ray_probe;
 

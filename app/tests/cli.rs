@@ -843,3 +843,106 @@ fn bench_sweep_reports_each_value_and_refuses_a_scene_without_the_parameter() {
     let out = skeletrace(&["bench", operators, "--steps", "4"]);
     assert!(!out.status.success(), "--steps needs --sweep");
 }
+
+/// An SWC file drawn from a seed: a soma, dendrites and an axon growing from it with random
+/// branching and radii, and a second tree of dendrite samples with no soma (a root of its own),
+/// ids shuffled by gaps; `import` makes one group per type and one skeleton per tree, every
+/// sample a vertex with the file's radius (a branch leaving the soma starts from a copy of it),
+/// every parent link a segment.
+#[test]
+fn import_reads_a_generated_swc_file_into_groups_skeletons_and_radii() {
+    use skeletrace_core::model::rng::SplitMix64;
+    for seed in [3_u64, 17, 40] {
+        let mut rng = SplitMix64::new(seed);
+        // (id, type, position, radius, parent)
+        let mut samples: Vec<(i64, i64, [f64; 3], f64, i64)> = Vec::new();
+        samples.push((1, 1, [0.0; 3], 1.0, -1));
+        let mut next_id = 2_i64;
+        let mut add = |kind, parent: i64, from: [f64; 3], rng: &mut SplitMix64| {
+            let id = next_id;
+            next_id += 1 + rng.below(3) as i64;
+            let d = rng.direction();
+            let position = [from[0] + d[0], from[1] + d[1], from[2] + d[2]];
+            (id, kind, position, rng.range(0.05, 0.4), parent)
+        };
+        for (kind, branches) in [(3_i64, 2 + rng.below(3)), (2, 1)] {
+            for _ in 0..branches {
+                let (mut parent, mut at) = (1_i64, [0.0; 3]);
+                for _ in 0..2 + rng.below(6) {
+                    let s = add(kind, parent, at, &mut rng);
+                    samples.push(s);
+                    // Sometimes branch from an earlier sample of this branch.
+                    if rng.unit() < 0.7 {
+                        (parent, at) = (s.0, s.2);
+                    }
+                }
+            }
+        }
+        let mut parent = -1;
+        let mut at = [5.0, 0.0, 0.0];
+        for _ in 0..4 {
+            let s = add(3, parent, at, &mut rng);
+            samples.push(s);
+            (parent, at) = (s.0, s.2);
+        }
+        let mut file_text = format!("# generated from seed {seed}\n");
+        for (id, kind, p, r, parent) in &samples {
+            file_text += &format!("{id} {kind} {} {} {} {r} {parent}\n", p[0], p[1], p[2]);
+        }
+        let dir = temp_dir(&format!("swc-{seed}"));
+        let (swc, ron) = (dir.join("cell.swc"), dir.join("cell.ron"));
+        std::fs::write(&swc, &file_text).unwrap_or_else(|e| panic!("{e}"));
+        let out = skeletrace(&[
+            "import",
+            &swc.display().to_string(),
+            "-o",
+            &ron.display().to_string(),
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let scene = skeletrace_core::Scene::load(&ron).unwrap_or_else(|e| panic!("{e}"));
+        let names: Vec<&str> = scene.groups.iter().map(|g| g.name.as_str()).collect();
+        assert_eq!(names, ["soma", "axon", "basal dendrite"], "seed {seed}");
+        let c = scene.counts();
+        let links = samples.iter().filter(|s| s.4 != -1).count();
+        assert_eq!(c.segments, links, "seed {seed}: a segment per parent link");
+        // Branches leaving the soma start from a copy of it: one per branch root.
+        let from_soma = samples.iter().filter(|s| s.4 == 1).count();
+        assert_eq!(c.vertices, samples.len() + from_soma, "seed {seed}");
+        // Skeletons: the soma, one per branch from it, the separate tree.
+        assert_eq!(c.skeletons, 1 + from_soma + 1, "seed {seed}");
+        for (_, _, p, r, _) in &samples {
+            let found = scene
+                .groups
+                .iter()
+                .flat_map(|g| &g.skeletons)
+                .flat_map(|s| &s.vertices)
+                .any(|v| v.position == *p && v.radius == *r);
+            assert!(found, "seed {seed}: the sample at {p:?} keeps radius {r}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// A bad SWC line is one error naming the file, the line and the value; nothing is written.
+#[test]
+fn import_of_a_bad_swc_line_names_it_and_writes_nothing() {
+    let dir = temp_dir("swc-bad");
+    let (swc, ron) = (dir.join("bad.swc"), dir.join("bad.ron"));
+    std::fs::write(&swc, "# soma\n1 1 0 0 0 1 -1\n2 3 1 0 zero 0.5 1\n")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let out = skeletrace(&[
+        "import",
+        &swc.display().to_string(),
+        "-o",
+        &ron.display().to_string(),
+    ]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("bad.swc:3") && stderr.contains("'zero'"),
+        "{stderr}"
+    );
+    assert!(!ron.exists(), "nothing written");
+    let _ = std::fs::remove_dir_all(&dir);
+}

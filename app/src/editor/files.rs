@@ -97,6 +97,9 @@ impl FileDialogs for SystemFileDialogs {
         let mut dialog = rfd::FileDialog::new()
             .set_title(request.purpose.title())
             .add_filter(kind, &[extension]);
+        if request.purpose == FilePurpose::Open {
+            dialog = dialog.add_filter("SWC morphology (imported)", &["swc"]);
+        }
         if let Some(dir) = &request.directory {
             dialog = dialog.set_directory(dir);
         }
@@ -477,7 +480,29 @@ impl Editor {
     }
 
     /// Loads `path` into the editor, replacing the document (callers guard unsaved changes).
+    /// An SWC morphology is imported as a new, unsaved scene.
     pub(super) fn load_path(&mut self, path: &Path) {
+        if crate::import::is_swc(path) {
+            match crate::import::swc_scene(path) {
+                Ok((scene, moved)) => {
+                    self.orbit = OrbitCamera::from_camera(&scene.camera);
+                    let c = scene.counts();
+                    self.doc = Document::new(scene, None);
+                    self.selection.clear();
+                    self.active_group = 0;
+                    self.files.path_field.clear();
+                    self.tell(format!(
+                        "imported {}: {} groups, {} skeletons, {} vertices, {moved} radii brought within the kernel's slope limit (Save As to keep it as a scene)",
+                        path.display(),
+                        c.groups,
+                        c.skeletons,
+                        c.vertices
+                    ));
+                }
+                Err(why) => self.complain(why),
+            }
+            return;
+        }
         match Document::open(path) {
             Ok(doc) => {
                 self.orbit = OrbitCamera::from_camera(&doc.scene().camera);
@@ -559,11 +584,11 @@ impl Editor {
         });
         if let Some(path) = dropped
             .iter()
-            .find(|p| p.extension().is_some_and(|e| e == "ron"))
+            .find(|p| p.extension().is_some_and(|e| e == "ron") || crate::import::is_swc(p))
         {
             self.replace_document(Replacement::Open(path.clone()));
         } else if !dropped.is_empty() {
-            self.complain("only .ron scene files can be dropped here");
+            self.complain("only .ron scene files and .swc morphologies can be dropped here");
         }
     }
 
