@@ -504,6 +504,49 @@ fn file_new_empty_scene_then_sketch_a_skeleton() {
     assert_eq!(h.state().title(), "untitled* — skeletrace");
 }
 
+/// Groups from the inspector: "Add group" puts an empty group with the edited group's kernel
+/// in the list and in the blend tree's root, "Delete group" takes the edited group and its
+/// leaves out, each one undoable step, and the scene stays valid throughout.
+#[test]
+fn groups_are_added_and_deleted_from_the_inspector_with_undo() {
+    if skeletrace_tests::skip_without_gpu("groups_are_added_and_deleted_from_the_inspector") {
+        return;
+    }
+    let doc = Document::open(&asset("operators")).unwrap_or_else(|e| panic!("{e}"));
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    let before = h.state().document().scene().clone();
+    h.get_by_label("Add group").click();
+    h.step();
+    let added = h.state().document().scene().clone();
+    assert_eq!(added.groups.len(), 4);
+    assert_eq!(added.groups[3].name, "group 4");
+    added.validate().unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        format!("{:?}", added.blend).contains("Group(3)"),
+        "{:?}",
+        added.blend
+    );
+    // The new group is the edited one: deleting takes it out again.
+    h.get_by_label("Delete group").click();
+    h.step();
+    assert_eq!(h.state().document().scene(), &before);
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(
+        h.state().document().scene(),
+        &added,
+        "undo brings the group back"
+    );
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(h.state().document().scene(), &before);
+}
+
 /// Clicks File → `entry` and runs frames until the dialog's answer has been taken.
 fn file_menu(h: &mut Harness<'static, Editor>, entry: &str) {
     h.get_by_role_and_label(egui::accesskit::Role::Button, "File")

@@ -18,7 +18,7 @@ use skeletrace_render::GpuOfKind;
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
 use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
-use super::{group_tools, shape_tools};
+use super::{group_tools, groups, shape_tools};
 
 /// Shortcuts listed by the help overlay.
 pub const SHORTCUTS: [(&str, &str); 27] = [
@@ -518,6 +518,9 @@ impl Editor {
                     ui.selectable_value(&mut self.active_group, k, group.name.clone());
                 }
             });
+        self.group_list_controls(ui, g, &scene);
+        let scene = self.doc.scene().clone();
+        let g = self.active_group.min(scene.groups.len() - 1);
         let group = &scene.groups[g];
         // Field type and correctors of the group's skeletons.
         if !group.skeletons.is_empty() {
@@ -576,6 +579,91 @@ impl Editor {
             self.apply(Edit::gesture("transform", format!("operators-{g}")), |s| {
                 s.groups[g].transform = transform;
                 s.groups[g].repeat = repeat;
+            });
+        }
+    }
+
+    /// Add, duplicate, delete, move and rename groups (`groups.rs`: the blend tree follows).
+    /// A change of the list clears the selection, whose items name groups by index.
+    fn group_list_controls(&mut self, ui: &mut egui::Ui, g: usize, scene: &skeletrace_core::Scene) {
+        let n = scene.groups.len();
+        ui.horizontal(|ui| {
+            if ui
+                .button("Add group")
+                .on_hover_text("a new, empty group with this group's kernel and material")
+                .clicked()
+            {
+                let mut added = 0;
+                if self.apply(Edit::new("add group"), |s| {
+                    let group = groups::new_group(s, g);
+                    added = groups::add(s, group);
+                }) {
+                    self.active_group = added;
+                    self.selection.clear();
+                }
+            }
+            if ui
+                .button("Duplicate group")
+                .on_hover_text("a copy of this group, with everything in it")
+                .clicked()
+            {
+                let mut added = 0;
+                if self.apply(Edit::new("duplicate group"), |s| {
+                    let mut copy = s.groups[g].clone();
+                    copy.name = format!("{} copy", copy.name);
+                    added = groups::add(s, copy);
+                }) {
+                    self.active_group = added;
+                    self.selection.clear();
+                }
+            }
+            let delete = ui
+                .add_enabled(n > 1, egui::Button::new("Delete group"))
+                .on_hover_text(
+                    "remove this group and its leaves in the blend tree (undo brings it back)",
+                );
+            if delete.clicked() {
+                let mut result = Ok(());
+                if self.apply(Edit::new("delete group"), |s| {
+                    result = groups::delete(s, g);
+                }) {
+                    match result {
+                        Ok(()) => {
+                            self.active_group = g.saturating_sub(1);
+                            self.selection.clear();
+                        }
+                        Err(why) => self.complain(why),
+                    }
+                }
+            }
+            if ui
+                .add_enabled(g > 0, egui::Button::new("Up"))
+                .on_hover_text("move up in the list")
+                .clicked()
+                && self.apply(Edit::new("move group"), |s| groups::swap(s, g, g - 1))
+            {
+                self.active_group = g - 1;
+                self.selection.clear();
+            }
+            if ui
+                .add_enabled(g + 1 < n, egui::Button::new("Down"))
+                .on_hover_text("move down in the list")
+                .clicked()
+                && self.apply(Edit::new("move group"), |s| groups::swap(s, g, g + 1))
+            {
+                self.active_group = g + 1;
+                self.selection.clear();
+            }
+        });
+        let mut name = scene.groups[g].name.clone();
+        ui.horizontal(|ui| {
+            ui.label("name");
+            ui.text_edit_singleline(&mut name)
+                .on_hover_text("the group's name in lists, files and exports");
+        });
+        if name != scene.groups[g].name {
+            self.apply(Edit::gesture("rename group", format!("name-{g}")), |s| {
+                s.groups[g].name = name;
             });
         }
     }

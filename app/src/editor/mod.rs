@@ -13,6 +13,7 @@ mod frames;
 mod gizmo;
 pub mod gpu_viewport;
 mod group_tools;
+mod groups;
 mod inspector;
 mod ray_inspector;
 mod selection;
