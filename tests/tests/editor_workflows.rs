@@ -547,6 +547,69 @@ fn groups_are_added_and_deleted_from_the_inspector_with_undo() {
     assert_eq!(h.state().document().scene(), &before);
 }
 
+/// The blend tree from the inspector, nested as the operators asset's
+/// `Ricci(p: 4, [Difference(0, 1), 2])`: "+ group" adds a leaf to the Ricci blend (a difference
+/// takes no more), "sum every group" drops the tree, "Edit as a tree" starts one again as a sum
+/// of every group; each an undoable edit of a valid scene.
+#[test]
+fn the_blend_tree_is_edited_from_the_inspector() {
+    if skeletrace_tests::skip_without_gpu("the_blend_tree_is_edited_from_the_inspector") {
+        return;
+    }
+    use skeletrace_core::model::scene::Blend;
+    let doc = Document::open(&asset("operators")).unwrap_or_else(|e| panic!("{e}"));
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    // Tall enough for the inspector to show the scene panel at its bottom without scrolling.
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1280.0, 1600.0))
+        .wgpu()
+        .build_ui_state(
+            |ui, editor: &mut Editor| editor.ui(ui),
+            Editor::new(doc, ui_state, None, || {}),
+        );
+    settle(&mut h);
+    let g = Blend::Group;
+    let difference = Blend::Difference(Box::new(g(0)), Box::new(g(1)));
+    h.get_by_label("+ group").click();
+    h.step();
+    h.step();
+    let scene = h.state().document().scene().clone();
+    assert_eq!(
+        scene.blend,
+        Some(Blend::Ricci {
+            p: 4.0,
+            of: vec![difference.clone(), g(2), g(0)]
+        })
+    );
+    scene.validate().unwrap_or_else(|e| panic!("{e}"));
+    h.get_by_label("sum every group").click();
+    h.step();
+    h.step();
+    assert_eq!(h.state().document().scene().blend, None);
+    h.get_by_label("Edit as a tree").click();
+    h.step();
+    h.step();
+    assert_eq!(
+        h.state().document().scene().blend,
+        Some(Blend::Sum(vec![g(0), g(1), g(2)]))
+    );
+    for _ in 0..3 {
+        h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+        h.step();
+    }
+    assert_eq!(
+        h.state().document().scene().blend,
+        Some(Blend::Ricci {
+            p: 4.0,
+            of: vec![difference, g(2)]
+        }),
+        "three undos"
+    );
+}
+
 /// Clicks File → `entry` and runs frames until the dialog's answer has been taken.
 fn file_menu(h: &mut Harness<'static, Editor>, entry: &str) {
     h.get_by_role_and_label(egui::accesskit::Role::Button, "File")

@@ -18,7 +18,7 @@ use skeletrace_render::GpuOfKind;
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
 use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
-use super::{group_tools, groups, shape_tools};
+use super::{blend_editor, group_tools, groups, shape_tools};
 
 /// Shortcuts listed by the help overlay.
 pub const SHORTCUTS: [(&str, &str); 27] = [
@@ -782,73 +782,37 @@ impl Editor {
                 s.isovalue = isovalue
             });
         }
-        // The blend operator over all groups (flat blend trees; nested ones are shown only).
-        let n = scene.groups.len() as u32;
-        let leaves = || (0..n).map(Blend::Group).collect::<Vec<_>>();
-        let (mut op, mut p, mut width) = match &scene.blend {
-            None | Some(Blend::Sum(_) | Blend::Group(_)) => (0, 2.0, 0.2),
-            Some(Blend::Max(_)) => (1, 2.0, 0.2),
-            Some(Blend::Min(_)) => (2, 2.0, 0.2),
-            Some(Blend::Difference(..)) => (3, 2.0, 0.2),
-            Some(Blend::Ricci { p, .. }) => (4, *p, 0.2),
-            Some(Blend::SmoothUnion { width, .. }) => (5, 2.0, *width),
-            Some(Blend::SmoothIntersection { width, .. }) => (6, 2.0, *width),
-        };
-        let flat = match &scene.blend {
-            None | Some(Blend::Group(_)) => true,
-            Some(
-                Blend::Sum(v)
-                | Blend::Max(v)
-                | Blend::Min(v)
-                | Blend::Ricci { of: v, .. }
-                | Blend::SmoothUnion { of: v, .. }
-                | Blend::SmoothIntersection { of: v, .. },
-            ) => v.iter().all(|b| matches!(b, Blend::Group(_))),
-            Some(Blend::Difference(a, b)) => {
-                matches!(**a, Blend::Group(_)) && matches!(**b, Blend::Group(_))
+        // The blend tree (blend_editor.rs): operators as nodes, groups as leaves.
+        ui.strong("Blend");
+        let names: Vec<String> = scene.groups.iter().map(|g| g.name.clone()).collect();
+        match scene.blend.clone() {
+            None => {
+                ui.horizontal(|ui| {
+                    ui.label("sum of every group");
+                    if ui
+                        .button("Edit as a tree")
+                        .on_hover_text("start a blend tree: a sum of every group, to change")
+                        .clicked()
+                    {
+                        let leaves = (0..names.len() as u32).map(Blend::Group).collect();
+                        self.apply(Edit::new("blend tree"), |s| {
+                            s.blend = Some(Blend::Sum(leaves));
+                        });
+                    }
+                });
             }
-        };
-        let before = (op, p, width);
-        ui.add_enabled_ui(flat && n > 0, |ui| {
-            ui.horizontal_wrapped(|ui| {
-                ui.label("blend");
-                ui.selectable_value(&mut op, 0, "sum");
-                ui.selectable_value(&mut op, 1, "max");
-                ui.selectable_value(&mut op, 2, "min");
-                ui.add_enabled(n >= 2, egui::Button::selectable(op == 3, "difference"))
+            Some(mut tree) => {
+                if blend_editor::edit(ui, &mut tree, &names) {
+                    self.apply(Edit::gesture("blend", "blend"), |s| s.blend = Some(tree));
+                }
+                if ui
+                    .small_button("sum every group")
+                    .on_hover_text("drop the tree: every group summed")
                     .clicked()
-                    .then(|| op = 3);
-                ui.selectable_value(&mut op, 4, "Ricci");
-                ui.selectable_value(&mut op, 5, "smooth union");
-                ui.selectable_value(&mut op, 6, "smooth intersection");
-            });
-            if op == 4 {
-                ui.add(egui::Slider::new(&mut p, 1.0..=32.0).text("Ricci p"));
+                {
+                    self.apply(Edit::new("blend: sum"), |s| s.blend = None);
+                }
             }
-            if op >= 5 {
-                ui.add(egui::Slider::new(&mut width, 0.01..=2.0).text("blend width"));
-            }
-        });
-        if !flat {
-            ui.weak("nested blend tree: edit it in the file");
-        }
-        if (op, p, width) != before {
-            let blend = match op {
-                1 => Blend::Max(leaves()),
-                2 => Blend::Min(leaves()),
-                3 => Blend::Difference(Box::new(Blend::Group(0)), Box::new(Blend::Group(1))),
-                4 => Blend::Ricci { p, of: leaves() },
-                5 => Blend::SmoothUnion {
-                    width,
-                    of: leaves(),
-                },
-                6 => Blend::SmoothIntersection {
-                    width,
-                    of: leaves(),
-                },
-                _ => Blend::Sum(leaves()),
-            };
-            self.apply(Edit::gesture("blend", "blend"), |s| s.blend = Some(blend));
         }
     }
 

@@ -6,6 +6,7 @@
 //! adapter, where each method ran). [`Editor::ui`] draws one frame; eframe calls it through
 //! [`EditorApp`] and the kittest tests call it directly.
 
+mod blend_editor;
 mod compare;
 mod document;
 mod files;
