@@ -10,11 +10,14 @@
 //! tiles and rays an edit did not reach, as in the editor (`CpuBackend::reusing_tiles`).
 
 use std::fmt::Write as _;
+use std::sync::Arc;
 use std::time::Instant;
 
 use skeletrace_core::backend::{
-    BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest, PipelineCacheState, TileLists,
+    BackendChoice, BackendError, Cancel, DeviceKind, FrameBackend, FrameRequest,
+    PipelineCacheState, TileLists,
 };
+use skeletrace_core::compile::Compiled;
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
 use skeletrace_core::frame::{FieldShading, View};
 use skeletrace_core::methods::{MethodId, TraceMode, TraceSettings};
@@ -65,15 +68,21 @@ struct Row {
 
 /// The frames of `--after-edits` beyond their median.
 struct AfterEdits {
-    /// Median shares of screen tiles copied whole and of pixels copied instead of traced.
-    tiles: f64,
-    pixels: f64,
+    /// On the CPU, what the frames copied from the frame before.
+    copied: Option<Copied>,
     /// Mean and largest milliseconds per frame: the median hides the edits traced in full.
     mean_ms: f64,
     slowest_ms: f64,
-    /// How many of the `edits` frames copied no pixel.
-    traced_in_full: usize,
     edits: usize,
+}
+
+/// What the CPU's frames after edits copied.
+struct Copied {
+    /// Median shares of screen tiles copied whole and of pixels copied instead of traced.
+    tiles: f64,
+    pixels: f64,
+    /// How many of the frames copied no pixel.
+    traced_in_full: usize,
 }
 
 /// Most edits `--after-edits` times per method.
@@ -123,13 +132,31 @@ fn edit_targets(scene: &Scene) -> Vec<EditTarget> {
 
 /// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices and
 /// point blobs ([`edit_targets`]) moved one after the other, each edit compiled and its frame
-/// traced by a CPU backend that keeps its last frames; the first, full frame is not timed.
-fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Result<Row, String> {
+/// traced — on the CPU by a backend that keeps its last frames, on a GPU by `gpu` (which
+/// uploads the primitives an edit changed, as the editor's viewport does while a vertex is
+/// dragged); the first, full frame is not timed.
+fn after_edits(
+    scene: &Scene,
+    method: MethodId,
+    request: &FrameRequest,
+    gpu: Option<&mut dyn FrameBackend>,
+) -> Result<Row, String> {
     let mut scene = scene.clone();
     let fail = |e: BackendError| format!("{method}: {e}");
-    let mut backend = CpuBackend::reusing_tiles();
-    let compiled = compile(&scene);
-    backend.render(&compiled, request).map_err(fail)?;
+    let mut cpu = CpuBackend::reusing_tiles();
+    // Traces a compiled scene; on the CPU, the shares of tiles and pixels it copied.
+    let mut trace: Box<dyn FnMut(&Arc<Compiled>) -> Result<Option<(f64, f64)>, BackendError>> =
+        match gpu {
+            Some(gpu) => Box::new(move |c| gpu.render(c, request).map(|_| None)),
+            None => Box::new(move |c| {
+                cpu.render(c, request)?;
+                Ok(Some((
+                    cpu.share_of_tiles_reused(),
+                    cpu.share_of_pixels_reused(),
+                )))
+            }),
+        };
+    trace(&compile(&scene)).map_err(fail)?;
     let targets = edit_targets(&scene);
     if targets.is_empty() {
         return Err(
@@ -152,15 +179,19 @@ fn after_edits(scene: &Scene, method: MethodId, request: &FrameRequest) -> Resul
         position[1] += 0.05 * radius;
         let compiled = compile(&scene);
         let start = Instant::now();
-        backend.render(&compiled, request).map_err(fail)?;
+        let shares = trace(&compiled).map_err(fail)?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
-        tiles.push(backend.share_of_tiles_reused());
-        pixels.push(backend.share_of_pixels_reused());
+        if let Some((t, p)) = shares {
+            tiles.push(t);
+            pixels.push(p);
+        }
     }
     let edits = AfterEdits {
-        tiles: median(tiles),
-        traced_in_full: pixels.iter().filter(|share| **share == 0.0).count(),
-        pixels: median(pixels),
+        copied: (!tiles.is_empty()).then(|| Copied {
+            tiles: median(tiles),
+            traced_in_full: pixels.iter().filter(|share| **share == 0.0).count(),
+            pixels: median(pixels),
+        }),
         mean_ms: times.iter().sum::<f64>() / times.len() as f64,
         slowest_ms: times.iter().copied().fold(0.0, f64::max),
         edits: times.len(),
@@ -190,9 +221,6 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         && let Err(why) = &backends.gpu
     {
         return Err(format!("--backend gpu: {why}"));
-    }
-    if args.after_edits && args.backend != BackendChoice::Cpu {
-        return Err("--after-edits times the CPU backend: use --backend cpu".to_owned());
     }
     // What the GPU's pipeline cache held when it opened: the first frames' times are those of
     // a cold cache (empty) or a warm one.
@@ -224,7 +252,8 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
         };
         let device = backend.describe();
         if args.after_edits {
-            rows.push(after_edits(scene, method, &request)?);
+            let gpu = (backend.device_kind() != DeviceKind::Cpu).then_some(backend);
+            rows.push(after_edits(scene, method, &request, gpu)?);
             if !devices.contains(&device) {
                 devices.push(device);
             }
@@ -307,16 +336,20 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
                 .and(row.first_frame_ms)
                 .map_or(String::new(), |ms| {
                     format!("   (first frame {ms:.0} ms, pipelines compiled)")
-                }) + &row.edits.as_ref().map_or(String::new(), |e| {
-                format!(
+                }) + &row.edits.as_ref().map_or(String::new(), |e| match &e.copied {
+                Some(c) => format!(
                     "   ({:.1} % of tiles copied whole, {:.1} % of pixels copied; mean {:.2} ms, slowest {:.2} ms, {} of {} edits traced in full)",
-                    100.0 * e.tiles,
-                    100.0 * e.pixels,
+                    100.0 * c.tiles,
+                    100.0 * c.pixels,
                     e.mean_ms,
                     e.slowest_ms,
-                    e.traced_in_full,
+                    c.traced_in_full,
                     e.edits
-                )
+                ),
+                None => format!(
+                    "   (mean {:.2} ms, slowest {:.2} ms over {} edits)",
+                    e.mean_ms, e.slowest_ms, e.edits
+                ),
             });
             let _ = writeln!(
                 text,
@@ -389,12 +422,15 @@ struct BenchMethod {
 /// The `--after-edits` fields of a method.
 #[derive(serde::Serialize)]
 struct EditsRecord {
-    tiles_reused: f64,
-    pixels_reused: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tiles_reused: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pixels_reused: Option<f64>,
     mean_ms: f64,
     slowest_ms: f64,
     edits: usize,
-    traced_in_full: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    traced_in_full: Option<usize>,
 }
 
 impl BenchMethod {
@@ -408,12 +444,12 @@ impl BenchMethod {
             tile_edge: row.tile_lists.map(|l| l.tile_edge),
             first_frame_ms: row.first_frame_ms,
             edits: row.edits.as_ref().map(|e| EditsRecord {
-                tiles_reused: e.tiles,
-                pixels_reused: e.pixels,
+                tiles_reused: e.copied.as_ref().map(|c| c.tiles),
+                pixels_reused: e.copied.as_ref().map(|c| c.pixels),
                 mean_ms: e.mean_ms,
                 slowest_ms: e.slowest_ms,
                 edits: e.edits,
-                traced_in_full: e.traced_in_full,
+                traced_in_full: e.copied.as_ref().map(|c| c.traced_in_full),
             }),
         }
     }

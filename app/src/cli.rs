@@ -101,12 +101,13 @@ pub struct BenchArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Time the frames that follow edits, as the editor traces them on the CPU: every
-    /// skeleton vertex and point blob in turn (at most 64, evenly spread) moved up by a
-    /// twentieth of its radius, each edit's frame traced by a backend that copies the tiles
-    /// and rays the edit did not reach (`--frames` is unused); reports the median of those
-    /// frames and of the shares of tiles and pixels copied, the mean and slowest frame, and
-    /// how many edits copied nothing (traced in full).
+    /// Time the frames that follow edits, as the editor traces them while a vertex is dragged:
+    /// every skeleton vertex and point blob in turn (at most 64, evenly spread) moved up by a
+    /// twentieth of its radius, each edit compiled and its frame traced (`--frames` is unused).
+    /// On the CPU by a backend that copies the tiles and rays the edit did not reach, on a GPU
+    /// uploading the primitives the edit changed. Reports the median of those frames, the mean
+    /// and slowest, and on the CPU the shares of tiles and pixels copied and how many edits
+    /// copied nothing (traced in full).
     #[arg(long)]
     pub after_edits: bool,
     /// Time frames while one parameter changes, as a slider dragged in the editor: `--steps`
