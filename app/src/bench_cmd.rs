@@ -135,6 +135,9 @@ fn edit_targets(scene: &Scene) -> Vec<EditTarget> {
 /// traced — on the CPU by a backend that keeps its last frames, on a GPU by `gpu` (which
 /// uploads the primitives an edit changed, as the editor's viewport does while a vertex is
 /// dragged); the first, full frame is not timed.
+/// Traces a compiled scene after an edit; on the CPU, the shares of tiles and pixels it copied.
+type TraceEdit<'a> = dyn FnMut(&Arc<Compiled>) -> Result<Option<(f64, f64)>, BackendError> + 'a;
+
 fn after_edits(
     scene: &Scene,
     method: MethodId,
@@ -144,18 +147,16 @@ fn after_edits(
     let mut scene = scene.clone();
     let fail = |e: BackendError| format!("{method}: {e}");
     let mut cpu = CpuBackend::reusing_tiles();
-    // Traces a compiled scene; on the CPU, the shares of tiles and pixels it copied.
-    let mut trace: Box<dyn FnMut(&Arc<Compiled>) -> Result<Option<(f64, f64)>, BackendError>> =
-        match gpu {
-            Some(gpu) => Box::new(move |c| gpu.render(c, request).map(|_| None)),
-            None => Box::new(move |c| {
-                cpu.render(c, request)?;
-                Ok(Some((
-                    cpu.share_of_tiles_reused(),
-                    cpu.share_of_pixels_reused(),
-                )))
-            }),
-        };
+    let mut trace: Box<TraceEdit<'_>> = match gpu {
+        Some(gpu) => Box::new(move |c| gpu.render(c, request).map(|_| None)),
+        None => Box::new(move |c| {
+            cpu.render(c, request)?;
+            Ok(Some((
+                cpu.share_of_tiles_reused(),
+                cpu.share_of_pixels_reused(),
+            )))
+        }),
+    };
     trace(&compile(&scene)).map_err(fail)?;
     let targets = edit_targets(&scene);
     if targets.is_empty() {
