@@ -130,14 +130,14 @@ fn edit_targets(scene: &Scene) -> Vec<EditTarget> {
     all.into_iter().step_by(stride).collect()
 }
 
+/// Traces a compiled scene after an edit; on the CPU, the shares of tiles and pixels it copied.
+type TraceEdit<'a> = dyn FnMut(&Arc<Compiled>) -> Result<Option<(f64, f64)>, BackendError> + 'a;
+
 /// The frames after edits of one method (`--after-edits`): the scene's skeleton vertices and
 /// point blobs ([`edit_targets`]) moved one after the other, each edit compiled and its frame
 /// traced — on the CPU by a backend that keeps its last frames, on a GPU by `gpu` (which
 /// uploads the primitives an edit changed, as the editor's viewport does while a vertex is
 /// dragged); the first, full frame is not timed.
-/// Traces a compiled scene after an edit; on the CPU, the shares of tiles and pixels it copied.
-type TraceEdit<'a> = dyn FnMut(&Arc<Compiled>) -> Result<Option<(f64, f64)>, BackendError> + 'a;
-
 fn after_edits(
     scene: &Scene,
     method: MethodId,
