@@ -504,6 +504,60 @@ fn file_new_empty_scene_then_sketch_a_skeleton() {
     assert_eq!(h.state().title(), "untitled* — skeletrace");
 }
 
+/// Sketching with mirror symmetry (x = 0): from File > New > Empty scene, a click on the plane
+/// starts the spine (no twin), a click to its right adds a vertex and its mirror image, each
+/// joined to the spine; deleting one deletes its twin.
+#[test]
+fn sketching_with_mirror_symmetry_adds_the_twin() {
+    if skeletrace_tests::skip_without_gpu("sketching_with_mirror_symmetry_adds_the_twin") {
+        return;
+    }
+    let doc = Document::new(skeletrace::editor::Template::Empty.scene(), None);
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        mirror: Some(skeletrace::editor::Mirror::X),
+        ..UiState::default()
+    };
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    h.key_press(egui::Key::S);
+    h.step();
+    let rect = h
+        .state()
+        .viewport_rect()
+        .unwrap_or_else(|| panic!("the viewport is drawn"));
+    for at in [rect.center(), rect.center() + egui::vec2(90.0, -30.0)] {
+        h.hover_at(at);
+        h.step();
+        press(&mut h, at, true);
+        press(&mut h, at, false);
+        h.step();
+    }
+    let skeletons = &h.state().document().scene().groups[0].skeletons;
+    let vertices: Vec<[f64; 3]> = skeletons
+        .iter()
+        .flat_map(|k| k.vertices.iter().map(|v| v.position))
+        .collect();
+    assert_eq!(vertices.len(), 3, "{vertices:?}");
+    let edges: usize = skeletons.iter().map(|k| k.edges.len()).sum();
+    assert_eq!(edges, 2, "both joined to the spine");
+    let (a, b) = (vertices[1], vertices[2]);
+    assert!(a[0] > 0.0, "{a:?}");
+    assert!(
+        (a[0] + b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9 && (a[2] - b[2]).abs() < 1e-9,
+        "{a:?} and {b:?} mirror each other"
+    );
+    // The new vertex is selected: Delete takes its twin too.
+    h.key_press(egui::Key::Delete);
+    h.step();
+    let left: usize = h.state().document().scene().groups[0]
+        .skeletons
+        .iter()
+        .map(|k| k.vertices.len())
+        .sum();
+    assert_eq!(left, 1, "the spine is left");
+}
+
 /// Groups from the inspector: "Add group" puts an empty group with the edited group's kernel
 /// in the list and in the blend tree's root, "Delete group" takes the edited group and its
 /// leaves out, each one undoable step, and the scene stays valid throughout.

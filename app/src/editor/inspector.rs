@@ -18,7 +18,7 @@ use skeletrace_render::GpuOfKind;
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
 use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
-use super::{blend_editor, group_tools, groups, shape_tools};
+use super::{blend_editor, group_tools, groups, shape_tools, symmetry};
 
 /// Shortcuts listed by the help overlay.
 pub const SHORTCUTS: [(&str, &str); 27] = [
@@ -40,6 +40,10 @@ pub const SHORTCUTS: [(&str, &str); 27] = [
         "S",
         "sketch mode: click adds a vertex joined to the selection",
     ),
+    (
+        "Mirror (menu bar)",
+        "sketching, moves, radius changes and deletes reach each twin",
+    ),
     ("C", "connect the two selected vertices"),
     ("X", "disconnect the selected vertices"),
     ("B", "add a point blob"),
@@ -54,7 +58,10 @@ pub const SHORTCUTS: [(&str, &str); 27] = [
     ("Tab", "shaded view / method comparison"),
     ("Esc", "clear the selection, leave sketch mode"),
     ("F1 or ?", "this help"),
-    ("Drop a .ron file", "open it"),
+    (
+        "Drop a .ron or .swc file",
+        "open it (an SWC morphology is imported)",
+    ),
 ];
 
 /// Messages, prompts and the help window.
@@ -163,6 +170,26 @@ impl Editor {
                 if ui.button("Add blob").clicked() {
                     self.add_blob();
                 }
+                ui.separator();
+                let symmetrize = ui
+                    .add_enabled(
+                        self.ui_state.mirror.is_some(),
+                        egui::Button::new("Symmetrize group"),
+                    )
+                    .on_hover_text(
+                        "rebuild the edited group's skeletons and blobs from the positive side of \
+                         the mirror plane",
+                    );
+                if symmetrize.clicked()
+                    && let Some(mirror) = self.ui_state.mirror
+                {
+                    let g = self.active_group;
+                    if self.apply(Edit::new("symmetrize"), |s| {
+                        symmetry::symmetrize(s, g, mirror);
+                    }) {
+                        self.selection.clear();
+                    }
+                }
             });
             ui.menu_button("View", |ui| {
                 if ui.button("Frame all").clicked() {
@@ -181,6 +208,20 @@ impl Editor {
             );
             ui.separator();
             ui.toggle_value(&mut self.view.sketch, "Sketch");
+            let mirror_label = self.ui_state.mirror.map_or("off", super::Mirror::label);
+            egui::ComboBox::from_id_salt("mirror")
+                .selected_text(format!("Mirror: {mirror_label}"))
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut self.ui_state.mirror, None, "off");
+                    for m in super::Mirror::ALL {
+                        ui.selectable_value(&mut self.ui_state.mirror, Some(m), m.label());
+                    }
+                })
+                .response
+                .on_hover_text(
+                    "mirror symmetry: sketching, moves, radius changes and deletes reach each \
+                     item's twin across this plane",
+                );
             if ui.button("Help").clicked() {
                 self.prompts.help = !self.prompts.help;
             }

@@ -20,6 +20,7 @@ mod ray_inspector;
 mod selection;
 mod shape_tools;
 mod state;
+mod symmetry;
 mod templates;
 mod view;
 mod viewport;
@@ -40,7 +41,7 @@ pub use files::{DialogRequest, FileDialogs, FilePurpose, SystemFileDialogs};
 pub use selection::{Item, Selection};
 pub use skeletrace_core::backend::BackendChoice;
 use state::{MethodTag, Notice, TagsKey};
-pub use state::{UI_STATE_KEY, UiState, ViewMode};
+pub use state::{Mirror, UI_STATE_KEY, UiState, ViewMode};
 pub use templates::Template;
 pub use view::OrbitCamera;
 
@@ -504,7 +505,8 @@ impl Editor {
         }
         let chosen = self.selection.clone();
         let label = format!("delete {} items", chosen.len());
-        if self.apply(Edit::new(label), |s| selection::delete(s, &chosen)) {
+        let mirror = self.ui_state.mirror;
+        if self.apply(Edit::new(label), |s| symmetry::delete(s, &chosen, mirror)) {
             self.selection.clear();
         }
     }

@@ -29,6 +29,52 @@ impl ViewMode {
     }
 }
 
+/// The mirror plane: the one through the origin across this world axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mirror {
+    /// `x = 0` (left and right).
+    X,
+    /// `y = 0`.
+    Y,
+    /// `z = 0`.
+    Z,
+}
+
+impl Mirror {
+    /// Every plane, in the order the editor offers them.
+    pub const ALL: [Self; 3] = [Self::X, Self::Y, Self::Z];
+
+    pub(super) fn axis(self) -> usize {
+        match self {
+            Self::X => 0,
+            Self::Y => 1,
+            Self::Z => 2,
+        }
+    }
+
+    /// Its name in the editor.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::X => "x = 0",
+            Self::Y => "y = 0",
+            Self::Z => "z = 0",
+        }
+    }
+
+    /// `p` mirrored across the plane.
+    #[must_use]
+    pub fn point(self, mut p: [f64; 3]) -> [f64; 3] {
+        p[self.axis()] = -p[self.axis()];
+        p
+    }
+
+    /// Whether `p` lies on the plane, within `tolerance`.
+    pub(super) fn on_plane(self, p: [f64; 3], tolerance: f64) -> bool {
+        p[self.axis()].abs() <= tolerance
+    }
+}
+
 /// UI state kept between runs (eframe persistence), apart from anything on the GPU.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UiState {
@@ -52,6 +98,9 @@ pub struct UiState {
     pub recent: Vec<PathBuf>,
     /// Screenshot size in pixels.
     pub screenshot_size: (usize, usize),
+    /// Mirror symmetry of sketching and edits (`symmetry.rs`), if on.
+    #[serde(default)]
+    pub mirror: Option<Mirror>,
 }
 
 impl Default for UiState {
@@ -71,6 +120,7 @@ impl Default for UiState {
             step_scale: StepScale::Log,
             recent: Vec::new(),
             screenshot_size: (1280, 960),
+            mirror: None,
         }
     }
 }

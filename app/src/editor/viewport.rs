@@ -12,6 +12,7 @@ use skeletrace_render::viewport::ViewportFrame;
 use super::gizmo::{Gizmo, Handle};
 use super::selection::{self, Item, Selection};
 use super::state::{MethodTag, TagsKey};
+use super::symmetry;
 use super::view::Projection;
 use super::{Edit, Editor};
 
@@ -161,8 +162,9 @@ impl Editor {
             let factor = (f64::from(scroll) * 0.002).exp();
             if hovered.is_some_and(|h| self.selection.contains(&h)) {
                 let chosen = self.selection.clone();
+                let mirror = self.ui_state.mirror;
                 self.apply(Edit::gesture("radius", "scroll-radius"), |s| {
-                    selection::scale_radius(s, &chosen, factor);
+                    symmetry::scale_radius(s, &chosen, factor, mirror);
                 });
             } else {
                 self.orbit.zoom(1.0 / factor);
@@ -285,8 +287,9 @@ impl Editor {
                     if before > 1.0 && after > 1.0 {
                         let chosen = self.selection.clone();
                         let factor = f64::from(after / before);
+                        let mirror = self.ui_state.mirror;
                         self.apply(Edit::gesture("radius", "drag-radius"), |s| {
-                            selection::scale_radius(s, &chosen, factor);
+                            symmetry::scale_radius(s, &chosen, factor, mirror);
                         });
                     }
                 }
@@ -370,8 +373,9 @@ impl Editor {
         }
         let chosen = self.selection.clone();
         let label = format!("move {} items", chosen.len());
+        let mirror = self.ui_state.mirror;
         self.apply(Edit::gesture(label, "move"), |s| {
-            selection::translate_in_view(s, &chosen, delta);
+            symmetry::translate(s, &chosen, delta, mirror);
         });
     }
 
@@ -405,9 +409,10 @@ impl Editor {
         let group = self.active_group;
         let chosen = self.selection.clone();
         let mut added = None;
+        let mirror = self.ui_state.mirror;
         if self.apply(Edit::new("sketch vertex"), |s| {
-            added = Some(selection::sketch_vertex(
-                s, &chosen, group, position, radius,
+            added = Some(symmetry::sketch_vertex(
+                s, &chosen, group, position, radius, mirror,
             ));
         }) && let Some(item) = added
         {
