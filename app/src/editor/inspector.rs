@@ -21,7 +21,7 @@ use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
 use super::{blend_editor, group_tools, groups, shape_tools, symmetry};
 
 /// Shortcuts listed by the help overlay.
-pub const SHORTCUTS: [(&str, &str); 27] = [
+pub const SHORTCUTS: [(&str, &str); 28] = [
     ("Left drag", "orbit (on a handle: move it)"),
     ("Right / middle drag", "pan"),
     ("Wheel", "zoom; over a selected handle: radius"),
