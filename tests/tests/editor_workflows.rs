@@ -302,11 +302,17 @@ fn open_select_drag_undo_tune_compare_save_and_reload() {
     let dir = std::env::temp_dir().join(format!("skeletrace-editor-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let path = dir.join("edited.ron");
-    let field = h.get_by_role(egui::accesskit::Role::TextInput);
-    field.focus();
+    // The File panel's path field: the text input holding the scene's path (the group's name
+    // is another).
+    h.get_all_by_role(egui::accesskit::Role::TextInput)
+        .find(|n| n.value().is_some_and(|v| v.ends_with(".ron")))
+        .unwrap_or_else(|| panic!("the path field"))
+        .focus();
     h.step();
     h.key_press_modifiers(Modifiers::COMMAND, egui::Key::A);
-    h.get_by_role(egui::accesskit::Role::TextInput)
+    h.get_all_by_role(egui::accesskit::Role::TextInput)
+        .find(|n| n.is_focused())
+        .unwrap_or_else(|| panic!("the focused path field"))
         .type_text(&path.display().to_string());
     h.step();
     h.get_by_label("Save As").click();
@@ -556,6 +562,35 @@ fn sketching_with_mirror_symmetry_adds_the_twin() {
         .map(|k| k.vertices.len())
         .sum();
     assert_eq!(left, 1, "the spine is left");
+}
+
+/// View > "Use this view as the scene camera": after orbiting, the scene's camera is the view's
+/// (an undoable edit), so renders and the next opening start from it.
+#[test]
+fn the_view_becomes_the_scene_camera() {
+    if skeletrace_tests::skip_without_gpu("the_view_becomes_the_scene_camera") {
+        return;
+    }
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    settle(&mut h);
+    let before = h.state().document().scene().camera;
+    h.key_press(egui::Key::ArrowLeft);
+    h.step();
+    let view = h.state().orbit().camera();
+    assert_ne!(view, before, "the arrow orbits");
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "View")
+        .click();
+    h.step();
+    h.step();
+    h.get_by_label("Use this view as the scene camera").click();
+    h.step();
+    assert_eq!(h.state().document().scene().camera, view);
+    assert!(h.state().document().is_dirty());
 }
 
 /// Groups from the inspector: "Add group" puts an empty group with the edited group's kernel

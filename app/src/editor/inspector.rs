@@ -198,6 +198,15 @@ impl Editor {
                 if ui.button("Frame selection").clicked() {
                     self.frame_selection();
                 }
+                ui.separator();
+                if ui
+                    .button("Use this view as the scene camera")
+                    .on_hover_text("the scene file's camera (renders, exports, the next opening)")
+                    .clicked()
+                {
+                    let camera = self.orbit.camera();
+                    self.apply(Edit::new("scene camera"), |s| s.camera = camera);
+                }
             });
             ui.separator();
             ui.selectable_value(&mut self.ui_state.view, ViewMode::Shaded, "Shaded");
