@@ -593,6 +593,43 @@ fn the_view_becomes_the_scene_camera() {
     assert!(h.state().document().is_dirty());
 }
 
+/// Lights from the inspector: "Add point light" and "Add directional light" put a light in
+/// the scene (a valid one), each an undoable edit.
+#[test]
+fn lights_are_added_from_the_inspector_with_undo() {
+    if skeletrace_tests::skip_without_gpu("lights_are_added_from_the_inspector_with_undo") {
+        return;
+    }
+    let doc = Document::open(&asset("operators")).unwrap_or_else(|e| panic!("{e}"));
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    // Tall enough for the inspector to show the scene panel at its bottom without scrolling.
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1280.0, 1600.0))
+        .wgpu()
+        .build_ui_state(
+            |ui, editor: &mut Editor| editor.ui(ui),
+            Editor::new(doc, ui_state, None, || {}),
+        );
+    settle(&mut h);
+    let before = h.state().document().scene().lights.len();
+    for label in ["Add point light", "Add directional light"] {
+        h.get_by_label(label).click();
+        h.step();
+        h.step();
+    }
+    let scene = h.state().document().scene().clone();
+    assert_eq!(scene.lights.len(), before + 2);
+    scene.validate().unwrap_or_else(|e| panic!("{e}"));
+    for _ in 0..2 {
+        h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+        h.step();
+    }
+    assert_eq!(h.state().document().scene().lights.len(), before);
+}
+
 /// Groups from the inspector: "Add group" puts an empty group with the edited group's kernel
 /// in the list and in the blend tree's root, "Delete group" takes the edited group and its
 /// leaves out, each one undoable step, and the scene stays valid throughout.

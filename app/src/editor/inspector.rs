@@ -864,6 +864,8 @@ impl Editor {
                 }
             }
         }
+        ui.separator();
+        self.lights_panel(ui);
     }
 
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {

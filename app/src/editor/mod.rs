@@ -16,6 +16,7 @@ pub mod gpu_viewport;
 mod group_tools;
 mod groups;
 mod inspector;
+mod lights;
 mod ray_inspector;
 mod selection;
 mod shape_tools;
