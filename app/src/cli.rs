@@ -39,7 +39,8 @@ pub enum Command {
     /// Trace one pixel's camera ray with each method and print its steps: where each step
     /// stood, the field there, the bound it computed and how far that let it go.
     TraceRay(TraceRayArgs),
-    /// Export the isosurface as a glTF mesh (.glb, or .gltf with a .bin beside it).
+    /// Export the isosurface as a mesh: glTF (.glb, or .gltf with a .bin), STL, OBJ (with a
+    /// .mtl) or PLY, by the output's extension.
     Export(ExportArgs),
 }
 
@@ -58,7 +59,7 @@ pub struct InfoArgs {
 pub struct ExportArgs {
     /// Scene file (.ron).
     pub scene: PathBuf,
-    /// Output file: .glb or .gltf.
+    /// Output file: .glb, .gltf, .stl (binary), .obj (with a .mtl beside it) or .ply (binary).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Grid cells along the longest side of the field's support box (8 to 1024).

@@ -287,6 +287,24 @@ fn split_by_group(
     groups
 }
 
+/// Writes `mesh` in the format `path`'s extension names: `.glb` or `.gltf` ([`write_gltf`]),
+/// `.stl`, `.obj` with its `.mtl`, or `.ply` (`crate::mesh_formats`).
+///
+/// # Errors
+/// An unknown extension (the message lists the formats), an empty mesh, or a file that cannot
+/// be written.
+pub fn write_mesh(
+    scene: &Scene,
+    mesh: &Extracted,
+    path: &Path,
+    inputs: &[&Path],
+) -> Result<(), String> {
+    if crate::mesh_formats::write(scene, mesh, path, inputs)? {
+        return Ok(());
+    }
+    write_gltf(scene, mesh, path, inputs)
+}
+
 /// Writes `mesh` to `path` (`.glb`, or `.gltf` with its buffer `NAME.ID.bin` beside it), one
 /// mesh per group with its material; groups without triangles are left out. Never over one of
 /// `inputs` (`skeletrace_core::output`). A `.gltf`'s buffer has a name of its own for each
@@ -306,7 +324,7 @@ pub fn write_gltf(
         Some(e) if e.eq_ignore_ascii_case("gltf") => false,
         _ => {
             return Err(format!(
-                "{}: the output must end in .glb or .gltf",
+                "{}: the output must end in .glb, .gltf, .stl, .obj or .ply",
                 path.display()
             ));
         }

@@ -117,7 +117,7 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
     if terminal {
         eprintln!();
     }
-    skeletrace::export::write_gltf(scene, &mesh, &args.output, &[&args.scene])?;
+    skeletrace::export::write_mesh(scene, &mesh, &args.output, &[&args.scene])?;
     let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
     if mesh.cut_at_box {
         eprintln!(

@@ -242,12 +242,12 @@ fn a_wrong_extension_is_refused_with_the_path() {
     let scratch = Scratch::new("extension");
     let scene = load("blobs");
     let mesh = export::extract(&scene, 16, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
-    let path = scratch.path("mesh.obj");
-    let error = export::write_gltf(&scene, &mesh, &path, &[])
+    let path = scratch.path("mesh.fbx");
+    let error = export::write_mesh(&scene, &mesh, &path, &[])
         .err()
         .unwrap_or_default();
     assert!(
-        error.contains("mesh.obj") && error.contains(".glb"),
+        error.contains("mesh.fbx") && error.contains(".glb") && error.contains(".stl"),
         "{error}"
     );
     assert!(!path.exists());

@@ -100,6 +100,13 @@ impl FileDialogs for SystemFileDialogs {
         if request.purpose == FilePurpose::Open {
             dialog = dialog.add_filter("SWC morphology (imported)", &["swc"]);
         }
+        if request.purpose == FilePurpose::ExportMesh {
+            dialog = dialog
+                .add_filter("glTF with a separate buffer", &["gltf"])
+                .add_filter("binary STL", &["stl"])
+                .add_filter("Wavefront OBJ (with a .mtl)", &["obj"])
+                .add_filter("binary PLY", &["ply"]);
+        }
         if let Some(dir) = &request.directory {
             dialog = dialog.set_directory(dir);
         }

@@ -237,14 +237,14 @@ impl Editor {
         });
     }
 
-    /// Writes the isosurface at 128 cells to `path` as binary glTF, on a thread of its own
-    /// (about a second for the assets).
+    /// Writes the isosurface at 128 cells to `path` in the format its extension names (binary
+    /// glTF by default; STL, OBJ, PLY), on a thread of its own (about a second for the assets).
     pub(super) fn export_mesh(&mut self, ctx: &egui::Context, path: std::path::PathBuf) {
         let scene = self.doc.scene().clone();
         let what = format!("mesh {}", path.display());
         self.write_in_background(ctx, what, move || {
             let mesh = crate::export::extract(&scene, 128, &|_| {})?;
-            crate::export::write_gltf(&scene, &mesh, &path, &[])?;
+            crate::export::write_mesh(&scene, &mesh, &path, &[])?;
             let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
             Ok(format!(
                 "exported {} ({triangles} triangles)",
