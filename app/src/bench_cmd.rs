@@ -46,7 +46,8 @@ fn warm_up<E>(mut frame: impl FnMut() -> Result<(), E>) -> Result<f64, E> {
     Ok(first_ms)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of `v` (NaN when empty).
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
@@ -207,6 +208,26 @@ fn after_edits(
     })
 }
 
+/// The shaded frame of `method` alone through the scene camera that `bench` times.
+pub(crate) fn method_request(
+    scene: &Scene,
+    compiled: &Compiled,
+    method: MethodId,
+    (width, height): (usize, usize),
+    args: &BenchArgs,
+) -> FrameRequest {
+    FrameRequest {
+        camera: scene.camera,
+        width,
+        height,
+        methods: vec![method],
+        view: View::Shaded(FieldShading::default()),
+        shadows: false,
+        settings: TraceSettings::for_protocol(&compiled.program, args.protocol),
+        cancel: Cancel::new(),
+    }
+}
+
 /// Runs `bench`.
 ///
 /// # Errors
@@ -229,16 +250,7 @@ pub fn run(args: &BenchArgs, scene: &Scene) -> Result<(), String> {
     let mut rows: Vec<Row> = Vec::new();
     let mut devices: Vec<String> = Vec::new();
     for method in chosen {
-        let request = FrameRequest {
-            camera: scene.camera,
-            width,
-            height,
-            methods: vec![method],
-            view: View::Shaded(FieldShading::default()),
-            shadows: false,
-            settings: TraceSettings::for_protocol(&compiled.program, args.protocol),
-            cancel: Cancel::new(),
-        };
+        let request = method_request(scene, &compiled, method, (width, height), args);
         let backend = match backends.choose(args.backend, &compiled, method, &request) {
             Ok(backend) => backend,
             Err(BackendError::Unsupported(reason)) if args.methods == "all" => {

@@ -10,14 +10,15 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use skeletrace::backends::Backends;
-use skeletrace_core::backend::{BackendChoice, BackendError, Cancel, FrameBackend, FrameRequest};
+use skeletrace_core::backend::{BackendChoice, BackendError, FrameBackend, FrameRequest};
 use skeletrace_core::compile::Compiled;
 use skeletrace_core::cpu::cpu_backend::CpuBackend;
-use skeletrace_core::frame::{FieldShading, Frame, View};
-use skeletrace_core::methods::{MethodId, TraceMode, TraceSettings};
+use skeletrace_core::frame::Frame;
+use skeletrace_core::methods::{MethodId, TraceMode};
 use skeletrace_core::model::scene::Blend;
 use skeletrace_core::{Scene, compile};
 
+use crate::bench_cmd::{median, method_request};
 use crate::cli::{BenchArgs, SweepParam};
 use crate::render_cmd::parse_size;
 use crate::stdout::Skipped;
@@ -176,11 +177,6 @@ struct SweepReport<'a> {
     skipped: Vec<Skipped>,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-}
-
 /// The scene of each sweep value, compiled (validated first: a value the scene refuses is an
 /// error naming it).
 fn swept_scenes(
@@ -235,16 +231,7 @@ pub fn run(args: &BenchArgs, scene: &Scene, param: SweepParam) -> Result<(), Str
     let mut methods = Vec::new();
     let mut devices: Vec<String> = Vec::new();
     for method in chosen {
-        let request = FrameRequest {
-            camera: scene.camera,
-            width,
-            height,
-            methods: vec![method],
-            view: View::Shaded(FieldShading::default()),
-            shadows: false,
-            settings: TraceSettings::for_protocol(&compiled.program, args.protocol),
-            cancel: Cancel::new(),
-        };
+        let request = method_request(scene, &compiled, method, (width, height), args);
         let backend = match backends.choose(args.backend, &compiled, method, &request) {
             Ok(backend) => backend,
             Err(BackendError::Unsupported(reason)) if args.methods == "all" => {
