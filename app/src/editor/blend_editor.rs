@@ -32,6 +32,16 @@ fn kind_of(node: &Blend) -> Option<usize> {
     })
 }
 
+/// A node's Ricci exponent and blend width, with the values a new Ricci or smooth operator
+/// starts from where the node has none.
+fn parameters(node: &Blend) -> (f64, f64) {
+    match node {
+        Blend::Ricci { p, .. } => (*p, 0.2),
+        Blend::SmoothUnion { width, .. } | Blend::SmoothIntersection { width, .. } => (2.0, *width),
+        _ => (2.0, 0.2),
+    }
+}
+
 /// The operands of an operator, in order (none for a leaf).
 fn operands(node: Blend) -> Vec<Blend> {
     match node {
@@ -130,13 +140,7 @@ fn node(
                 })
                 .response
                 .on_hover_text("the operator: its operands stay (a difference takes two)");
-            let (mut p, mut width) = match this {
-                Blend::Ricci { p, .. } => (*p, 0.2),
-                Blend::SmoothUnion { width, .. } | Blend::SmoothIntersection { width, .. } => {
-                    (2.0, *width)
-                }
-                _ => (2.0, 0.2),
-            };
+            let (mut p, mut width) = parameters(this);
             match kind {
                 4 => {
                     ui.add(egui::Slider::new(&mut p, 1.0..=32.0).text("p"))
@@ -192,13 +196,7 @@ fn node(
     // The operands, indented under their operator.
     let kind = kind_of(this);
     if let Some(kind) = kind {
-        let (p, width) = match this {
-            Blend::Ricci { p, .. } => (*p, 0.2),
-            Blend::SmoothUnion { width, .. } | Blend::SmoothIntersection { width, .. } => {
-                (2.0, *width)
-            }
-            _ => (2.0, 0.2),
-        };
+        let (p, width) = parameters(this);
         let mut of = operands(this.clone());
         // A difference keeps both operands; the others keep at least one.
         let can_remove = kind != 3 && of.len() > 1;
