@@ -59,12 +59,16 @@ pub struct InfoArgs {
 pub struct ExportArgs {
     /// Scene file (.ron).
     pub scene: PathBuf,
-    /// Output file: .glb, .gltf, .stl (binary), .obj (with a .mtl beside it) or .ply (binary).
+    /// Output file: .glb, .gltf, .stl (binary), .obj (with a .mtl beside it), .ply (binary) or
+    /// .3mf.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Grid cells along the longest side of the field's support box (8 to 1024).
     #[arg(long, default_value_t = 128, value_parser = parse_resolution)]
     pub resolution: usize,
+    /// Print the mesh's report (size, watertight, manifold, distance to the surface) as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `import`.

@@ -1,19 +1,16 @@
-//! Mesh export (DESIGN.md, "Command line": `export`): the isosurface `f = c` extracted with
-//! naive surface nets (the `fast-surface-nets` crate) on a grid over the field's support,
-//! each vertex then moved onto the surface by Newton steps along the analytic gradient, with
-//! the analytic normal. Coincident vertices are welded and the triangles they collapse
-//! dropped, so no triangle is degenerate and a closed surface gives a closed mesh. Each
-//! triangle goes to the group whose field is largest at its centre: one glTF mesh per
+//! Mesh export (DESIGN.md, "Command line": `export`): the isosurface `f = c` extracted by
+//! marching tetrahedra on a grid over the field's support (`crate::isosurface`: watertight,
+//! 2-manifold and outward by construction, vertices on the surface), with the analytic
+//! normal, and measured ([`MeshReport`]). Each triangle goes to the group whose field is
+//! largest at its centre: one glTF mesh per
 //! material group, with its base colour and, for a transparent group, `KHR_materials_transmission`
 //! and `KHR_materials_ior`. Written with the gltf crate's JSON types, as `.glb` or as `.gltf`
 //! with a sibling `.bin`, atomically.
 
 use std::borrow::Cow;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use fast_surface_nets::ndshape::{RuntimeShape, Shape};
-use fast_surface_nets::{SurfaceNetsBuffer, surface_nets};
 use glam::DVec3;
 use gltf::json;
 use json::validation::Checked::Valid;
@@ -23,17 +20,11 @@ use skeletrace_core::field::geometry::Ray;
 use skeletrace_core::output::write_file;
 use skeletrace_core::{FieldProgram, Scene};
 
-/// Newton steps that move a surface-nets vertex onto the surface.
-const NEWTON_STEPS: usize = 8;
+use crate::isosurface::{self, Grid, MeshReport, TetraMesh};
 
 /// Grid cells along the longest side that [`extract`] accepts: coarser grids lose whole
 /// primitives; past 1 024 the grid's samples (a billion) take minutes and gigabytes.
 pub const RESOLUTIONS: std::ops::RangeInclusive<usize> = 8..=1024;
-
-/// The distance estimate `|f − c| / |∇f|` every exported vertex satisfies, as a fraction of
-/// the support's diagonal (vertices that cannot reach it stay where surface nets put them
-/// and are counted in [`Extracted::off_surface`]).
-pub const SURFACE_TOLERANCE: f64 = 1e-5;
 
 /// A triangle mesh of the isosurface, split by group.
 #[derive(Debug)]
@@ -45,12 +36,12 @@ pub struct Extracted {
     pub normals: Vec<DVec3>,
     /// Triangles, counter-clockwise seen from outside, per group.
     pub triangles: Vec<Vec<[u32; 3]>>,
-    /// Vertices the Newton steps could not bring within [`SURFACE_TOLERANCE`].
-    pub off_surface: usize,
+    /// What the mesh is, measured: closed, manifold, oriented, how far from the surface.
+    pub report: MeshReport,
     /// Grid cell size.
     pub cell: f64,
-    /// An unbounded primitive (a plane) was cut at the box of the bounded ones' supports,
-    /// where the mesh is open.
+    /// An unbounded primitive (a plane) was cut at the box of the bounded ones' supports
+    /// (a cell beyond it) and closed there by a cap.
     pub cut_at_box: bool,
 }
 
@@ -81,164 +72,38 @@ pub fn extract(
     }
     let cell = extent.max_element() / resolution as f64;
     // One padding cell on each side, so the surface never touches the grid's border.
-    let origin = lo - DVec3::splat(cell);
-    let dims = ((extent / cell).ceil() + DVec3::splat(3.0))
-        .to_array()
-        .map(|n| n as u32);
-    let shape = RuntimeShape::<u32, 3>::new(dims);
-    let c = program.isovalue();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let slice = (dims[0] * dims[1]) as usize;
-    let mut sdf = vec![0.0f32; shape.usize()];
-    sdf.par_chunks_mut(slice)
-        .enumerate()
-        .for_each(|(z, plane)| {
-            for (i, value) in plane.iter_mut().enumerate() {
-                let (x, y) = (i % dims[0] as usize, i / dims[0] as usize);
-                let p = origin + DVec3::new(x as f64, y as f64, z as f64) * cell;
-                // Negative inside, as surface nets expects.
-                *value = (c - program.value(p)) as f32;
-            }
-            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            progress(n as f64 / f64::from(dims[2]));
-        });
-    let mut buffer = SurfaceNetsBuffer::default();
-    surface_nets(&sdf, &shape, [0; 3], dims.map(|n| n - 1), &mut buffer);
-    let diagonal = extent.length();
-    let mut off_surface = 0;
-    let mut positions = Vec::with_capacity(buffer.positions.len());
-    let mut normals = Vec::with_capacity(buffer.positions.len());
-    for p in &buffer.positions {
-        let start = origin + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) * cell;
-        let (at, gradient, on) = onto_surface(&program, start, cell, diagonal);
-        off_surface += usize::from(!on);
-        positions.push(at);
-        normals.push(-gradient.normalize_or_zero());
-    }
-    let (positions, mut normals, triangles) = weld(positions, normals, &buffer.indices);
-    let triangles = orient(&positions, &normals, triangles);
+    let grid = Grid {
+        origin: lo - DVec3::splat(cell),
+        cell,
+        dims: ((extent / cell).ceil() + DVec3::splat(3.0))
+            .to_array()
+            .map(|n| n as usize),
+    };
+    let TetraMesh {
+        positions,
+        triangles,
+    } = isosurface::extract(&program, grid, program.has_unbounded_support(), progress);
+    let mut normals: Vec<DVec3> = positions
+        .par_iter()
+        .map(|&p| -program.value_gradient(p).1.normalize_or_zero())
+        .collect();
     repair_normals(&positions, &mut normals, &triangles);
+    let report = MeshReport::of(
+        &program,
+        &positions,
+        &triangles,
+        grid,
+        program.has_unbounded_support(),
+    );
     let triangles = split_by_group(&program, &positions, triangles);
     Ok(Extracted {
         positions,
         normals,
         triangles,
-        off_surface,
+        report,
         cell,
         cut_at_box: program.has_unbounded_support(),
     })
-}
-
-/// Newton steps along the gradient from `start`, never further than one cell away; returns
-/// the point, the gradient there, and whether the distance estimate is within tolerance.
-fn onto_surface(
-    program: &FieldProgram,
-    start: DVec3,
-    cell: f64,
-    diagonal: f64,
-) -> (DVec3, DVec3, bool) {
-    let c = program.isovalue();
-    let mut p = start;
-    let (mut f, mut g) = program.value_gradient(p);
-    for _ in 0..NEWTON_STEPS {
-        let g2 = g.length_squared();
-        if g2 < 1e-300 || (f - c).abs() <= SURFACE_TOLERANCE * diagonal * g2.sqrt() {
-            break;
-        }
-        let next = p - g * ((f - c) / g2);
-        if (next - start).length() > cell {
-            break;
-        }
-        p = next;
-        (f, g) = program.value_gradient(p);
-    }
-    let within = |f: f64, g: DVec3| (f - c).abs() <= SURFACE_TOLERANCE * diagonal * g.length();
-    if within(f, g) {
-        return (p, g, true);
-    }
-    // Newton left the cell or stalled (a crease of a max blend, a thin feature): bisect on
-    // the line along the start's gradient, on the sign change nearest to the start.
-    let (_, g0) = program.value_gradient(start);
-    let direction = g0.normalize_or_zero();
-    let inside = |s: f64| program.value(start + s * direction) >= c;
-    let samples = 16;
-    let reach = 2.0 * cell;
-    let start_side = inside(0.0);
-    let bracket = (1..=samples)
-        .flat_map(|k| {
-            let s = reach * f64::from(k) / f64::from(samples);
-            [s, -s]
-        })
-        .find(|&s| inside(s) != start_side);
-    if let Some(end) = bracket {
-        let (mut near, mut far) = (0.0, end);
-        for _ in 0..60 {
-            let mid = 0.5 * (near + far);
-            if inside(mid) == start_side {
-                near = mid;
-            } else {
-                far = mid;
-            }
-        }
-        let q = start + 0.5 * (near + far) * direction;
-        let (fq, gq) = program.value_gradient(q);
-        if within(fq, gq) {
-            return (q, gq, true);
-        }
-    }
-    (p, g, false)
-}
-
-/// Merges vertices at the same position and drops the triangles that collapse.
-fn weld(
-    positions: Vec<DVec3>,
-    normals: Vec<DVec3>,
-    indices: &[u32],
-) -> (Vec<DVec3>, Vec<DVec3>, Vec<[u32; 3]>) {
-    let mut first: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut kept_positions = Vec::new();
-    let mut kept_normals = Vec::new();
-    let remap: Vec<u32> = positions
-        .iter()
-        .zip(&normals)
-        .map(|(p, n)| {
-            *first
-                .entry(p.to_array().map(f64::to_bits))
-                .or_insert_with(|| {
-                    kept_positions.push(*p);
-                    kept_normals.push(*n);
-                    (kept_positions.len() - 1) as u32
-                })
-        })
-        .collect();
-    let triangles = indices
-        .chunks_exact(3)
-        .map(|t| {
-            [
-                remap[t[0] as usize],
-                remap[t[1] as usize],
-                remap[t[2] as usize],
-            ]
-        })
-        .filter(|[a, b, c]| a != b && b != c && a != c)
-        .collect();
-    (kept_positions, kept_normals, triangles)
-}
-
-/// Turns the triangles to face outwards: the side the normals point to, decided by the
-/// majority, as surface nets winds them consistently.
-fn orient(positions: &[DVec3], normals: &[DVec3], triangles: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
-    let facing = |t: &[u32; 3]| {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let n = normals[t[0] as usize] + normals[t[1] as usize] + normals[t[2] as usize];
-        (b - a).cross(c - a).dot(n)
-    };
-    let outward = triangles.iter().filter(|t| facing(t) > 0.0).count();
-    if outward * 2 < triangles.len() {
-        triangles.into_iter().map(|t| [t[0], t[2], t[1]]).collect()
-    } else {
-        triangles
-    }
 }
 
 /// Gives every vertex a unit normal (glTF requires NORMAL to be unit length): where the
@@ -288,7 +153,7 @@ fn split_by_group(
 }
 
 /// Writes `mesh` in the format `path`'s extension names: `.glb` or `.gltf` ([`write_gltf`]),
-/// `.stl`, `.obj` with its `.mtl`, or `.ply` (`crate::mesh_formats`).
+/// `.stl`, `.obj` with its `.mtl`, `.ply` or `.3mf` (`crate::mesh_formats`).
 ///
 /// # Errors
 /// An unknown extension (the message lists the formats), an empty mesh, or a file that cannot
@@ -324,7 +189,7 @@ pub fn write_gltf(
         Some(e) if e.eq_ignore_ascii_case("gltf") => false,
         _ => {
             return Err(format!(
-                "{}: the output must end in .glb, .gltf, .stl, .obj or .ply",
+                "{}: the output must end in .glb, .gltf, .stl, .obj, .ply or .3mf",
                 path.display()
             ));
         }

@@ -118,21 +118,53 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
         eprintln!();
     }
     skeletrace::export::write_mesh(scene, &mesh, &args.output, &[&args.scene])?;
-    let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
     if mesh.cut_at_box {
         eprintln!(
-            "skeletrace: {}: a plane was cut at the box of the other primitives' supports; the mesh is open there",
+            "skeletrace: {}: a plane was cut at the box of the other primitives' supports and closed there by a cap",
             args.scene.display()
         );
     }
+    let r = &mesh.report;
+    if args.json {
+        #[derive(serde::Serialize)]
+        struct ExportJson<'a> {
+            output: String,
+            cell: f64,
+            groups: usize,
+            seconds: f64,
+            #[serde(flatten)]
+            report: &'a skeletrace::isosurface::MeshReport,
+        }
+        let json = ExportJson {
+            output: args.output.display().to_string(),
+            cell: mesh.cell,
+            groups: mesh.triangles.iter().filter(|t| !t.is_empty()).count(),
+            seconds: started.elapsed().as_secs_f64(),
+            report: r,
+        };
+        return stdout::print(
+            &(serde_json::to_string_pretty(&json).map_err(|e| e.to_string())? + "\n"),
+        );
+    }
     stdout::print(&format!(
-        "{}: {} vertices, {} triangles in {} group meshes, cell {:.4}, {} vertices off the surface, {:.1} s\n",
+        "{}: {} vertices, {} triangles in {} group meshes, cell {:.4}; {}: {} boundary edges, {} non-manifold edges, {} non-manifold vertices, {} degenerate triangles, {} misoriented edges, volume {:.4e}; vertices within {:.1e} cells of the surface; {:.1} s\n",
         args.output.display(),
-        mesh.positions.len(),
-        triangles,
+        r.vertices,
+        r.triangles,
         mesh.triangles.iter().filter(|t| !t.is_empty()).count(),
         mesh.cell,
-        mesh.off_surface,
+        if r.watertight {
+            "watertight"
+        } else {
+            "NOT watertight"
+        },
+        r.boundary_edges,
+        r.non_manifold_edges,
+        r.non_manifold_vertices,
+        r.degenerate_triangles,
+        r.misoriented_edges,
+        r.volume,
+        r.max_distance_cells,
         started.elapsed().as_secs_f64()
     ))
 }

@@ -1,7 +1,9 @@
 //! Mesh files other than glTF, for printers, CAD and game tools: binary STL (facets with their
 //! normals; one solid, groups merged), Wavefront OBJ with its `.mtl` (one object and material
 //! per group: colour, opacity, index of refraction; shared vertices with their normals) and
-//! binary little-endian PLY (vertices with normals, faces with their group). Each is written
+//! binary little-endian PLY (vertices with normals, faces with their group) and 3MF (one
+//! watertight object whose triangles carry their group's colour, in a zip package). Each is
+//! written
 //! with `skeletrace_core::output::write_file` (atomically, never over an input); an OBJ's
 //! material library is written first, so that the OBJ never names a library that is not there.
 
@@ -122,7 +124,95 @@ pub fn ply_bytes(mesh: &Extracted) -> Vec<u8> {
     out
 }
 
-/// Writes `mesh` as `.stl`, `.obj` (with `NAME.mtl` beside it) or `.ply`, by `path`'s
+/// `text` with XML's five special characters escaped, for an attribute or element.
+fn xml_escaped(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('\'', "&apos;")
+}
+
+/// The 3MF model part (3MF core specification 1.3, `3D/3dmodel.model`): the scene's groups
+/// as base materials with their colours, and the whole mesh as one object whose triangles
+/// name their group's material. One object rather than one per group: where groups blend, a
+/// group's triangles alone are an open surface, which slicers refuse; the whole is closed.
+/// Lengths are the scene's units, declared as millimetres (3MF's default unit).
+#[must_use]
+pub fn three_mf_model(scene: &Scene, mesh: &Extracted) -> String {
+    let mut xml = String::from(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+         <model unit=\"millimeter\" xml:lang=\"en-US\" \
+         xmlns=\"http://schemas.microsoft.com/3dmanufacturing/core/2015/02\">\n\
+         <metadata name=\"Application\">skeletrace</metadata>\n<resources>\n<basematerials id=\"1\">\n",
+    );
+    let groups = mesh.triangles.len();
+    for g in 0..groups {
+        let (name, colour) = scene.groups.get(g).map_or_else(
+            || (format!("group {g}"), [0.8; 3]),
+            |group| (group.name.clone(), group.material.color),
+        );
+        let [r, gr, b] = colour.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+        let _ = writeln!(
+            xml,
+            "<base name=\"{}\" displaycolor=\"#{r:02X}{gr:02X}{b:02X}\"/>",
+            xml_escaped(&name)
+        );
+    }
+    xml.push_str(
+        "</basematerials>\n<object id=\"2\" type=\"model\" name=\"skeletrace isosurface\" pid=\"1\" pindex=\"0\">\n<mesh>\n<vertices>\n",
+    );
+    for p in &mesh.positions {
+        let [x, y, z] = f32s(*p);
+        let _ = writeln!(xml, "<vertex x=\"{x}\" y=\"{y}\" z=\"{z}\"/>");
+    }
+    xml.push_str("</vertices>\n<triangles>\n");
+    for (g, [a, b, c]) in triangles(mesh) {
+        let _ = writeln!(
+            xml,
+            "<triangle v1=\"{a}\" v2=\"{b}\" v3=\"{c}\" pid=\"1\" p1=\"{g}\"/>"
+        );
+    }
+    xml.push_str("</triangles>\n</mesh>\n</object>\n</resources>\n<build>\n<item objectid=\"2\"/>\n</build>\n</model>\n");
+    xml
+}
+
+/// A 3MF package: the OPC content types, the root relationship to the model, and the model
+/// ([`three_mf_model`]), deflated.
+///
+/// # Errors
+/// The zip writer's, which writes to memory.
+pub fn three_mf_bytes(scene: &Scene, mesh: &Extracted) -> Result<Vec<u8>, String> {
+    use std::io::Write as _;
+    let content_types = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+        <Types xmlns=\"http://schemas.openxmlformats.org/package/2006/content-types\">\n\
+        <Default Extension=\"rels\" ContentType=\"application/vnd.openxmlformats-package.relationships+xml\"/>\n\
+        <Default Extension=\"model\" ContentType=\"application/vnd.ms-package.3dmanufacturing-3dmodel+xml\"/>\n\
+        </Types>\n";
+    let relationships = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+        <Relationships xmlns=\"http://schemas.openxmlformats.org/package/2006/relationships\">\n\
+        <Relationship Target=\"/3D/3dmodel.model\" Id=\"rel0\" \
+        Type=\"http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel\"/>\n\
+        </Relationships>\n";
+    let model = three_mf_model(scene, mesh);
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated);
+    for (name, text) in [
+        ("[Content_Types].xml", content_types),
+        ("_rels/.rels", relationships),
+        ("3D/3dmodel.model", model.as_str()),
+    ] {
+        zip.start_file(name, options)
+            .and_then(|()| zip.write_all(text.as_bytes()).map_err(Into::into))
+            .map_err(|e| format!("3MF package, {name}: {e}"))?;
+    }
+    zip.finish()
+        .map(std::io::Cursor::into_inner)
+        .map_err(|e| format!("3MF package: {e}"))
+}
+
+/// Writes `mesh` as `.stl`, `.obj` (with `NAME.mtl` beside it), `.ply` or `.3mf`, by `path`'s
 /// extension; `Ok(false)` for another extension.
 ///
 /// # Errors
@@ -138,7 +228,7 @@ pub fn write(
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     let extension = match extension.as_deref() {
-        Some(e @ ("stl" | "obj" | "ply")) => e.to_owned(),
+        Some(e @ ("stl" | "obj" | "ply" | "3mf")) => e.to_owned(),
         _ => return Ok(false),
     };
     if triangles(mesh).next().is_none() {
@@ -148,6 +238,7 @@ pub fn write(
     match extension.as_str() {
         "stl" => write_file(path, &stl_bytes(mesh), inputs).map_err(fail)?,
         "ply" => write_file(path, &ply_bytes(mesh), inputs).map_err(fail)?,
+        "3mf" => write_file(path, &three_mf_bytes(scene, mesh)?, inputs).map_err(fail)?,
         _ => {
             let mtl_path = path.with_extension("mtl");
             let mtl_name = mtl_path.file_name().map_or_else(

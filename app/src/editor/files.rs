@@ -105,7 +105,8 @@ impl FileDialogs for SystemFileDialogs {
                 .add_filter("glTF with a separate buffer", &["gltf"])
                 .add_filter("binary STL", &["stl"])
                 .add_filter("Wavefront OBJ (with a .mtl)", &["obj"])
-                .add_filter("binary PLY", &["ply"]);
+                .add_filter("binary PLY", &["ply"])
+                .add_filter("3MF (printers)", &["3mf"]);
         }
         if let Some(dir) = &request.directory {
             dialog = dialog.set_directory(dir);
