@@ -69,6 +69,9 @@ pub struct ExportArgs {
     /// Print the mesh's report (size, watertight, manifold, distance to the surface) as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Export past the memory limit (4 GB estimated; the estimate is printed first).
+    #[arg(long)]
+    pub allow_large: bool,
 }
 
 /// Arguments of `import`.

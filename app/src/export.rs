@@ -10,6 +10,7 @@
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 
 use glam::DVec3;
 use gltf::json;
@@ -46,8 +47,8 @@ pub struct Extracted {
 }
 
 /// Extracts the isosurface of `scene` on a grid of `resolution` cells along the longest side
-/// of the box of the bounded primitives' supports (a plane is cut at that box). `progress`
-/// gets the fraction of the field sampled so far.
+/// of the box of the bounded primitives' supports (a plane is cut at that box and capped).
+/// `progress` gets the fraction of the field sampled so far.
 ///
 /// # Errors
 /// A field without bounded primitives cannot be meshed; a resolution outside [`RESOLUTIONS`].
@@ -56,6 +57,95 @@ pub fn extract(
     resolution: usize,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<Extracted, String> {
+    extract_cancellable(scene, resolution, progress, &AtomicBool::new(false))
+}
+
+/// [`extract`], stopped with an error once `cancel` is set.
+///
+/// # Errors
+/// As [`extract`], and "cancelled".
+pub fn extract_cancellable(
+    scene: &Scene,
+    resolution: usize,
+    progress: &(dyn Fn(f64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Extracted, String> {
+    let (program, grid) = grid_of(scene, resolution)?;
+    let TetraMesh {
+        positions,
+        triangles,
+    } = isosurface::extract(
+        &program,
+        grid,
+        program.has_unbounded_support(),
+        progress,
+        cancel,
+    )
+    .ok_or("cancelled")?;
+    let mut normals: Vec<DVec3> = positions
+        .par_iter()
+        .map(|&p| -program.value_gradient(p).1.normalize_or_zero())
+        .collect();
+    repair_normals(&positions, &mut normals, &triangles);
+    let report = MeshReport::of(
+        &program,
+        &positions,
+        &triangles,
+        grid,
+        program.has_unbounded_support(),
+    );
+    let triangles = split_by_group(&program, &positions, triangles);
+    Ok(Extracted {
+        positions,
+        normals,
+        triangles,
+        report,
+        cell: grid.cell,
+        cut_at_box: program.has_unbounded_support(),
+    })
+}
+
+/// The coarse resolution [`estimate`] extracts at.
+const ESTIMATE_RESOLUTION: usize = 24;
+
+/// What an export will take, stated before it starts.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Estimate {
+    /// Grid points sampled.
+    pub grid_points: u64,
+    /// Triangles, roughly: a coarse extraction's, scaled with the area in cells.
+    pub triangles: u64,
+    /// Peak memory of the extraction in bytes, roughly: the samples, the edge map and the mesh.
+    pub bytes: u64,
+}
+
+/// The [`Estimate`] of an export of `scene` at `resolution`: the grid's size exactly, the
+/// triangles of an extraction at [`ESTIMATE_RESOLUTION`] cells times the square of the ratio of
+/// the resolutions (a surface's triangles grow with its area in cells; parts thinner than the
+/// coarse cell are missed, so it is low for them), and the bytes that makes.
+///
+/// # Errors
+/// As [`extract`].
+pub fn estimate(scene: &Scene, resolution: usize) -> Result<Estimate, String> {
+    let (_, grid) = grid_of(scene, resolution)?;
+    let grid_points = grid.dims.iter().map(|&n| n as u64).product::<u64>();
+    let coarse = extract(scene, ESTIMATE_RESOLUTION.min(resolution), &|_| {})?;
+    let ratio = resolution as f64 / ESTIMATE_RESOLUTION.min(resolution) as f64;
+    let triangles = (coarse.report.triangles as f64 * ratio * ratio).round() as u64;
+    // Per grid point its f64 sample; per vertex (about half the triangles) its position,
+    // normal, edge-map entry and crossing; per triangle its indices, its outward vector while
+    // it is built, and the edge counts of the report.
+    let bytes = grid_points * 8 + triangles / 2 * (24 + 24 + 40 + 16) + triangles * (12 + 24 + 64);
+    Ok(Estimate {
+        grid_points,
+        triangles,
+        bytes,
+    })
+}
+
+/// The field of `scene` and the grid of `resolution` cells along the longest side of its
+/// bounded supports' box, with a padding cell on each side.
+fn grid_of(scene: &Scene, resolution: usize) -> Result<(FieldProgram, Grid), String> {
     let program = FieldProgram::new(scene);
     let bounds = program.support_bounds();
     let (lo, hi) = (bounds.min, bounds.max);
@@ -79,31 +169,7 @@ pub fn extract(
             .to_array()
             .map(|n| n as usize),
     };
-    let TetraMesh {
-        positions,
-        triangles,
-    } = isosurface::extract(&program, grid, program.has_unbounded_support(), progress);
-    let mut normals: Vec<DVec3> = positions
-        .par_iter()
-        .map(|&p| -program.value_gradient(p).1.normalize_or_zero())
-        .collect();
-    repair_normals(&positions, &mut normals, &triangles);
-    let report = MeshReport::of(
-        &program,
-        &positions,
-        &triangles,
-        grid,
-        program.has_unbounded_support(),
-    );
-    let triangles = split_by_group(&program, &positions, triangles);
-    Ok(Extracted {
-        positions,
-        normals,
-        triangles,
-        report,
-        cell,
-        cut_at_box: program.has_unbounded_support(),
-    })
+    Ok((program, grid))
 }
 
 /// Gives every vertex a unit normal (glTF requires NORMAL to be unit length): where the

@@ -15,6 +15,7 @@
 //! degenerate. [`MeshReport`] measures what the construction promises, on any mesh.
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -69,13 +70,15 @@ impl Grid {
 /// Samples `f − c` at every grid point (slices in parallel; `progress` gets the fraction done)
 /// and extracts the triangles of its zero set. With `close_at_border` the grid's outermost
 /// points count as outside, so that a surface the grid cuts (a plane's) is closed by a cap on
-/// the grid's box, as a printer needs a solid.
+/// the grid's box, as a printer needs a solid. `None` once `cancel` is set (checked per slice
+/// of the grid).
 pub fn extract(
     program: &FieldProgram,
     grid: Grid,
     close_at_border: bool,
     progress: &(dyn Fn(f64) + Sync),
-) -> TetraMesh {
+    cancel: &AtomicBool,
+) -> Option<TetraMesh> {
     let [nx, ny, nz] = grid.dims;
     let c = program.isovalue();
     let done = std::sync::atomic::AtomicUsize::new(0);
@@ -84,17 +87,24 @@ pub fn extract(
         .par_chunks_mut(nx * ny)
         .enumerate()
         .for_each(|(z, slice)| {
+            if cancel.load(Ordering::Relaxed) {
+                return;
+            }
             for (i, value) in slice.iter_mut().enumerate() {
                 let (x, y) = (i % nx, i / nx);
-                let border = x == 0 || y == 0 || z == 0 || x == nx - 1 || y == ny - 1 || z == nz - 1;
+                let border =
+                    x == 0 || y == 0 || z == 0 || x == nx - 1 || y == ny - 1 || z == nz - 1;
                 *value = program.value(grid.point(z * nx * ny + i)) - c;
                 if close_at_border && border {
                     *value = value.min(0.0);
                 }
             }
-            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
             progress(n as f64 / nz as f64);
         });
+    if cancel.load(Ordering::Relaxed) {
+        return None;
+    }
     let inside = |i: usize| values[i] > 0.0;
     let corner_offsets = [
         0,
@@ -173,10 +183,10 @@ pub fn extract(
             }
         })
         .collect();
-    TetraMesh {
+    Some(TetraMesh {
         positions,
         triangles,
-    }
+    })
 }
 
 /// The root of `f = c` on the edge from `inside` (where `f − c` is `d_in > 0`) to `outside`

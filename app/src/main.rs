@@ -97,9 +97,33 @@ fn open_editor(path: Option<&Path>) -> Result<(), String> {
     skeletrace::editor::run(path)
 }
 
-/// `export`: extract, report, write; a progress bar on standard error when it is a terminal.
+/// The estimated memory past which `export` refuses without `--allow-large`.
+const EXPORT_MEMORY_LIMIT: u64 = 4_000_000_000;
+
+/// `export`: states the estimate (refusing past [`EXPORT_MEMORY_LIMIT`]), then extracts,
+/// reports and writes; a progress bar on standard error when it is a terminal.
 fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
     let started = std::time::Instant::now();
+    let estimate = skeletrace::export::estimate(scene, args.resolution)
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let stated = format!(
+        "{} grid points, about {} triangles and {:.0} MB",
+        estimate.grid_points,
+        estimate.triangles,
+        estimate.bytes as f64 / 1e6
+    );
+    if estimate.bytes > EXPORT_MEMORY_LIMIT && !args.allow_large {
+        return Err(format!(
+            "{} at --resolution {}: {stated}, past the limit of {:.0} MB; choose a smaller \
+             --resolution or pass --allow-large",
+            args.scene.display(),
+            args.resolution,
+            EXPORT_MEMORY_LIMIT as f64 / 1e6
+        ));
+    }
+    if !args.json {
+        eprintln!("skeletrace: exporting {}: {stated}", args.scene.display());
+    }
     let terminal = std::io::stderr().is_terminal();
     let progress = |fraction: f64| {
         if terminal {

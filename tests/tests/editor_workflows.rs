@@ -769,6 +769,72 @@ fn wait_for_writes(h: &mut Harness<'static, Editor>) {
     }
 }
 
+/// File → Export mesh…: the menu shows what an export at its resolution will take; the export
+/// runs on its own thread under a progress window while the editor goes on, and writes a
+/// watertight 3MF; a second one, cancelled from the window, leaves no file and says so.
+#[test]
+fn mesh_export_states_its_estimate_shows_progress_and_can_be_cancelled() {
+    if skeletrace_tests::skip_without_gpu(
+        "mesh_export_states_its_estimate_shows_progress_and_can_be_cancelled",
+    ) {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("skeletrace-export-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let dialogs = Arc::new(ScriptedDialogs {
+        answers: Mutex::new(VecDeque::from([
+            Ok(Some(dir.join("blobs.3mf"))),
+            Ok(Some(dir.join("cancelled.stl"))),
+        ])),
+        asked: Mutex::new(Vec::new()),
+    });
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        export_resolution: 40,
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let editor = Editor::new(doc, ui_state, None, || {}).with_file_dialogs(dialogs.clone());
+    let mut h = harness(editor);
+    h.step();
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "File")
+        .click();
+    h.step();
+    h.step();
+    assert!(
+        h.query_by_label_contains("triangles,").is_some(),
+        "the File menu states the export's estimate"
+    );
+    h.key_press(egui::Key::Escape);
+    h.step();
+
+    file_menu(&mut h, "Export mesh…");
+    assert!(h.state().exporting_mesh());
+    wait_for_writes(&mut h);
+    h.step();
+    assert!(!h.state().exporting_mesh(), "the progress window closes");
+    let notice = h.state().notice().unwrap_or_default().to_owned();
+    assert!(notice.contains("watertight"), "{notice}");
+    let package = std::fs::read(dir.join("blobs.3mf")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(package.starts_with(b"PK"), "a zip package");
+
+    // A fine grid takes long enough to cancel from the window.
+    h.state_mut().set_export_resolution(400);
+    file_menu(&mut h, "Export mesh…");
+    assert!(
+        h.query_by_label("Exporting mesh").is_some(),
+        "the progress window"
+    );
+    h.get_by_label("Cancel export").click();
+    h.step();
+    wait_for_writes(&mut h);
+    h.step();
+    let notice = h.state().notice().unwrap_or_default().to_owned();
+    assert!(notice.contains("cancelled"), "{notice}");
+    assert!(!dir.join("cancelled.stl").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The File menu through (scripted) system dialogs: Save As names a file without an extension
 /// and gets `.ron`; a screenshot and a mesh are written (in the background) where their dialogs
 /// say; Open on unsaved changes asks first;

@@ -117,9 +117,7 @@ impl Editor {
                     ui.label("×");
                     ui.add(egui::DragValue::new(h).range(16..=8192).suffix(" px"));
                 });
-                if ui.button("Export mesh…").clicked() {
-                    self.ask_for_file(&ctx, FilePurpose::ExportMesh);
-                }
+                self.export_menu_entry(ui);
                 ui.separator();
                 let recent = self.ui_state.recent.clone();
                 ui.menu_button("Recent", |ui| {
@@ -234,22 +232,6 @@ impl Editor {
             if ui.button("Help").clicked() {
                 self.prompts.help = !self.prompts.help;
             }
-        });
-    }
-
-    /// Writes the isosurface at 128 cells to `path` in the format its extension names (binary
-    /// glTF by default; STL, OBJ, PLY), on a thread of its own (about a second for the assets).
-    pub(super) fn export_mesh(&mut self, ctx: &egui::Context, path: std::path::PathBuf) {
-        let scene = self.doc.scene().clone();
-        let what = format!("mesh {}", path.display());
-        self.write_in_background(ctx, what, move || {
-            let mesh = crate::export::extract(&scene, 128, &|_| {})?;
-            crate::export::write_mesh(&scene, &mesh, &path, &[])?;
-            let triangles: usize = mesh.triangles.iter().map(Vec::len).sum();
-            Ok(format!(
-                "exported {} ({triangles} triangles)",
-                path.display()
-            ))
         });
     }
 

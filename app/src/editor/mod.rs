@@ -17,6 +17,7 @@ mod group_tools;
 mod groups;
 mod inspector;
 mod lights;
+mod mesh_export;
 mod ray_inspector;
 mod selection;
 mod shape_tools;
@@ -68,6 +69,8 @@ pub struct Editor {
     prompts: inspector::Prompts,
     /// What the viewport and the comparison grid keep between frames (`viewport.rs`).
     view: viewport::ViewportState,
+    /// The mesh export's estimate and running job (`mesh_export.rs`).
+    mesh_export: mesh_export::MeshExport,
 }
 
 impl Editor {
@@ -98,6 +101,7 @@ impl Editor {
             active_group: 0,
             files: files::FileState::new(recovery_offer, recovery_path, path_field),
             prompts: inspector::Prompts::default(),
+            mesh_export: mesh_export::MeshExport::default(),
             view: viewport::ViewportState::default(),
         }
     }
@@ -292,6 +296,7 @@ impl Editor {
         });
         self.ray_inspector(&ctx);
         self.dialogs(&ctx);
+        self.export_progress_window(&ctx);
         self.autosave(&ctx);
         if ui.input(|i| i.pointer.any_released()) {
             self.doc.end_gesture();

@@ -101,6 +101,13 @@ pub struct UiState {
     /// Mirror symmetry of sketching and edits (`symmetry.rs`), if on.
     #[serde(default)]
     pub mirror: Option<Mirror>,
+    /// Grid cells of a mesh export along the longest side of the support box.
+    #[serde(default = "default_export_resolution")]
+    pub export_resolution: usize,
+}
+
+fn default_export_resolution() -> usize {
+    128
 }
 
 impl Default for UiState {
@@ -121,6 +128,7 @@ impl Default for UiState {
             recent: Vec::new(),
             screenshot_size: (1280, 960),
             mirror: None,
+            export_resolution: default_export_resolution(),
         }
     }
 }
