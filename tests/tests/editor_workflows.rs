@@ -769,6 +769,45 @@ fn wait_for_writes(h: &mut Harness<'static, Editor>) {
     }
 }
 
+/// The standard views: 7 looks down from the top, Ctrl+3 from the left, and View → Front view
+/// along −z; each keeps the target and the distance.
+#[test]
+fn standard_views_by_key_and_menu() {
+    if skeletrace_tests::skip_without_gpu("standard_views_by_key_and_menu") {
+        return;
+    }
+    let ui_state = UiState {
+        backend: BackendChoice::Cpu,
+        ..UiState::default()
+    };
+    let doc = Document::open(&asset("blobs")).unwrap_or_else(|e| panic!("{e}"));
+    let mut h = harness(Editor::new(doc, ui_state, None, || {}));
+    h.step();
+    let before = *h.state().orbit();
+    let from = |h: &Harness<'static, Editor>| {
+        let c = h.state().orbit().camera();
+        let d = [0, 1, 2].map(|k| c.position[k] - c.target[k]);
+        let n = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+        d.map(|x| x / n)
+    };
+    h.key_press(egui::Key::Num7);
+    h.step();
+    assert!(from(&h)[1] > 0.999, "top: {:?}", from(&h));
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Num3);
+    h.step();
+    assert!(from(&h)[0] < -0.999, "left: {:?}", from(&h));
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "View")
+        .click();
+    h.step();
+    h.step();
+    h.get_by_label_contains("Front view").click();
+    h.step();
+    assert!(from(&h)[2] > 0.999, "front: {:?}", from(&h));
+    let after = h.state().orbit();
+    assert_eq!(after.target, before.target);
+    assert!((after.distance - before.distance).abs() < 1e-12);
+}
+
 /// File → Export mesh…: the menu shows what an export at its resolution will take; the export
 /// runs on its own thread under a progress window while the editor goes on, and writes a
 /// watertight 3MF; a second one, cancelled from the window, leaves no file and says so.

@@ -21,7 +21,7 @@ use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
 use super::{blend_editor, group_tools, groups, shape_tools, symmetry};
 
 /// Shortcuts listed by the help overlay.
-pub const SHORTCUTS: [(&str, &str); 28] = [
+pub const SHORTCUTS: [(&str, &str); 29] = [
     ("Left drag", "orbit (on a handle: move it)"),
     ("Right / middle drag", "pan"),
     ("Wheel", "zoom; over a selected handle: radius"),
@@ -36,6 +36,7 @@ pub const SHORTCUTS: [(&str, &str); 28] = [
     ("Arrows, + / -", "orbit, zoom"),
     ("F", "frame the selection"),
     ("A or Home", "frame everything"),
+    ("1 / 3 / 7 (Ctrl: opposite)", "front / right / top view"),
     (
         "S",
         "sketch mode: click adds a vertex joined to the selection",
@@ -195,6 +196,16 @@ impl Editor {
                 }
                 if ui.button("Frame selection").clicked() {
                     self.frame_selection();
+                }
+                ui.separator();
+                for view in super::view::StandardView::ALL {
+                    let (_, _, key) = view.key();
+                    if ui
+                        .add(egui::Button::new(view.label()).shortcut_text(key))
+                        .clicked()
+                    {
+                        self.look_from(view);
+                    }
                 }
                 ui.separator();
                 if ui

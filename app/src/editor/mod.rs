@@ -433,6 +433,17 @@ impl Editor {
         if pressed(Key::Home) || pressed(Key::A) {
             self.frame_all();
         }
+        for view in view::StandardView::ALL {
+            let (key, ctrl, _) = view.key();
+            let hit = if ctrl {
+                shortcut(Modifiers::COMMAND, key)
+            } else {
+                pressed(key)
+            };
+            if hit {
+                self.look_from(view);
+            }
+        }
         if pressed(Key::S) {
             self.view.sketch = !self.view.sketch;
         }
@@ -597,6 +608,11 @@ impl Editor {
         mean(selected)
             .or_else(|| mean(view::scene_balls(scene)))
             .unwrap_or(0.2)
+    }
+
+    fn look_from(&mut self, view: view::StandardView) {
+        self.orbit.look_from(view);
+        self.touch();
     }
 
     fn frame_all(&mut self) {

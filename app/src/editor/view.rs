@@ -2,6 +2,7 @@
 //! viewport's pixels that the skeleton overlay, picking and the gizmo share with the tracer's
 //! pinhole camera (core `render::PinholeCamera`).
 
+use eframe::egui;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use skeletrace_core::Scene;
@@ -23,6 +24,76 @@ pub struct OrbitCamera {
 }
 
 const MAX_PITCH: f64 = 89.0_f64.to_radians();
+
+/// The views along the axes, with the keys of common modelling tools (Blender's numeric keys:
+/// 1 front, 3 right, 7 top; with Ctrl the opposite side).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StandardView {
+    /// From +z, looking along −z.
+    Front,
+    /// From −z.
+    Back,
+    /// From +x.
+    Right,
+    /// From −x.
+    Left,
+    /// From above (+y), as far as the orbit's pitch goes.
+    Top,
+    /// From below.
+    Bottom,
+}
+
+impl StandardView {
+    /// Every view, in the View menu's order.
+    pub const ALL: [Self; 6] = [
+        Self::Front,
+        Self::Back,
+        Self::Right,
+        Self::Left,
+        Self::Top,
+        Self::Bottom,
+    ];
+
+    /// The menu's label.
+    #[must_use]
+    pub const fn label(self) -> &'static str {
+        match self {
+            Self::Front => "Front view",
+            Self::Back => "Back view",
+            Self::Right => "Right view",
+            Self::Left => "Left view",
+            Self::Top => "Top view",
+            Self::Bottom => "Bottom view",
+        }
+    }
+
+    /// The key (with Ctrl for the opposite views) and its text in the shortcut list.
+    #[must_use]
+    pub const fn key(self) -> (egui::Key, bool, &'static str) {
+        match self {
+            Self::Front => (egui::Key::Num1, false, "1"),
+            Self::Back => (egui::Key::Num1, true, "Ctrl+1"),
+            Self::Right => (egui::Key::Num3, false, "3"),
+            Self::Left => (egui::Key::Num3, true, "Ctrl+3"),
+            Self::Top => (egui::Key::Num7, false, "7"),
+            Self::Bottom => (egui::Key::Num7, true, "Ctrl+7"),
+        }
+    }
+
+    /// The orbit's yaw and pitch that look along this view's axis.
+    #[must_use]
+    pub const fn yaw_pitch(self) -> (f64, f64) {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        match self {
+            Self::Front => (0.0, 0.0),
+            Self::Back => (PI, 0.0),
+            Self::Right => (FRAC_PI_2, 0.0),
+            Self::Left => (-FRAC_PI_2, 0.0),
+            Self::Top => (0.0, MAX_PITCH),
+            Self::Bottom => (0.0, -MAX_PITCH),
+        }
+    }
+}
 
 impl OrbitCamera {
     /// The orbit that sees what the scene camera sees.
@@ -52,6 +123,13 @@ impl OrbitCamera {
             up: [0.0, 1.0, 0.0],
             fov_degrees: self.fov_degrees,
         }
+    }
+
+    /// Looks at the target along `view`'s axis, keeping the distance.
+    pub fn look_from(&mut self, view: StandardView) {
+        let (yaw, pitch) = view.yaw_pitch();
+        self.yaw = yaw;
+        self.pitch = pitch;
     }
 
     /// Turns by a mouse drag of `(dx, dy)` points.
@@ -274,6 +352,24 @@ mod tests {
         let q = p.unproject_on_plane(123.0, 45.0, [0.0, 0.0, 0.0]);
         let (qx, qy, _) = p.project(q).unwrap_or_default();
         assert!((qx - 123.0).abs() < 1e-6 && (qy - 45.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn standard_views_look_along_their_axes() {
+        let mut orbit = OrbitCamera::from_camera(&Camera::default());
+        for (view, from) in [
+            (StandardView::Front, DVec3::Z),
+            (StandardView::Back, -DVec3::Z),
+            (StandardView::Right, DVec3::X),
+            (StandardView::Left, -DVec3::X),
+            (StandardView::Top, DVec3::Y),
+            (StandardView::Bottom, -DVec3::Y),
+        ] {
+            orbit.look_from(view);
+            let c = orbit.camera();
+            let offset = (DVec3::from_array(c.position) - DVec3::from_array(c.target)).normalize();
+            assert!(offset.dot(from) > 0.999, "{view:?}: from {offset}");
+        }
     }
 
     #[test]
