@@ -17,11 +17,11 @@ use skeletrace_render::GpuOfKind;
 
 use super::files::{FilePurpose, Replacement};
 use super::selection::{self, Item};
-use super::{Edit, Editor, MethodTag, Notice, TagsKey, ViewMode, worker};
+use super::{Edit, Editor, MethodTag, Notice, SkeletonEdit, TagsKey, ViewMode, worker};
 use super::{blend_editor, group_tools, groups, shape_tools, symmetry};
 
 /// Shortcuts listed by the help overlay.
-pub const SHORTCUTS: [(&str, &str); 29] = [
+pub const SHORTCUTS: [(&str, &str); 32] = [
     ("Left drag", "orbit (on a handle: move it)"),
     ("Right / middle drag", "pan"),
     ("Wheel", "zoom; over a selected handle: radius"),
@@ -47,6 +47,9 @@ pub const SHORTCUTS: [(&str, &str); 29] = [
     ),
     ("C", "connect the two selected vertices"),
     ("X", "disconnect the selected vertices"),
+    ("I", "insert a vertex into the segment of the two selected"),
+    ("M", "merge the two selected vertices"),
+    ("Shift+X", "dissolve a vertex: join its two neighbours"),
     ("B", "add a point blob"),
     ("Delete", "delete the selection"),
     ("Ctrl+D", "duplicate the selection"),
@@ -165,6 +168,19 @@ impl Editor {
                 }
                 if ui.button("Disconnect").clicked() {
                     self.disconnect();
+                }
+                for (label, key, edit) in [
+                    ("Insert vertex", "I", SkeletonEdit::Insert),
+                    ("Merge vertices", "M", SkeletonEdit::Merge),
+                    ("Dissolve vertex", "Shift+X", SkeletonEdit::Dissolve),
+                ] {
+                    if ui
+                        .add(egui::Button::new(label).shortcut_text(key))
+                        .on_hover_text(edit.hint())
+                        .clicked()
+                    {
+                        self.edit_skeleton(edit);
+                    }
                 }
                 if ui.button("Add blob").clicked() {
                     self.add_blob();

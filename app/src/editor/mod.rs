@@ -21,6 +21,8 @@ mod mesh_export;
 mod ray_inspector;
 mod selection;
 mod shape_tools;
+mod skeleton_edits;
+use skeleton_edits::SkeletonEdit;
 mod state;
 mod symmetry;
 mod templates;
@@ -453,6 +455,15 @@ impl Editor {
         if pressed(Key::X) {
             self.disconnect();
         }
+        if pressed(Key::I) {
+            self.edit_skeleton(SkeletonEdit::Insert);
+        }
+        if pressed(Key::M) {
+            self.edit_skeleton(SkeletonEdit::Merge);
+        }
+        if ctx.input(|i| i.key_pressed(Key::X) && i.modifiers.shift_only()) {
+            self.edit_skeleton(SkeletonEdit::Dissolve);
+        }
         if pressed(Key::B) {
             self.add_blob();
         }
@@ -553,6 +564,30 @@ impl Editor {
             Err(why) => self.complain(why),
             Ok(()) if applied => self.tell("connected two vertices"),
             Ok(()) => {}
+        }
+    }
+
+    /// Inserts, merges or dissolves vertices of the selection's skeleton; the result is
+    /// selected, or the reason it cannot be done shown.
+    fn edit_skeleton(&mut self, edit: SkeletonEdit) {
+        let chosen = self.selection.clone();
+        let mut outcome = Ok(None);
+        let applied = self.apply(Edit::new(edit.name()), |s| {
+            outcome = match edit {
+                SkeletonEdit::Insert => skeleton_edits::insert_vertex(s, &chosen).map(Some),
+                SkeletonEdit::Merge => skeleton_edits::merge_vertices(s, &chosen).map(Some),
+                SkeletonEdit::Dissolve => {
+                    skeleton_edits::dissolve_vertex(s, &chosen).map(|()| None)
+                }
+            };
+        });
+        match outcome {
+            Err(why) => self.complain(why),
+            Ok(item) if applied => {
+                self.selection = item.into_iter().collect();
+                self.tell(edit.name());
+            }
+            Ok(_) => {}
         }
     }
 

@@ -255,7 +255,9 @@ pub fn delete(scene: &mut Scene, selection: &Selection) {
     }
 }
 
-fn keep_vertices(s: &mut Skeleton, removed: &[bool]) {
+/// Removes the vertices marked in `removed` and the segments that reach them, renumbering the
+/// others.
+pub(super) fn keep_vertices(s: &mut Skeleton, removed: &[bool]) {
     let mut new_index = Vec::with_capacity(removed.len());
     let mut next = 0u32;
     for &r in removed {
