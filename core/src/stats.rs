@@ -2,8 +2,11 @@
 //! directions, origins uniform on the faces of the scene's support bounding box, equally many per
 //! direction; under `--protocol paper-2023` random rays around the box instead
 //! ([`rays_around_box`]), as the forward-inclusion paper's tables use. Every method traces the same rays in opaque mode and is compared with the reference
-//! tracer: a *missed* ray has a reference crossing that the method finds too late or not at all, a
-//! *spurious* one a method crossing the reference does not have (or one found too early); both use
+//! tracer: every reference crossing is *found* (within the tolerance), *late* (found beyond it,
+//! but before the reference's next crossing: a depth error, reported) or *skipped* (never
+//! reported: the missed isosurface crossing the papers speak of); a ray is *skipped* when one of
+//! its crossings is, *late* when one is late and none skipped, and *missed* when either. A
+//! *spurious* ray has a method crossing the reference does not have (or one found too early); all use
 //! a tolerance of 10⁻⁴ of the diagonal of the scale box ([`TOLERANCE`]; the support box snapped
 //! to its grid, `FieldProgram::scale_bounds`, which the trace settings' `min_step` follows too),
 //! and the depth error of the remaining hits is reported separately, relative to that diagonal.
@@ -36,8 +39,15 @@ pub struct MethodStats {
     /// Rays compared with the reference tracer: every ray on the CPU, the first ones on the
     /// GPU (the reference runs on the CPU); `missed` and `spurious` count among them.
     pub compared: usize,
-    /// Rays whose reference crossing the method missed.
+    /// Rays with a reference crossing the method found late or never: `skipped + late`.
     pub missed: usize,
+    /// Rays with a reference crossing the method never reported (the papers' missed crossing).
+    pub skipped: usize,
+    /// Rays whose crossings were all found, one or more beyond the tolerance but before the
+    /// reference's next crossing.
+    pub late: usize,
+    /// Largest depth error of a late crossing, relative to the box diagonal (0 without one).
+    pub max_late_error: f64,
     /// Rays with a crossing the reference does not have.
     pub spurious: usize,
     /// Mean steps per ray.
@@ -194,7 +204,7 @@ impl MethodStats {
     pub fn of<'a>(
         name: &str,
         mut tally: MethodTally,
-        compared: impl Iterator<Item = (&'a [Crossing], &'a [Crossing])>,
+        compared: impl Iterator<Item = (Reference<'a>, &'a [Crossing])>,
         diagonal: f64,
     ) -> Self {
         tally.steps.sort_unstable();
@@ -206,6 +216,9 @@ impl MethodStats {
             hits: tally.hits,
             compared: 0,
             missed: 0,
+            skipped: 0,
+            late: 0,
+            max_late_error: 0.0,
             spurious: 0,
             avg_steps: steps.iter().map(|&s| f64::from(s)).sum::<f64>() / count,
             avg_evaluations: tally.evaluations.map_or(f64::NAN, |e| e as f64 / count),
@@ -217,10 +230,13 @@ impl MethodStats {
             max_depth_error: 0.0,
         };
         let tolerance = TOLERANCE * diagonal;
-        for (want, got) in compared {
-            let verdict = compare(want, got, tolerance);
+        for (reference, got) in compared {
+            let verdict = compare(reference, got, tolerance);
             stats.compared += 1;
-            stats.missed += usize::from(verdict.missed);
+            stats.skipped += usize::from(verdict.skipped);
+            stats.late += usize::from(verdict.late && !verdict.skipped);
+            stats.missed += usize::from(verdict.skipped || verdict.late);
+            stats.max_late_error = stats.max_late_error.max(verdict.late_error / diagonal);
             stats.spurious += usize::from(verdict.spurious);
             stats.max_depth_error = stats.max_depth_error.max(verdict.depth_error / diagonal);
         }
@@ -291,7 +307,9 @@ pub fn run(
     let diagonal = program.scale_bounds().diagonal();
     let rays = rays_of(program, setup.protocol, setup.rays, setup.seed);
     progress("reference", 0.0);
-    let reference = reference_crossings(program, settings, &rays, setup.mode)?;
+    // Every crossing, whatever the mode: an opaque method's late hit is told from a skipped
+    // crossing by the reference's next one.
+    let reference = reference_crossings(program, settings, &rays, TraceMode::Transparent)?;
     let mut out = Vec::new();
     for method in chosen {
         let tracer = method.prepare(program, settings);
@@ -337,7 +355,7 @@ pub fn run(
         let compared = reference
             .iter()
             .zip(&results)
-            .map(|(want, got)| (want.as_slice(), got.crossings.as_slice()));
+            .map(|(all, got)| (Reference::of(all, setup.mode), got.crossings.as_slice()));
         progress(method.name(), 1.0);
         out.push(MethodStats::of(method.name(), tally, compared, diagonal));
     }
@@ -350,10 +368,43 @@ pub fn run(
     })
 }
 
+/// A ray's reference crossings as a method in `mode` is compared with them: every crossing
+/// (transparent), or the first (opaque), with the reference's next crossing after those, which
+/// bounds how late a crossing may be found before it is skipped.
+#[derive(Clone, Copy, Debug)]
+pub struct Reference<'a> {
+    /// The crossings the method must find.
+    pub want: &'a [Crossing],
+    /// The reference's next crossing after the last of `want`, if any.
+    pub next: Option<f64>,
+}
+
+impl<'a> Reference<'a> {
+    /// The crossings of `all` (the reference traced in transparent mode) a method in `mode`
+    /// must find.
+    #[must_use]
+    pub fn of(all: &'a [Crossing], mode: TraceMode) -> Self {
+        match mode {
+            TraceMode::Transparent => Self {
+                want: all,
+                next: None,
+            },
+            TraceMode::Opaque => Self {
+                want: &all[..all.len().min(1)],
+                next: all.get(1).map(|c| c.t),
+            },
+        }
+    }
+}
+
 /// One ray's method crossings against the reference's.
 struct Verdict {
-    /// A reference crossing the method found late (beyond the tolerance) or not at all.
-    missed: bool,
+    /// A reference crossing the method never reported.
+    skipped: bool,
+    /// A reference crossing the method found beyond the tolerance, before the next one.
+    late: bool,
+    /// Largest depth error of the late crossings.
+    late_error: f64,
     /// A method crossing the reference does not have, or one found early.
     spurious: bool,
     /// Largest depth error of the matched crossings.
@@ -363,11 +414,16 @@ struct Verdict {
 /// Matches crossings in order: each reference crossing with the first unmatched method crossing
 /// of the same direction within `tolerance`. A pair of crossings closer than `tolerance` (a
 /// graze through a sliver of the volume, or of the outside, thinner than the tolerance) may be
-/// missing from either list without counting. In opaque mode both lists hold one crossing at
-/// most, and a method crossing early or late is spurious or missed.
-fn compare(want: &[Crossing], got: &[Crossing], tolerance: f64) -> Verdict {
+/// missing from either list without counting. A reference crossing left unmatched is late when
+/// an unmatched method crossing of its direction lies after it and before the reference's next
+/// crossing, skipped otherwise. In opaque mode both lists hold one crossing at most, and a
+/// method crossing early is spurious.
+fn compare(reference: Reference<'_>, got: &[Crossing], tolerance: f64) -> Verdict {
+    let want = reference.want;
     let mut verdict = Verdict {
-        missed: false,
+        skipped: false,
+        late: false,
+        late_error: 0.0,
         spurious: false,
         depth_error: 0.0,
     };
@@ -383,29 +439,49 @@ fn compare(want: &[Crossing], got: &[Crossing], tolerance: f64) -> Verdict {
             verdict.depth_error = verdict.depth_error.max((got[i].t - w.t).abs());
         }
     }
-    verdict.missed = unmatched_outside_slivers(want, &matched, tolerance);
-    verdict.spurious = unmatched_outside_slivers(got, &used, tolerance);
-    if verdict.spurious && verdict.missed && want.len() == 1 && got.len() == 1 {
-        // Opaque: one crossing each, not matched: early is spurious, late is missed.
-        verdict.spurious = got[0].t < want[0].t;
-        verdict.missed = !verdict.spurious;
+    if want.len() == 1 && got.len() == 1 && !matched[0] && got[0].t < want[0].t {
+        // Opaque: one crossing each, found early: spurious.
+        verdict.spurious = true;
+        return verdict;
     }
+    for j in unmatched_outside_slivers(want, &matched, tolerance) {
+        let w = want[j];
+        let next = want.get(j + 1).map_or(reference.next, |n| Some(n.t));
+        let late = got.iter().enumerate().position(|(i, g)| {
+            !used[i] && g.entering == w.entering && g.t > w.t && next.is_none_or(|n| g.t < n)
+        });
+        match late {
+            Some(i) => {
+                used[i] = true;
+                verdict.late = true;
+                verdict.late_error = verdict.late_error.max(got[i].t - w.t);
+            }
+            None => verdict.skipped = true,
+        }
+    }
+    verdict.spurious = !unmatched_outside_slivers(got, &used, tolerance).is_empty();
     verdict
 }
 
-/// Whether some unmatched crossing of `crossings` is not one of an unmatched pair closer than
+/// The unmatched crossings of `crossings` that are not one of an unmatched pair closer than
 /// `tolerance`.
-fn unmatched_outside_slivers(crossings: &[Crossing], matched: &[bool], tolerance: f64) -> bool {
-    (0..crossings.len()).any(|i| {
-        let sliver_with = |j: usize| {
-            !matched[j]
-                && crossings[j].entering != crossings[i].entering
-                && (crossings[j].t - crossings[i].t).abs() <= tolerance
-        };
-        let in_sliver =
-            (i > 0 && sliver_with(i - 1)) || (i + 1 < crossings.len() && sliver_with(i + 1));
-        !matched[i] && !in_sliver
-    })
+fn unmatched_outside_slivers(
+    crossings: &[Crossing],
+    matched: &[bool],
+    tolerance: f64,
+) -> Vec<usize> {
+    (0..crossings.len())
+        .filter(|&i| {
+            let sliver_with = |j: usize| {
+                !matched[j]
+                    && crossings[j].entering != crossings[i].entering
+                    && (crossings[j].t - crossings[i].t).abs() <= tolerance
+            };
+            let in_sliver =
+                (i > 0 && sliver_with(i - 1)) || (i + 1 < crossings.len() && sliver_with(i + 1));
+            !matched[i] && !in_sliver
+        })
+        .collect()
 }
 
 fn percentile(sorted: &[u32], q: f64) -> u32 {
@@ -421,15 +497,16 @@ impl SceneStats {
     #[must_use]
     pub fn to_table(&self) -> String {
         let mut out = String::from(
-            "| method | hits | missed | spurious | avg steps | avg evaluations | median | p95 | max | out of steps | ns/ray | max depth error |\n\
-             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+            "| method | hits | skipped | late | spurious | avg steps | avg evaluations | median | p95 | max | out of steps | ns/ray | max depth error |\n\
+             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for m in &self.methods {
             out.push_str(&format!(
-                "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {} | {:.0} | {:.1e} |\n",
+                "| {} | {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {} | {:.0} | {:.1e} |\n",
                 m.name,
                 m.hits,
-                m.missed,
+                m.skipped,
+                m.late,
                 m.spurious,
                 m.avg_steps,
                 if m.avg_evaluations.is_finite() {
@@ -451,7 +528,9 @@ impl SceneStats {
 
 #[cfg(test)]
 mod tests {
-    use super::{Crossing, TraceMode, compare, ran_out_of_steps};
+    use super::{
+        Crossing, MethodStats, MethodTally, Reference, TraceMode, compare, ran_out_of_steps,
+    };
 
     /// A ray is out of steps when it spent the budget: opaque, only without a crossing (one
     /// found on the last step finished the ray); transparent, with or without crossings.
@@ -472,26 +551,67 @@ mod tests {
             .collect()
     }
 
+    fn all(want: &[Crossing]) -> Reference<'_> {
+        Reference::of(want, TraceMode::Transparent)
+    }
+
+    fn first(want: &[Crossing]) -> Reference<'_> {
+        Reference::of(want, TraceMode::Opaque)
+    }
+
     #[test]
     fn crossings_match_in_order_and_slivers_thinner_than_the_tolerance_may_merge() {
         let want = crossings(&[(1.0, true), (2.0, false), (2.00005, true), (3.0, false)]);
         // The sliver pair at 2 is merged: neither missed nor spurious.
         let merged = crossings(&[(1.00002, true), (3.0, false)]);
-        let v = compare(&want, &merged, 1e-4);
-        assert!(!v.missed && !v.spurious);
+        let v = compare(all(&want), &merged, 1e-4);
+        assert!(!v.skipped && !v.late && !v.spurious);
         assert!((v.depth_error - 2e-5).abs() < 1e-12);
-        // A real pair left out is missed; an extra one is spurious.
+        // A real pair left out is skipped; an extra one is spurious.
         let short = crossings(&[(1.0, true), (2.0, false)]);
-        assert!(compare(&want, &short, 1e-4).missed);
+        let v = compare(all(&want), &short, 1e-4);
+        assert!(v.skipped && !v.late);
         let extra = crossings(&[(0.5, true), (0.6, false), (1.0, true), (3.0, false)]);
-        let v = compare(&want, &extra, 1e-4);
-        assert!(v.spurious && !v.missed);
-        // Opaque: late is missed, early is spurious, never both.
-        let v = compare(&want[..1], &crossings(&[(1.1, true)]), 1e-4);
-        assert!(v.missed && !v.spurious);
-        let v = compare(&want[..1], &crossings(&[(0.9, true)]), 1e-4);
-        assert!(v.spurious && !v.missed);
+        let v = compare(all(&want), &extra, 1e-4);
+        assert!(v.spurious && !v.skipped && !v.late);
         // A direction mismatch never matches.
-        assert!(compare(&want[..1], &crossings(&[(1.0, false)]), 1e-4).missed);
+        let v = compare(first(&want), &crossings(&[(1.0, false)]), 1e-4);
+        assert!(v.skipped);
+    }
+
+    /// The papers' missed crossing is one never reported; one found past the tolerance but
+    /// before the reference's next crossing is late, with its error, and not spurious.
+    #[test]
+    fn a_late_crossing_is_told_from_a_skipped_one() {
+        let want = crossings(&[(1.0, true), (2.0, false), (3.0, true), (4.0, false)]);
+        // Opaque: a hit at 1.1 is late (before the exit at 2); at 3.0 it is the next part's
+        // entry: the first part was skipped, and the hit is spurious for it.
+        let v = compare(first(&want), &crossings(&[(1.1, true)]), 1e-4);
+        assert!(v.late && !v.skipped && !v.spurious);
+        assert!((v.late_error - 0.1).abs() < 1e-12);
+        let v = compare(first(&want), &crossings(&[(3.0, true)]), 1e-4);
+        assert!(v.skipped && !v.late);
+        // Early is spurious, never late or skipped.
+        let v = compare(first(&want), &crossings(&[(0.9, true)]), 1e-4);
+        assert!(v.spurious && !v.late && !v.skipped);
+        // Transparent: the exit found late, before the next entry; the second part skipped.
+        let got = crossings(&[(1.0, true), (2.5, false)]);
+        let v = compare(all(&want), &got, 1e-4);
+        assert!(v.late && v.skipped && !v.spurious);
+        assert!((v.late_error - 0.5).abs() < 1e-12);
+        // The statistics count such a ray as skipped (and missed), not late.
+        let stats = MethodStats::of(
+            "m",
+            MethodTally {
+                steps: vec![1, 1],
+                evaluations: None,
+                hits: 2,
+                out_of_steps: 0,
+                nanoseconds: 0.0,
+            },
+            [(all(&want), got.as_slice()), (all(&want[..2]), &got[..0])].into_iter(),
+            1.0,
+        );
+        assert_eq!((stats.skipped, stats.late, stats.missed), (2, 0, 2));
     }
 }

@@ -18,7 +18,7 @@ use skeletrace_core::compile::Compiled;
 use skeletrace_core::field::geometry::Ray;
 use skeletrace_core::methods::{Crossing, TraceMode, TraceSettings};
 use skeletrace_core::stats::{
-    MethodStats, MethodTally, SceneStats, StatsSetup, ran_out_of_steps, rays_of_iter,
+    MethodStats, MethodTally, Reference, SceneStats, StatsSetup, ran_out_of_steps, rays_of_iter,
     reference_crossings,
 };
 
@@ -58,7 +58,8 @@ pub fn run(
         .take(compared.min(setup.rays))
         .collect();
     progress("reference", 0.0);
-    let reference = reference_crossings(program, settings, &sample, setup.mode)
+    // Every crossing, whatever the mode (core stats.rs `Reference`).
+    let reference = reference_crossings(program, settings, &sample, TraceMode::Transparent)
         .map_err(BackendError::Unsupported)?;
     // An opaque ray's first crossing enters the volume unless the ray starts inside it
     // (transparent rays bring each crossing's direction from the GPU).
@@ -151,7 +152,7 @@ pub fn run(
         let pairs = reference
             .iter()
             .zip(&found)
-            .map(|(want, got)| (want.as_slice(), got.as_slice()));
+            .map(|(all, got)| (Reference::of(all, setup.mode), got.as_slice()));
         out.push(MethodStats::of(
             method.name(),
             tally,
