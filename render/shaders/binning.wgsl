@@ -75,7 +75,8 @@ struct Primitive {
     bound: vec4<f32>,
 };
 
-@group(0) @binding(0) var<uniform> binning: Binning;
+// Storage, not uniform, as the trace shaders' globals (shared/scene.wgsl).
+@group(0) @binding(0) var<storage, read> binning: Binning;
 @group(0) @binding(1) var<storage, read> primitives: array<Primitive>;
 @group(0) @binding(2) var<storage, read_write> tile_counts: array<atomic<u32>>;
 @group(0) @binding(3) var<storage, read_write> tile_ranges: array<vec2<u32>>;

@@ -10,10 +10,10 @@
 // Traced in one dispatch: never suspends (`resume` is unused; parts.wgsl).
 fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
     var trace = Trace(0.0, false, false, 0u);
-    let c = globals.isovalue;
-    let sigma = globals.gauss_sigma;
-    let radius = globals.gauss_radius;
-    let norm = globals.gauss_norm;
+    let c = frame.globals.isovalue;
+    let sigma = frame.globals.gauss_sigma;
+    let radius = frame.globals.gauss_radius;
+    let norm = frame.globals.gauss_norm;
     var start_at = 0.0;
     var t = 0.0;
     var previous = 0.0;
@@ -23,7 +23,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
     var union_done = false;
     loop {
         let part = next_part(sp, ray, start_at);
-        if part.x > part.y || trace.steps >= globals.max_steps {
+        if part.x > part.y || trace.steps >= frame.globals.max_steps {
             break;
         }
         let continues = cut && part.x == start_at;
@@ -38,7 +38,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
         if union_done {
             continue;
         }
-        while t < part.y && in_span < 32u && trace.steps < globals.max_steps {
+        while t < part.y && in_span < 32u && trace.steps < frame.globals.max_steps {
             trace.steps += 1u;
             in_span += 1u;
             let f = along_ray(sp, ray, t).x;
@@ -47,7 +47,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             if f >= c {
                 var outside = previous;
                 var inside = t;
-                while inside - outside > globals.epsilon {
+                while inside - outside > frame.globals.epsilon {
                     let mid = 0.5 * (outside + inside);
                     if along_ray(sp, ray, mid).x >= c {
                         inside = mid;

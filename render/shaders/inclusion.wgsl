@@ -268,7 +268,7 @@ fn bottom_up(sp: ptr<function, RaySupports>, ray: Ray, t: f32, h: f32, quadratic
         groups[g] = inclusion_add(groups[g], own);
     }
     // Groups holding an HRBF set are clamped at 0: max(f, 0) (bottom_up.rs field_inclusion).
-    for (var g = 0u; g < globals.group_count; g++) {
+    for (var g = 0u; g < frame.globals.group_count; g++) {
         if kernels[g].clamped != 0u {
             groups[g] = positive_part(Composed(groups[g], true)).inclusion;
         }

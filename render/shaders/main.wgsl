@@ -46,8 +46,8 @@ fn field_anywhere(p: vec3<f32>) -> vec4<f32> {
             }
             if unbounded {
                 unbounded = false;
-                j = globals.bvh_unbounded;
-                end = globals.bvh_items;
+                j = frame.globals.bvh_unbounded;
+                end = frame.globals.bvh_items;
                 continue;
             }
             break;
@@ -75,7 +75,7 @@ fn distance_estimate(c: f32, field: vec4<f32>, scale: f32) -> f32 {
 }
 
 fn soft_shadow(start: vec3<f32>, dir: vec3<f32>, distance: f32, scale: f32) -> f32 {
-    let c = globals.isovalue;
+    let c = frame.globals.isovalue;
     let reach = min(distance, SHADOW_REACH * scale);
     var t = SHADE_MIN_STEP * scale;
     var lit = 1.0;
@@ -98,7 +98,7 @@ fn soft_shadow(start: vec3<f32>, dir: vec3<f32>, distance: f32, scale: f32) -> f
 }
 
 fn ambient_occlusion(p: vec3<f32>, normal: vec3<f32>, scale: f32) -> f32 {
-    let c = globals.isovalue;
+    let c = frame.globals.isovalue;
     var occluded = 0.0;
     var total = 0.0;
     var weight = 1.0;
@@ -142,7 +142,7 @@ fn surface_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> Surface {
     let groups = groups_at(sp, ray, t);
     let field = blend_groups(groups);
     var best = 0u;
-    for (var g = 1u; g < globals.group_count; g++) {
+    for (var g = 1u; g < frame.globals.group_count; g++) {
         if groups[g].x > groups[best].x {
             best = g;
         }
@@ -157,17 +157,17 @@ fn towards_light(l: u32, p: vec3<f32>) -> vec4<f32> {
         let d = light.vector.xyz - p;
         return vec4<f32>(normalize(d), length(d));
     }
-    return vec4<f32>(normalize(light.vector.xyz), globals.far);
+    return vec4<f32>(normalize(light.vector.xyz), frame.globals.far);
 }
 
 // Where a hit's shadow rays and field shadows start: lifted off the surface.
 fn lifted_point(p: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
-    return p + 2.0 * globals.min_step * normal;
+    return p + 2.0 * frame.globals.min_step * normal;
 }
 
 fn occlusion_at(p: vec3<f32>, normal: vec3<f32>) -> f32 {
-    if (globals.shading_flags & 2u) != 0u {
-        return ambient_occlusion(p, normal, globals.shading_scale);
+    if (frame.globals.shading_flags & 2u) != 0u {
+        return ambient_occlusion(p, normal, frame.globals.shading_scale);
     }
     return 1.0;
 }
@@ -181,8 +181,8 @@ fn light_term(l: u32, p: vec3<f32>, normal: vec3<f32>, view: vec3<f32>, albedo: 
     if diffuse <= 0.0 || transmitted <= 0.0 {
         return vec3<f32>(0.0);
     }
-    if (globals.shading_flags & 1u) != 0u {
-        transmitted *= soft_shadow(lifted_point(p, normal), towards.xyz, towards.w, globals.shading_scale);
+    if (frame.globals.shading_flags & 1u) != 0u {
+        transmitted *= soft_shadow(lifted_point(p, normal), towards.xyz, towards.w, frame.globals.shading_scale);
     }
     let half_vector = normalize(towards.xyz - view);
     let specular = pow(max(dot(normal, half_vector), 0.0), 48.0) * 0.35;
@@ -193,12 +193,12 @@ fn light_term(l: u32, p: vec3<f32>, normal: vec3<f32>, view: vec3<f32>, albedo: 
 // Writes a pixel's steps, depth and the colour of the chosen view (`shaded`: linear, or the
 // background where nothing was hit).
 fn write_pixel(px: u32, py: u32, steps: u32, depth: f32, shaded: vec3<f32>) {
-    let out = py * globals.output_width + globals.panel_x + px;
+    let out = py * frame.globals.output_width + frame.globals.panel_x + px;
     out_steps[out] = steps;
     out_depth[out] = depth;
     var colour: vec3<f32>;
-    if globals.heat_view == 1u {
-        colour = heat_colour(f32(steps) / max(globals.heat_max, 1.0));
+    if frame.globals.heat_view == 1u {
+        colour = heat_colour(f32(steps) / max(frame.globals.heat_max, 1.0));
     } else {
         colour = vec3<f32>(srgb(shaded.x), srgb(shaded.y), srgb(shaded.z));
     }
@@ -287,7 +287,7 @@ fn begin_hit(path: ptr<function, Path>, surface: Surface, ray: Ray, job: PathRay
     let r0 = (1.0 - ior) / (1.0 + ior);
     let f0 = r0 * r0;
     let fresnel = f0 + (1.0 - f0) * pow(1.0 - cos_i, 5.0);
-    let offset = 2.0 * globals.min_step;
+    let offset = 2.0 * frame.globals.min_step;
     let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
     var reflected_weight = glass * fresnel;
     if k < 0.0 {
@@ -296,10 +296,10 @@ fn begin_hit(path: ptr<function, Path>, surface: Surface, ray: Ray, job: PathRay
     } else {
         let refracted = normalize(eta * ray.dir + (eta * cos_i - sqrt(k)) * facing);
         let tint = mix(material.colour.xyz, vec3<f32>(1.0), 0.5);
-        push_ray(path, PathRay(p - offset * facing, job.bounce + 1u, refracted, RAY_BOUNCE, glass * (1.0 - fresnel) * tint, globals.far));
+        push_ray(path, PathRay(p - offset * facing, job.bounce + 1u, refracted, RAY_BOUNCE, glass * (1.0 - fresnel) * tint, frame.globals.far));
     }
     let reflected = normalize(ray.dir + 2.0 * cos_i * facing);
-    push_ray(path, PathRay(p + offset * facing, job.bounce + 1u, reflected, RAY_BOUNCE, reflected_weight, globals.far));
+    push_ray(path, PathRay(p + offset * facing, job.bounce + 1u, reflected, RAY_BOUNCE, reflected_weight, frame.globals.far));
 }
 
 // Goes on with the hit's lights from `path.light`: the next one facing the hit becomes the
@@ -308,11 +308,11 @@ fn begin_hit(path: ptr<function, Path>, surface: Surface, ray: Ray, job: PathRay
 // ray towards light `path.light`, which has just ended, let through; negative when none has.
 fn next_light(path: ptr<function, Path>, shadow: f32) -> bool {
     var transmitted = shadow;
-    while (*path).light < globals.light_count {
+    while (*path).light < frame.globals.light_count {
         let l = (*path).light;
         if transmitted < 0.0 {
             let towards = towards_light(l, (*path).point);
-            if dot((*path).normal, towards.xyz) > 0.0 && (globals.secondary & SECONDARY_SHADOW_RAYS) != 0u {
+            if dot((*path).normal, towards.xyz) > 0.0 && (frame.globals.secondary & SECONDARY_SHADOW_RAYS) != 0u {
                 (*path).ray = PathRay(lifted_point((*path).point, (*path).normal), 0u, towards.xyz, RAY_SHADOW, vec3<f32>(0.0), towards.w);
                 return true;
             }
@@ -358,12 +358,12 @@ fn march_resumed(k: u32, sp: ptr<function, RaySupports>, ray: Ray, trace: ptr<fu
 //
 // Every pixel goes through here, with secondary rays or without: one copy of the march and
 // of the shading in the pipeline, which lavapipe compiles in a fraction of the time two
-// copies take. Without secondary rays (globals.secondary) the path is the camera ray alone,
+// copies take. Without secondary rays (frame.globals.secondary) the path is the camera ray alone,
 // and nothing of it outlives a dispatch but the march's own suspension: it starts cleared
 // (a camera ray, nothing summed) and is not kept, and its colour is the Blinn–Phong sum of
 // cpu/renderer.rs shade, each light's term added in turn to the hit's ambient term.
 fn trace_path(pixel: u32, px: u32, py: u32) {
-    let kept = (globals.secondary & SECONDARY_PATHS) != 0u;
+    let kept = (frame.globals.secondary & SECONDARY_PATHS) != 0u;
     var path: Path;
     if kept {
         path = paths[pixel];
@@ -408,7 +408,7 @@ fn trace_path(pixel: u32, px: u32, py: u32) {
                 begin_hit(&path, surface, ray, job, trace);
             } else {
                 path.colour += job.weight * background(ray.dir);
-                path.light = globals.light_count;
+                path.light = frame.globals.light_count;
                 path.lit = vec3<f32>(0.0);
                 path.lit_weight = vec3<f32>(0.0);
             }
@@ -442,31 +442,29 @@ fn note_unfinished() {
 // Mesa's llvmpipe (lavapipe) counts the iterations of all the loops of an invocation against
 // one limit of 65 535, and past it leaves every loop after its first iteration (gallivm
 // LP_MAX_TGSI_LOOP_ITERATIONS): a fill, a step or a march cut short would miss surfaces
-// silently. A loop of globals.loop_probe (2) iterations, which the compiler cannot count ahead,
+// silently. A loop of frame.globals.loop_probe (2) iterations, which the compiler cannot count ahead,
 // runs once only past that limit; such invocations are counted in unfinished_paths[1].
 // Hardware GPUs have no such limit.
 fn note_loop_limit() {
     var runs = 0u;
-    for (var i = 0u; i < globals.loop_probe; i++) {
+    for (var i = 0u; i < frame.globals.loop_probe; i++) {
         runs += 1u;
     }
-    if runs < globals.loop_probe {
+    if runs < frame.globals.loop_probe {
         atomicAdd(&unfinished_paths[1], 1u);
     }
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= globals.width || id.y >= globals.height {
+    if id.x >= frame.globals.width || id.y >= frame.globals.height {
         return;
     }
-    let pixel = id.y * globals.width + id.x;
-    // The host uploads at least one blend parameter; asking keeps the binding in the layout
-    // wgpu derives from what the entry point uses, whatever the blend tree.
-    if (suspensions[pixel].flags & FINISHED) != 0u || arrayLength(&blend_parameters) == 0u {
+    let pixel = id.y * frame.globals.width + id.x;
+    if (suspensions[pixel].flags & FINISHED) != 0u {
         return;
     }
-    steps_left = globals.steps_per_dispatch;
+    steps_left = frame.globals.steps_per_dispatch;
     trace_path(pixel, id.x, id.y);
     note_loop_limit();
 }
@@ -488,14 +486,14 @@ struct StatsRay {
 var<private> stats_ray: u32;
 
 // A march found a crossing at `t`; returns whether the march ends there. It does in frames
-// and in opaque statistics (globals.stats_crossings = 0), with the crossing in `trace`.
+// and in opaque statistics (frame.globals.stats_crossings = 0), with the crossing in `trace`.
 // Transparent statistics (core TraceMode::Transparent, forward-inclusion 2023 Tables 3–4)
 // go on to the ray's end: the crossing goes to the ray's slots — out_steps[4k..4k + 4]: steps,
 // steps to the last crossing, crossings found, bit i set where crossing i enters;
 // out_depth[k·slots + i]: crossing i's t — and `trace` is left without a hit. Crossings past
 // the slots are counted, not kept (the host refuses such a ray's statistics).
 fn crossing_ends_march(trace: ptr<function, Trace>, t: f32, entering: bool) -> bool {
-    let slots = globals.stats_crossings;
+    let slots = frame.globals.stats_crossings;
     if slots == 0u {
         (*trace).t = t;
         (*trace).hit = true;
@@ -517,7 +515,7 @@ fn crossing_ends_march(trace: ptr<function, Trace>, t: f32, entering: bool) -> b
 // HRBF cut repeats the crossing that ended the part before; core methods/mod.rs
 // trace_supports). Never in frames and opaque statistics, which stop at their first crossing.
 fn repeats_last_crossing(entering: bool) -> bool {
-    let slots = globals.stats_crossings;
+    let slots = frame.globals.stats_crossings;
     if slots == 0u {
         return false;
     }
@@ -528,21 +526,20 @@ fn repeats_last_crossing(entering: bool) -> bool {
     return ((out_steps[4u * stats_ray + 3u] >> (found - 1u)) & 1u) == select(0u, 1u, entering);
 }
 
-// One thread per ray of the batch (globals.width rays), in rows of STATS_ROW workgroups;
+// One thread per ray of the batch (frame.globals.width rays), in rows of STATS_ROW workgroups;
 // writes steps and depth (the first crossing's t) at the ray's index, or in transparent
 // statistics the ray's total steps at out_steps[4k] after the slots of each crossing
 // (`crossing_ends_march`).
 @compute @workgroup_size(64, 1, 1)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = id.y * STATS_ROW * 64u + id.x;
-    if k >= globals.width {
+    if k >= frame.globals.width {
         return;
     }
-    // As in trace_pixels: keeps the blend parameters' binding in the layout.
-    if (suspensions[k].flags & FINISHED) != 0u || arrayLength(&blend_parameters) == 0u {
+    if (suspensions[k].flags & FINISHED) != 0u {
         return;
     }
-    steps_left = globals.steps_per_dispatch;
+    steps_left = frame.globals.steps_per_dispatch;
     stats_ray = k;
     trace_statistics_ray(k);
     note_loop_limit();
@@ -564,7 +561,7 @@ fn trace_statistics_ray(k: u32) {
         note_unfinished();
         return;
     }
-    if globals.stats_crossings != 0u {
+    if frame.globals.stats_crossings != 0u {
         out_steps[4u * k] = trace.steps;
         return;
     }

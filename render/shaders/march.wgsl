@@ -43,13 +43,13 @@ fn march_advance(t: f32, s: f32, end: f32) -> f32 {
 // State carried between dispatches (parts.wgsl): carry0 the next interval h, carry1 the
 // previous sample's t; flags 1: there is a previous sample, 2: it was inside.
 fn march_start(part: vec2<f32>) -> MarchState {
-    return MarchState(part.x, globals.initial_interval, 0.0, 0u);
+    return MarchState(part.x, frame.globals.initial_interval, 0.0, 0u);
 }
 
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
-    let c = globals.isovalue;
-    let eps = globals.epsilon;
-    let min_step = globals.min_step;
+    let c = frame.globals.isovalue;
+    let eps = frame.globals.epsilon;
+    let min_step = frame.globals.min_step;
     var t = (*state).t;
     var h = (*state).carry0;
     var has_previous = ((*state).flags & 1u) != 0u;
@@ -75,7 +75,7 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             }
             // A step that landed just past the surface resumes min_step past the crossing,
             // as a confirmed one does (core: marching.rs).
-            h = globals.initial_interval;
+            h = frame.globals.initial_interval;
             // The sample stays the previous one: a crossing back before the resumption is
             // then a sign change there.
             let resume = hi + min_step;
@@ -107,14 +107,14 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
             }
             // Transparent statistics go on past the crossing, as core's march does.
             t = beyond;
-            h = globals.initial_interval;
+            h = frame.globals.initial_interval;
             has_previous = false;
         } else if s >= 0.0 {
             t = march_advance(t, s, part.y);
-            h = globals.growth * s;
+            h = frame.globals.growth * s;
         } else {
             t = march_advance(t, limit, part.y);
-            h = globals.growth * limit;
+            h = frame.globals.growth * limit;
         }
     }
     *state = MarchState(t, h, previous_t, select(0u, 1u, has_previous) | select(0u, 2u, previous_inside));

@@ -10,7 +10,7 @@ fn normalisation(f: f32) -> vec2<f32> {
         return vec2<f32>(cap, 0.0);
     }
     let s2 = 1.0 / k.inv_sigma2;
-    let ratio = f / globals.isovalue;
+    let ratio = f / frame.globals.isovalue;
     var g: f32;
     var d: f32;
     if k.family == KERNEL_COMPACT_POLYNOMIAL {

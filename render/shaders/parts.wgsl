@@ -3,7 +3,7 @@
 // crossing or the step budget (in transparent statistics, until the ray's end or the budget:
 // main.wgsl `crossing_ends_march`).
 //
-// A dispatch marches at most `steps_left` steps (globals.steps_per_dispatch at its start; main.wgsl). Lavapipe stops an invocation's
+// A dispatch marches at most `steps_left` steps (frame.globals.steps_per_dispatch at its start; main.wgsl). Lavapipe stops an invocation's
 // loops once they reach 65 535 iterations in all, and each step loops over the support window,
 // so a ray near the 2 048-step budget would be cut short in one dispatch. A ray whose
 // allowance runs out with budget left is suspended: its march state, the end of its part and
@@ -23,7 +23,7 @@ struct MarchState {
 
 fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Suspension>) -> Trace {
     var trace = Trace(0.0, false, false, (*resume).steps);
-    let allowance = min(trace.steps + steps_left, globals.max_steps);
+    let allowance = min(trace.steps + steps_left, frame.globals.max_steps);
     var part: vec2<f32>;
     var state: MarchState;
     if ((*resume).flags & SUSPENDED) != 0u {
@@ -35,7 +35,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
         state = march_start(part);
     }
     (*resume).flags = 0u;
-    while part.x <= part.y && trace.steps < globals.max_steps {
+    while part.x <= part.y && trace.steps < frame.globals.max_steps {
         if trace.steps >= allowance {
             *resume = Suspension(state.t, state.carry0, state.carry1, part.y, (*sp).floor, trace.steps, state.flags | SUSPENDED);
             return trace;
@@ -53,8 +53,8 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
             // part (methods/mod.rs trace_supports, jump_crossing; the inset a few f32 ulps).
             if part.x == end && part.x <= part.y {
                 let inset = 5.0e-7 * (1.0 + abs(end));
-                let before = along_ray(sp, ray, end - inset).x >= globals.isovalue;
-                let after = along_ray(sp, ray, end + inset).x >= globals.isovalue;
+                let before = along_ray(sp, ray, end - inset).x >= frame.globals.isovalue;
+                let after = along_ray(sp, ray, end + inset).x >= frame.globals.isovalue;
                 if before != after && !repeats_last_crossing(after)
                     && crossing_ends_march(&trace, end, after) {
                     break;

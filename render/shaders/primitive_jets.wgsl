@@ -390,7 +390,7 @@ fn group_jets(sp: ptr<function, RaySupports>, ray: Ray, lo: f32, hi: f32) -> arr
         groups[g] = jet_add(groups[g], item_jet(ray, item, lo, hi));
     }
     // Groups holding an HRBF set are clamped at 0 (program.rs clamp_group_slots).
-    for (var g = 0u; g < globals.group_count; g++) {
+    for (var g = 0u; g < frame.globals.group_count; g++) {
         if kernels[g].clamped != 0u {
             groups[g] = jet_max(groups[g], jet_constant(0.0));
         }
@@ -418,7 +418,7 @@ fn jet_min(f: Jet, g: Jet) -> Jet {
 
 // min(a, 2c − b).
 fn jet_difference(a: Jet, b: Jet) -> Jet {
-    return jet_min(a, jet_sub(jet_constant(2.0 * globals.isovalue), b));
+    return jet_min(a, jet_sub(jet_constant(2.0 * frame.globals.isovalue), b));
 }
 
 // The Ricci blend's jet (blend.rs ricci_jet, whose docs derive it) in two passes over the

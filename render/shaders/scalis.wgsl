@@ -116,10 +116,10 @@ fn find_root(sp: ptr<function, RaySupports>, ray: Ray, b_in: Hermite, e_in: Herm
     var saved_e = e;
     let none = Hermite(-INF, 0.0, 0.0, false);
     for (var n = 0u; n < 32u; n++) {
-        if scalis_steps >= globals.max_steps {
+        if scalis_steps >= frame.globals.max_steps {
             return none;
         }
-        if e.t - b.t < globals.epsilon {
+        if e.t - b.t < frame.globals.epsilon {
             if e.v < 0.0 {
                 return e;
             }
@@ -137,7 +137,7 @@ fn find_root(sp: ptr<function, RaySupports>, ray: Ray, b_in: Hermite, e_in: Herm
             continue;
         }
         let r = flip(hermite(sp, ray, t), sign);
-        if abs(r.v) <= abs(r.d) * globals.epsilon || r.v == 0.0 {
+        if abs(r.v) <= abs(r.d) * frame.globals.epsilon || r.v == 0.0 {
             return r;
         }
         let rising = r.d > 0.0 && b.d < 0.0;
@@ -163,10 +163,10 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
     var trace = Trace(0.0, false, false, 0u);
     scalis_steps = 0u;
     var start_at = 0.0;
-    let gap = globals.min_step;
+    let gap = frame.globals.min_step;
     loop {
         let part = next_part(sp, ray, start_at);
-        if part.x > part.y || scalis_steps >= globals.max_steps {
+        if part.x > part.y || scalis_steps >= frame.globals.max_steps {
             break;
         }
         var points: array<f32, MAX_BREAKPOINTS>;
@@ -219,7 +219,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
         }
         let end_is_limit = part.y < (*sp).horizon && part.y < (*sp).far;
         for (var j = 1u; j <= kept; j++) {
-            if scalis_steps >= globals.max_steps {
+            if scalis_steps >= frame.globals.max_steps {
                 break;
             }
             var e: Hermite;
@@ -248,7 +248,7 @@ fn trace_ray(sp: ptr<function, RaySupports>, ray: Ray, resume: ptr<function, Sus
                     return trace;
                 }
                 let next = t + gap;
-                if next >= e.t || scalis_steps >= globals.max_steps {
+                if next >= e.t || scalis_steps >= frame.globals.max_steps {
                     break;
                 }
                 b = hermite(sp, ray, next);

@@ -15,7 +15,7 @@ fn march_start(part: vec2<f32>) -> MarchState {
 }
 
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
-    let c = globals.isovalue;
+    let c = frame.globals.isovalue;
     var t = (*state).t;
     var segment = (*state).carry0;
     var has_side = ((*state).flags & 1u) != 0u;
@@ -32,7 +32,7 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
         let hi = min(t + segment, part.y);
         let lambda = summed_lipschitz(sp, ray, t, hi, true);
         let width = hi - t;
-        let step = max(select(width, min(abs(f - c) / lambda, width), lambda > 0.0), globals.epsilon);
+        let step = max(select(width, min(abs(f - c) / lambda, width), lambda > 0.0), frame.globals.epsilon);
         t += step;
         segment = SEGMENT_GROWTH * step;
     }

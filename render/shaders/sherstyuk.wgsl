@@ -87,7 +87,7 @@ fn march_start(part: vec2<f32>) -> MarchState {
 }
 
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
-    let c = globals.isovalue;
+    let c = frame.globals.isovalue;
     let items = support_count(sp);
     var t = (*state).t;
     while t < part.y && (*trace).steps < allowance {

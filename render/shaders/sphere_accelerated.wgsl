@@ -21,8 +21,8 @@ fn march_start(part: vec2<f32>) -> MarchState {
 }
 
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
-    let c = globals.isovalue;
-    let lipschitz = globals.lipschitz;
+    let c = frame.globals.isovalue;
+    let lipschitz = frame.globals.lipschitz;
     var t = (*state).t;
     var previous_radius = (*state).carry0;
     var previous_step = (*state).carry1;
@@ -32,9 +32,9 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
         (*trace).steps += 1u;
         let inside = f >= c;
         let radius = abs(f - c) / lipschitz;
-        if radius < globals.epsilon {
+        if radius < frame.globals.epsilon {
             // Confirm the crossing on the other side, as the marching methods do.
-            if (along_ray(sp, ray, t + globals.min_step).x >= c) == inside {
+            if (along_ray(sp, ray, t + frame.globals.min_step).x >= c) == inside {
                 t += max(radius, progress_floor(t));
                 has_history = false;
                 f = along_ray(sp, ray, t).x;
@@ -44,7 +44,7 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
                 return;
             }
             // Transparent statistics go on past the crossing.
-            t += radius + globals.min_step;
+            t += radius + frame.globals.min_step;
             has_history = false;
             f = along_ray(sp, ray, t).x;
             continue;

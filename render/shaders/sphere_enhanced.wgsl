@@ -9,8 +9,8 @@ fn march_start(part: vec2<f32>) -> MarchState {
 }
 
 fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: ptr<function, Trace>, state: ptr<function, MarchState>, allowance: u32) {
-    let c = globals.isovalue;
-    let lipschitz = globals.lipschitz;
+    let c = frame.globals.isovalue;
+    let lipschitz = frame.globals.lipschitz;
     var t = (*state).t;
     var omega = select(1.0, 1.6, ((*state).flags & 4u) != 0u);
     var previous_radius = (*state).carry0;
@@ -32,8 +32,8 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
         }
         has_side = true;
         side = inside;
-        if radius < globals.epsilon {
-            let beyond = along_ray(sp, ray, t + globals.min_step).x >= c;
+        if radius < frame.globals.epsilon {
+            let beyond = along_ray(sp, ray, t + frame.globals.min_step).x >= c;
             if beyond == inside {
                 t += max(radius, 1.2e-7 * abs(t));
                 omega = 1.0;
@@ -45,7 +45,7 @@ fn march_part(sp: ptr<function, RaySupports>, ray: Ray, part: vec2<f32>, trace: 
                 return;
             }
             // Transparent statistics go on past the crossing, over-relaxed again.
-            t += radius + globals.min_step;
+            t += radius + frame.globals.min_step;
             omega = 1.6;
             previous_radius = 0.0;
             step = 0.0;

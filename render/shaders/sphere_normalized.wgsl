@@ -51,7 +51,7 @@ fn method_bound(sp: ptr<function, RaySupports>, ray: Ray, t: f32, f: f32, d: f32
     let distance = abs(sqrt(max(g, 0.0)) - 1.0) * tau;
     var lambda = INF;
     if distance > 0.0 {
-        lambda = abs(f - globals.isovalue) / distance;
+        lambda = abs(f - frame.globals.isovalue) / distance;
     }
     return symmetric(f, lambda, h);
 }

@@ -11,7 +11,8 @@ struct Statistics {
     bins: u32,     // counts 0 to bins - 1; larger counts fall in the last bin
 };
 
-@group(0) @binding(0) var<uniform> stats: Statistics;
+// Storage, not uniform, as the trace shaders' globals (shared/scene.wgsl).
+@group(0) @binding(0) var<storage, read> stats: Statistics;
 @group(0) @binding(1) var<storage, read> steps: array<u32>;
 @group(0) @binding(2) var<storage, read_write> histogram: array<atomic<u32>>;
 @group(0) @binding(3) var<storage, read_write> top: atomic<u32>;

@@ -138,7 +138,7 @@ impl Body {
     fn parameter(&mut self) -> String {
         let k = self.next_parameter;
         self.next_parameter += 1;
-        self.bind(&format!("blend_parameters[{k}]"))
+        self.bind(&format!("frame.blend_parameters[{k}]"))
     }
 
     /// Passes over the parameter slots of a subtree whose code is not written.
@@ -461,7 +461,7 @@ mod tests {
         assert_eq!(
             wgsl.values,
             "fn blend_groups(values: array<vec4<f32>, GROUPS>) -> vec4<f32> {
-    let n0 = blend_parameters[0];
+    let n0 = frame.blend_parameters[0];
     let n1 = values[0];
     let n2 = values[1];
     let n3 = value_difference(n1, n2);
@@ -488,7 +488,10 @@ mod tests {
             ],
         };
         let values = BlendWgsl::new(&tree, 3).values;
-        assert!(values.contains("let n0 = blend_parameters[0];"), "{values}");
+        assert!(
+            values.contains("let n0 = frame.blend_parameters[0];"),
+            "{values}"
+        );
         assert!(values.contains("let n3 = vec4<f32>(0.0) + n1;"), "{values}");
         assert!(values.contains("let n4 = n3 + n2;"), "{values}");
         assert!(

@@ -2,6 +2,7 @@
 //! at its WGSL member's offset, and the same size (naga lays out the composed shaders).
 
 use skeletrace_core::field::blend::BlendTree;
+use skeletrace_core::methods::MethodId;
 
 use crate::blend_wgsl::BlendWgsl;
 use crate::buffers::{GpuKernel, GpuLight, GpuMaterial, GpuPrimitive};
@@ -69,7 +70,9 @@ fn check_twin(source: &str, wgsl: &str, (size, fields): (u32, Vec<(&str, u32)>))
 
 #[test]
 fn every_struct_shared_with_wgsl_has_the_rust_layout() {
-    let trace = GpuMethod::QuadraticTaylor.source(&summed(2), KindSet::ALL);
+    let trace = GpuMethod::from_id(MethodId::QuadraticTaylor)
+        .unwrap_or_else(|| panic!("quadratic-taylor has a shader"))
+        .source(&summed(2), KindSet::ALL);
     let binning = binning_source();
     check_twin(
         &trace,

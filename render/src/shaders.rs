@@ -83,87 +83,99 @@ pub fn step_statistics_source() -> String {
     STEP_STATISTICS.to_owned()
 }
 
-/// A method with a GPU implementation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum GpuMethod {
-    /// `sphere`.
+/// The shader family of each method: the one table of which methods run on the GPU and which
+/// WGSL each composes. [`GpuMethod::ALL`] is [`MethodId::ALL`] filtered by it, so a new method is
+/// given a shader (or none) here and nowhere else.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ShaderFamily {
     Sphere,
-    /// `sphere-enhanced`.
     SphereEnhanced,
-    /// `sphere-accelerated`.
     SphereAccelerated,
-    /// `sphere-normalized` (SCALIS skeletons with one kernel).
     SphereNormalized,
-    /// `segment-original` (scenes of at most [`RAY_SUPPORTS`] primitives).
     SegmentOriginal,
-    /// `segment` (point blobs, segments, planes).
-    Segment,
-    /// `linear-taylor` (point blobs, segments, planes).
-    LinearTaylor,
-    /// `quadratic-taylor` (point blobs, segments, planes).
-    QuadraticTaylor,
-    /// `bottom-up-quadratic` (point blobs; Taylor for segments and planes).
-    BottomUpQuadratic,
-    /// `bottom-up-linear` (point blobs; Taylor for segments and planes).
-    BottomUpLinear,
-    /// `linear-mixed` (point blobs, segments, planes).
-    LinearMixed,
-    /// `quadratic-mixed` (point blobs, segments, planes).
-    QuadraticMixed,
-    /// `scalis-quadratic` (SCALIS skeletons).
-    ScalisQuadratic,
-    /// `sherstyuk` (summed groups, scenes of at most [`RAY_SUPPORTS`] primitives).
+    /// march.wgsl with inclusion.wgsl's bound of this kind.
+    Inclusion(MarchBound),
     Sherstyuk,
-    /// `field-inversion` (Gaussian blobs).
+    Scalis,
     FieldInversion,
 }
 
+impl ShaderFamily {
+    /// The family of `id`'s shader; `None` for the CPU-only methods.
+    const fn of(id: MethodId) -> Option<Self> {
+        Some(match id {
+            MethodId::Sphere => Self::Sphere,
+            MethodId::SphereEnhanced => Self::SphereEnhanced,
+            MethodId::SphereAccelerated => Self::SphereAccelerated,
+            MethodId::SphereNormalized => Self::SphereNormalized,
+            MethodId::SegmentOriginal => Self::SegmentOriginal,
+            MethodId::Segment => Self::Inclusion(MarchBound::Segment),
+            MethodId::LinearTaylor => Self::Inclusion(MarchBound::LinearTaylor),
+            MethodId::QuadraticTaylor => Self::Inclusion(MarchBound::QuadraticTaylor),
+            MethodId::BottomUpLinear => Self::Inclusion(MarchBound::BottomUpLinear),
+            MethodId::BottomUpQuadratic => Self::Inclusion(MarchBound::BottomUpQuadratic),
+            MethodId::LinearMixed => Self::Inclusion(MarchBound::LinearMixed),
+            MethodId::QuadraticMixed => Self::Inclusion(MarchBound::QuadraticMixed),
+            MethodId::ScalisQuadratic => Self::Scalis,
+            MethodId::Sherstyuk => Self::Sherstyuk,
+            MethodId::FieldInversion => Self::FieldInversion,
+            MethodId::BottomUpLinearBisection | MethodId::Affine | MethodId::Reference => {
+                return None;
+            }
+        })
+    }
+}
+
+/// How many of [`MethodId::ALL`] have a shader.
+const GPU_METHOD_COUNT: usize = {
+    let mut count = 0;
+    let mut i = 0;
+    while i < MethodId::ALL.len() {
+        if ShaderFamily::of(MethodId::ALL[i]).is_some() {
+            count += 1;
+        }
+        i += 1;
+    }
+    count
+};
+
+/// A method with a GPU implementation: a [`MethodId`] that has a [`ShaderFamily`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct GpuMethod(MethodId);
+
 impl GpuMethod {
-    /// Every GPU method.
-    pub const ALL: [Self; 15] = [
-        Self::Sphere,
-        Self::SphereEnhanced,
-        Self::SphereAccelerated,
-        Self::SphereNormalized,
-        Self::SegmentOriginal,
-        Self::Segment,
-        Self::LinearTaylor,
-        Self::QuadraticTaylor,
-        Self::BottomUpQuadratic,
-        Self::BottomUpLinear,
-        Self::LinearMixed,
-        Self::QuadraticMixed,
-        Self::ScalisQuadratic,
-        Self::Sherstyuk,
-        Self::FieldInversion,
-    ];
+    /// Every GPU method, in [`MethodId::ALL`]'s order.
+    pub const ALL: [Self; GPU_METHOD_COUNT] = {
+        let mut all = [Self(MethodId::Sphere); GPU_METHOD_COUNT];
+        let (mut i, mut n) = (0, 0);
+        while i < MethodId::ALL.len() {
+            if ShaderFamily::of(MethodId::ALL[i]).is_some() {
+                all[n] = Self(MethodId::ALL[i]);
+                n += 1;
+            }
+            i += 1;
+        }
+        all
+    };
 
     /// The method's identity.
     #[must_use]
     pub const fn id(self) -> MethodId {
-        match self {
-            Self::Sphere => MethodId::Sphere,
-            Self::SphereEnhanced => MethodId::SphereEnhanced,
-            Self::SphereAccelerated => MethodId::SphereAccelerated,
-            Self::SphereNormalized => MethodId::SphereNormalized,
-            Self::SegmentOriginal => MethodId::SegmentOriginal,
-            Self::Segment => MethodId::Segment,
-            Self::LinearTaylor => MethodId::LinearTaylor,
-            Self::QuadraticTaylor => MethodId::QuadraticTaylor,
-            Self::BottomUpQuadratic => MethodId::BottomUpQuadratic,
-            Self::BottomUpLinear => MethodId::BottomUpLinear,
-            Self::LinearMixed => MethodId::LinearMixed,
-            Self::QuadraticMixed => MethodId::QuadraticMixed,
-            Self::ScalisQuadratic => MethodId::ScalisQuadratic,
-            Self::Sherstyuk => MethodId::Sherstyuk,
-            Self::FieldInversion => MethodId::FieldInversion,
-        }
+        self.0
     }
 
     /// The GPU implementation of `id`, if there is one.
     #[must_use]
-    pub fn from_id(id: MethodId) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.id() == id)
+    pub const fn from_id(id: MethodId) -> Option<Self> {
+        match ShaderFamily::of(id) {
+            Some(_) => Some(Self(id)),
+            None => None,
+        }
+    }
+
+    /// This method's shader family.
+    fn family(self) -> ShaderFamily {
+        ShaderFamily::of(self.0).unwrap_or(ShaderFamily::Sphere)
     }
 
     /// The command-line name.
@@ -179,15 +191,15 @@ impl GpuMethod {
     /// # Errors
     /// The choice the GPU lacks.
     pub fn follows(self, protocol: Protocol) -> Result<(), String> {
-        let lacks = match (self, protocol) {
-            (Self::ScalisQuadratic, Protocol::Paper2021) => {
+        let lacks = match (self.0, protocol) {
+            (MethodId::ScalisQuadratic, Protocol::Paper2021) => {
                 "the paper's |F| < 10⁻³ stop and sphere-step entry"
             }
-            (Self::FieldInversion, Protocol::Paper2023) => {
+            (MethodId::FieldInversion, Protocol::Paper2023) => {
                 "the unrefined hit of Bruckner's listing"
             }
-            (Self::SphereEnhanced, Protocol::Paper2014) => "ω = 1.2",
-            (Self::SphereNormalized, Protocol::Paper2021) => "the thinnest radius once per ray",
+            (MethodId::SphereEnhanced, Protocol::Paper2014) => "ω = 1.2",
+            (MethodId::SphereNormalized, Protocol::Paper2021) => "the thinnest radius once per ray",
             _ => return Ok(()),
         };
         Err(format!(
@@ -205,8 +217,8 @@ impl GpuMethod {
             .primitives()
             .iter()
             .all(|p| matches!(p, Primitive::Point(_)));
-        match self {
-            Self::FieldInversion
+        match self.0 {
+            MethodId::FieldInversion
                 if !only_points
                     || (0..program.group_count()).any(|g| {
                         !matches!(program.group_kernel_spec(g), Kernel::Gaussian { .. })
@@ -219,18 +231,18 @@ impl GpuMethod {
             // a part at its horizon where more overlap, and the march then differs from the
             // CPU's (molecule, 3 000 blobs: 84 % equal step counts). With at most that many
             // primitives no window is ever cut.
-            Self::SegmentOriginal => {
+            MethodId::SegmentOriginal => {
                 self.within_one_window(program, "its first segment is a whole support part")
             }
             // Each primitive's Hermite pieces span its whole support interval; the march walks
             // their nodes from the ray's window, which holds every support when the scene has
             // at most RAY_SUPPORTS primitives.
             // (Summed groups, no HRBF set: the CPU method's own requirements.)
-            Self::Sherstyuk => {
+            MethodId::Sherstyuk => {
                 Sherstyuk.supports(program)?;
                 self.within_one_window(program, "its pieces span whole support intervals")
             }
-            Self::ScalisQuadratic | Self::SphereNormalized
+            MethodId::ScalisQuadratic | MethodId::SphereNormalized
                 if !program
                     .primitives()
                     .iter()
@@ -265,7 +277,10 @@ impl GpuMethod {
     /// allowance of steps and resumes it in the next dispatch; the others trace in one.
     #[must_use]
     pub fn resumable(self) -> bool {
-        !matches!(self, Self::ScalisQuadratic | Self::FieldInversion)
+        !matches!(
+            self.family(),
+            ShaderFamily::Scalis | ShaderFamily::FieldInversion
+        )
     }
 
     /// The composed compute shader for a scene whose blend tree compiles to `blend` and whose
@@ -273,49 +288,32 @@ impl GpuMethod {
     /// method family, the entry point.
     #[must_use]
     pub fn source(self, blend: &BlendWgsl, kinds: KindSet) -> String {
-        let family = match self {
-            Self::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
-            Self::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
-            Self::SphereAccelerated => format!(
+        let family = match self.family() {
+            ShaderFamily::Sphere => format!("{MARCH}\n{SPHERE}\n{PARTS}"),
+            ShaderFamily::SphereEnhanced => format!("{SPHERE_ENHANCED}\n{PARTS}"),
+            ShaderFamily::SphereAccelerated => format!(
                 "const ACCELERATION_BETA: f32 = {:?};\n{SPHERE_ACCELERATED}\n{PARTS}",
                 AcceleratedSphereTracing::BETA as f32
             ),
-            Self::SphereNormalized => {
+            ShaderFamily::SphereNormalized => {
                 format!("{MARCH}\n{NORMALISED}\n{SPHERE_NORMALIZED}\n{PARTS}")
             }
-            Self::SegmentOriginal => format!(
+            ShaderFamily::SegmentOriginal => format!(
                 "const SEGMENT_GROWTH: f32 = {:?};\n{INTERVAL}\n{PRIMITIVE_JETS}\n{}\n{SEGMENT_ORIGINAL}\n{PARTS}",
                 SegmentOriginal::GROWTH as f32,
                 blend.jets_and_lipschitz
             ),
-            Self::Segment
-            | Self::LinearTaylor
-            | Self::QuadraticTaylor
-            | Self::BottomUpQuadratic
-            | Self::BottomUpLinear
-            | Self::LinearMixed
-            | Self::QuadraticMixed => {
-                let bound = match self {
-                    Self::Segment => MarchBound::Segment,
-                    Self::LinearTaylor => MarchBound::LinearTaylor,
-                    Self::QuadraticTaylor => MarchBound::QuadraticTaylor,
-                    Self::BottomUpLinear => MarchBound::BottomUpLinear,
-                    Self::LinearMixed => MarchBound::LinearMixed,
-                    Self::QuadraticMixed => MarchBound::QuadraticMixed,
-                    _ => MarchBound::BottomUpQuadratic,
-                };
-                format!(
-                    "const METHOD: u32 = {}u;\n{MARCH}\n{INTERVAL}\n{PRIMITIVE_JETS}\n{INCLUSION}\n{}\n{PARTS}",
-                    bound as u32,
-                    blend.bounds()
-                )
-            }
-            Self::Sherstyuk => format!(
+            ShaderFamily::Inclusion(bound) => format!(
+                "const METHOD: u32 = {}u;\n{MARCH}\n{INTERVAL}\n{PRIMITIVE_JETS}\n{INCLUSION}\n{}\n{PARTS}",
+                bound as u32,
+                blend.bounds()
+            ),
+            ShaderFamily::Sherstyuk => format!(
                 "const SHERSTYUK_PIECES: u32 = {}u;\n{SHERSTYUK}\n{PARTS}",
                 Sherstyuk::SUBDIVISIONS
             ),
-            Self::ScalisQuadratic => format!("{NORMALISED}\n{SCALIS}"),
-            Self::FieldInversion => FIELD_INVERSION.to_owned(),
+            ShaderFamily::Scalis => format!("{NORMALISED}\n{SCALIS}"),
+            ShaderFamily::FieldInversion => FIELD_INVERSION.to_owned(),
         };
         format!(
             "{}{}{}\nconst RESUMABLE: bool = {};\n{}\n{}\n{family}\n{HEAT}\n{MAIN}",
@@ -360,16 +358,16 @@ mod tests {
             );
         }
         for (method, protocol) in [
-            (GpuMethod::ScalisQuadratic, Protocol::Paper2021),
-            (GpuMethod::FieldInversion, Protocol::Paper2023),
-            (GpuMethod::SphereEnhanced, Protocol::Paper2014),
-            (GpuMethod::SphereNormalized, Protocol::Paper2021),
+            (GpuMethod(MethodId::ScalisQuadratic), Protocol::Paper2021),
+            (GpuMethod(MethodId::FieldInversion), Protocol::Paper2023),
+            (GpuMethod(MethodId::SphereEnhanced), Protocol::Paper2014),
+            (GpuMethod(MethodId::SphereNormalized), Protocol::Paper2021),
         ] {
             let why = method.follows(protocol).err().unwrap_or_default();
             assert!(why.contains("runs on the CPU only"), "{why}");
         }
         assert!(
-            GpuMethod::QuadraticTaylor
+            GpuMethod(MethodId::QuadraticTaylor)
                 .follows(Protocol::Paper2023)
                 .is_ok()
         );
@@ -418,7 +416,7 @@ mod tests {
     /// `PATH_BYTES`; naga's layout of the WGSL structs must agree.
     #[test]
     fn per_pixel_state_bytes_match_the_wgsl_structs() {
-        let source = GpuMethod::Sphere.source(&summed(2), KindSet::ALL);
+        let source = GpuMethod(MethodId::Sphere).source(&summed(2), KindSet::ALL);
         let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{e}"));
         let span_of = |name: &str| {
             module
@@ -488,7 +486,10 @@ mod tests {
                 },
             ],
         };
-        for method in [GpuMethod::QuadraticMixed, GpuMethod::Sphere] {
+        for method in [
+            GpuMethod(MethodId::QuadraticMixed),
+            GpuMethod(MethodId::Sphere),
+        ] {
             validate(
                 method.name(),
                 &method.source(&BlendWgsl::new(&every, 3), KindSet::ALL),

@@ -64,7 +64,7 @@ pub struct GridStatistics {
 
 struct StatisticsBuffers {
     shape: StatisticsShape,
-    uniforms: wgpu::Buffer,
+    shape_words: wgpu::Buffer,
     histogram: wgpu::Buffer,
     top: wgpu::Buffer,
     /// The histograms, the top, then one probed count per panel.
@@ -107,15 +107,15 @@ impl StepStatistics {
             self.buffers = Some(StatisticsBuffers::new(device, shape));
         }
         let Some(b) = &self.buffers else { return };
-        let uniforms = [shape.width, shape.height, shape.panels, shape.bins];
-        queue.write_buffer(&b.uniforms, 0, bytemuck::cast_slice(&uniforms));
+        let shape_words = [shape.width, shape.height, shape.panels, shape.bins];
+        queue.write_buffer(&b.shape_words, 0, bytemuck::cast_slice(&shape_words));
         encoder.clear_buffer(&b.histogram, 0, None);
         encoder.clear_buffer(&b.top, 0, None);
         let count_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("count steps"),
             layout: &self.count.get_bind_group_layout(0),
             entries: &[
-                entry(0, &b.uniforms),
+                entry(0, &b.shape_words),
                 entry(1, steps),
                 entry(2, &b.histogram),
             ],
@@ -124,7 +124,7 @@ impl StepStatistics {
             label: Some("shared top"),
             layout: &self.top.get_bind_group_layout(0),
             entries: &[
-                entry(0, &b.uniforms),
+                entry(0, &b.shape_words),
                 entry(2, &b.histogram),
                 entry(3, &b.top),
             ],
@@ -211,10 +211,10 @@ impl StatisticsBuffers {
             | wgpu::BufferUsages::COPY_DST;
         Self {
             shape,
-            uniforms: buffer(
+            shape_words: buffer(
                 "step statistics",
                 16,
-                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             ),
             histogram: buffer("step histograms", words * 4, counted),
             top: buffer("shared step top", 4, counted),

@@ -407,7 +407,7 @@ impl TileBinning {
                 hulls: u32::from(self.hulls),
                 pad2: [0; 2],
             }),
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: wgpu::BufferUsages::STORAGE,
         });
         if self
             .buffers

@@ -54,6 +54,7 @@ use std::path::Path;
 use glam::DVec3;
 use skeletrace_core::cpu::renderer::{RenderOptions, Renderer};
 use skeletrace_core::frame::{Frame, View};
+use skeletrace_core::methods::MethodId;
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::model::scene::{Blend, Camera};
 use skeletrace_core::{Scene, compile};
@@ -77,6 +78,11 @@ const PERTURBATION_MARGIN: f64 = 0.01;
 
 /// The relative camera perturbation of [`self_agreement`]: two f32 ulps.
 const PERTURBATION: f64 = 2.0 / 8_388_608.0;
+
+/// The GPU implementation of `id`.
+fn shader_of(id: MethodId) -> GpuMethod {
+    GpuMethod::from_id(id).unwrap_or_else(|| panic!("{} has no shader", id.name()))
+}
 
 fn load(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/scenes/{name}.ron"));
@@ -253,20 +259,9 @@ fn check_pass_times(gpu: &GpuRenderer, label: &str, methods: usize) {
     );
 }
 
-/// Renders `scene` with every GPU method that applies on each camera and compares each frame
+/// Renders `scene` with those of `methods` that apply on each camera and compares each frame
 /// with the CPU tracer's; the pairs that miss the thresholds (with the allowances of
 /// the module docs) go to `failures`. Returns the most pixels the CPU tracer hit in one frame.
-fn check_agreement(
-    gpu: &mut GpuRenderer,
-    label: &str,
-    scene: &Scene,
-    cameras: &[Camera],
-    failures: &mut Vec<String>,
-) -> usize {
-    check_methods_agreement(gpu, label, scene, cameras, &GpuMethod::ALL, failures)
-}
-
-/// [`check_agreement`] for those of `methods` that apply.
 fn check_methods_agreement(
     gpu: &mut GpuRenderer,
     label: &str,
@@ -386,8 +381,8 @@ fn self_agreement(
     (own.agreeing_steps, own.worst_depth)
 }
 
-/// Every asset, in three tests by the kinds their pipelines are compiled for (shared.rs
-/// `KindSet::TIERS`), which the test binary's renderers run at once.
+/// Every asset, in three lists by the kinds their pipelines are compiled for (shared.rs
+/// `KindSet::TIERS`), one test of the suite each, which the binary's renderers run at once.
 const POINT_BLOB_ASSETS: [&str; 3] = ["blobs", "molecule", "summed-blobs"];
 /// See [`POINT_BLOB_ASSETS`].
 const SKELETON_ASSETS: [&str; 6] = [
@@ -427,63 +422,160 @@ fn every_asset_is_in_one_agreement_test() {
     assert_eq!(listed, on_disk);
 }
 
-#[test]
-fn gpu_frames_match_the_cpu_tracer_on_point_blobs() {
-    frames_match("point blobs", &POINT_BLOB_ASSETS);
-}
-
-#[test]
-fn gpu_frames_match_the_cpu_tracer_on_skeletons() {
-    frames_match("skeletons", &SKELETON_ASSETS);
-}
-
-#[test]
-fn gpu_frames_match_the_cpu_tracer_on_shapes_and_hrbf() {
-    frames_match("shapes and HRBF", &SHAPE_AND_HRBF_ASSETS);
-}
-
-/// Every GPU method on each of `assets`, against the CPU tracer.
-fn frames_match(what: &str, assets: &[&str]) {
-    let Some(mut gpu) = gpu_or_skip(&format!("gpu_frames_match_the_cpu_tracer ({what})")) else {
-        return;
-    };
-    eprintln!("adapter: {}", gpu.adapter_name());
-    let mut failures = Vec::new();
-    // SKELETRACE_GPU_ASSETS=a,b narrows the run while investigating one scene.
+/// The scenes of `assets`: two cameras on the small ones; the scene camera only on the large
+/// ones and on those whose CPU sphere tracing runs hundreds of marches to the step budget.
+/// `SKELETRACE_GPU_ASSETS=a,b` narrows the run while investigating one scene.
+fn assets(assets: &[&str]) -> Vec<Case> {
     let only = std::env::var("SKELETRACE_GPU_ASSETS").ok();
-    for &asset in assets {
-        if only
-            .as_ref()
-            .is_some_and(|o| !o.split(',').any(|a| a == asset))
-        {
-            continue;
+    assets
+        .iter()
+        .filter(|asset| {
+            only.as_ref()
+                .is_none_or(|o| o.split(',').any(|a| a == **asset))
+        })
+        .map(|&asset| {
+            let scene = load(asset);
+            let counts = scene.counts();
+            let large = counts.segments + counts.blobs + counts.shapes > 1000
+                || ["creature", "truss", "foam"].contains(&asset);
+            let cameras = if large {
+                vec![scene.camera]
+            } else {
+                vec![scene.camera, orbit(&scene.camera, 40.0)]
+            };
+            Case {
+                label: asset.to_owned(),
+                scene,
+                cameras,
+                min_hits: 0,
+            }
+        })
+        .collect()
+}
+
+/// One scene of the agreement suite: its label, the cameras it is traced through and the
+/// fewest pixels the CPU tracer must hit in one of its frames (a scene that misses the view
+/// would agree trivially).
+struct Case {
+    label: String,
+    scene: Scene,
+    cameras: Vec<Camera>,
+    min_hits: usize,
+}
+
+impl Case {
+    /// `scene` through its own camera, hitting at least `min_hits` pixels.
+    fn of(label: impl Into<String>, scene: Scene, min_hits: usize) -> Self {
+        Self {
+            label: label.into(),
+            cameras: vec![scene.camera],
+            scene,
+            min_hits,
         }
-        let scene = load(asset);
-        // Two cameras on the small scenes; the scene camera only on the large ones and on
-        // those whose CPU sphere tracing runs hundreds of marches to the step budget.
-        let counts = scene.counts();
-        let large = counts.segments + counts.blobs + counts.shapes > 1000
-            || ["creature", "truss", "foam"].contains(&asset);
-        let cameras = if large {
-            vec![scene.camera]
-        } else {
-            vec![scene.camera, orbit(&scene.camera, 40.0)]
-        };
-        check_agreement(&mut gpu, asset, &scene, &cameras, &mut failures);
     }
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+}
+
+/// Traces every case with those of `methods` that apply on `gpu` and on the CPU tracer, and
+/// fails naming every case and method that disagree (module docs), or a case that hits too
+/// few pixels.
+fn run_cases(gpu: &mut GpuRenderer, test: &str, cases: Vec<Case>, methods: &[GpuMethod]) {
+    eprintln!("{test}: adapter {}", gpu.adapter_name());
+    let mut failures = Vec::new();
+    for case in cases {
+        let hits = check_methods_agreement(
+            gpu,
+            &case.label,
+            &case.scene,
+            &case.cameras,
+            methods,
+            &mut failures,
+        );
+        eprintln!("{}: {hits} pixels hit", case.label);
+        if hits < case.min_hits {
+            failures.push(format!(
+                "{}: only {hits} pixels hit (at least {})",
+                case.label, case.min_hits
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{test}: disagreements: {failures:?}");
+}
+
+/// The agreement suite: one test per line, each tracing a family of scenes ([`Case`]) with the
+/// GPU methods named and holding every frame to the CPU tracer's. Instantiated once per GPU
+/// backend wgpu opens here (Vulkan and OpenGL, below), as fidget instantiates its `*_tests!`
+/// per evaluator. A new primitive, operator or scene family is covered by one line; a new
+/// method by its shader, since the lines that say `GpuMethod::ALL` take every one.
+macro_rules! agreement_suite {
+    ($open:path; $($test:ident: $cases:expr, $methods:expr;)+) => {
+        $(
+            #[test]
+            fn $test() {
+                let name = concat!(module_path!(), "::", stringify!($test));
+                let Some(mut gpu) = $open(name) else {
+                    return;
+                };
+                run_cases(&mut gpu, name, $cases, $methods);
+            }
+        )+
+    };
+}
+
+/// Every GPU method on Vulkan (lavapipe here and in CI): every asset, in three tests by the
+/// kinds their pipelines are compiled for (shared.rs `KindSet::TIERS`), which the binary's
+/// renderers run at once; then the operators, primitives and blend trees.
+mod vulkan {
+    use super::*;
+
+    agreement_suite! { skeletrace_tests::gpu_or_skip;
+        point_blob_assets_match: assets(&POINT_BLOB_ASSETS), &GpuMethod::ALL;
+        skeleton_assets_match: assets(&SKELETON_ASSETS), &GpuMethod::ALL;
+        shape_and_hrbf_assets_match: assets(&SHAPE_AND_HRBF_ASSETS), &GpuMethod::ALL;
+        smooth_blends_match: smooth_blends(), &GpuMethod::ALL;
+        distance_segments_match: distance_segments(), &GpuMethod::ALL;
+        every_primitive_matches: every_primitive(), &GpuMethod::ALL;
+        blend_trees_match: blend_trees(), &[
+            shader_of(MethodId::Sphere),
+            shader_of(MethodId::Segment),
+            shader_of(MethodId::QuadraticTaylor),
+            shader_of(MethodId::BottomUpLinear),
+            shader_of(MethodId::QuadraticMixed),
+        ];
+        ricci_blends_past_f32_powers_match: ricci_past_f32_powers(), &[
+            shader_of(MethodId::Sphere),
+            shader_of(MethodId::Segment),
+            shader_of(MethodId::QuadraticTaylor),
+        ];
+        scenes_of_many_groups_match: many_groups(), &[
+            shader_of(MethodId::Segment),
+            shader_of(MethodId::QuadraticTaylor),
+            shader_of(MethodId::BottomUpQuadratic),
+            shader_of(MethodId::QuadraticMixed),
+        ];
+    }
+}
+
+/// wgpu's OpenGL backend (llvmpipe through EGL), on the tree at its scene camera with
+/// scalis-quadratic and quadratic Taylor (the window's refills and the inclusion march): only
+/// these, since llvmpipe compiles a GL pipeline in about 50 s with a fresh shader cache, as in
+/// CI (every GPU method on the tree and `blobs`, 31 pipelines, agreed in a run with a warm
+/// cache). Its statistics rays: [`the_opengl_backend_traces_the_statistics_rays_as_the_cpu`].
+mod opengl {
+    use super::*;
+
+    agreement_suite! { skeletrace_tests::opengl_or_skip;
+        the_tree_matches: vec![Case::of("tree (OpenGL)", load("tree"), SIZE * SIZE / 20)], &[
+            shader_of(MethodId::ScalisQuadratic),
+            shader_of(MethodId::QuadraticTaylor),
+        ];
+    }
 }
 
 /// The smooth union and intersection (2014 notes §11.6) over the blobs' groups: values and
 /// gradients (every method), ray jets (the Taylor methods, and bottom-up-quadratic, which falls
-/// back to quadratic Taylor for them on both backends).
-#[test]
-fn smooth_blends_match_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("smooth_blends_match_the_cpu_tracer") else {
-        return;
-    };
-    let mut failures = Vec::new();
-    // Two groups that overlap: every blob of the asset, and one large blob at its centre.
+/// back to quadratic Taylor for them on both backends). Two groups that overlap: every blob of
+/// the asset, and one large blob at its centre.
+fn smooth_blends() -> Vec<Case> {
     let mut scene = load("blobs");
     let all: Vec<_> = scene.groups.iter().flat_map(|g| g.blobs.clone()).collect();
     scene.groups.truncate(2);
@@ -493,54 +585,40 @@ fn smooth_blends_match_the_cpu_tracer() {
         radius: 0.9,
     }];
     let leaves = vec![Blend::Group(0), Blend::Group(1)];
-    for (label, blend) in [
-        (
-            "blobs-smooth-union",
-            Blend::SmoothUnion {
-                width: 0.3,
-                of: leaves.clone(),
-            },
-        ),
-        (
-            "blobs-smooth-inter",
-            Blend::SmoothIntersection {
-                width: 0.3,
-                of: leaves.clone(),
-            },
-        ),
-    ] {
-        scene.blend = Some(blend);
-        let hits = check_agreement(&mut gpu, label, &scene, &[scene.camera], &mut failures);
-        eprintln!("{label}: {hits} pixels hit");
-        assert!(hits > SIZE * SIZE / 50, "{label}: only {hits} pixels hit");
-    }
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+    let union = Blend::SmoothUnion {
+        width: 0.3,
+        of: leaves.clone(),
+    };
+    let intersection = Blend::SmoothIntersection {
+        width: 0.3,
+        of: leaves,
+    };
+    [
+        ("blobs-smooth-union", union),
+        ("blobs-smooth-inter", intersection),
+    ]
+    .into_iter()
+    .map(|(label, blend)| {
+        let scene = Scene {
+            blend: Some(blend),
+            ..scene.clone()
+        };
+        Case::of(label, scene, SIZE * SIZE / 50)
+    })
+    .collect()
 }
 
 /// Distance segments (scalis eq. 7): the hand with every skeleton switched from SCALIS to the
 /// kernel of the homothetic distance, whose ray jets (segment.rs) hull the end caps and the
 /// cone side.
-#[test]
-fn distance_segments_match_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("distance_segments_match_the_cpu_tracer") else {
-        return;
-    };
-    let mut failures = Vec::new();
+fn distance_segments() -> Vec<Case> {
     let mut scene = load("hand");
     for group in &mut scene.groups {
         for skeleton in &mut group.skeletons {
             skeleton.field = skeletrace_core::model::scene::SkeletonField::Distance;
         }
     }
-    let hits = check_agreement(
-        &mut gpu,
-        "hand-distance",
-        &scene,
-        &[scene.camera],
-        &mut failures,
-    );
-    assert!(hits > SIZE * SIZE / 10, "only {hits} pixels hit");
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+    vec![Case::of("hand-distance", scene, SIZE * SIZE / 10)]
 }
 
 /// Boxes, rounded boxes, tori and cylinders (2014 notes §7; shapes.rs): values, gradients,
@@ -549,25 +627,10 @@ fn distance_segments_match_the_cpu_tracer() {
 /// draws an HRBF set; those are checked on the hrbf asset and in the random blend trees). Before
 /// infinite f″ bounds stayed infinite when scaled (interval.wgsl mul_ends), tori stalled
 /// quadratic Taylor on seed 43 and others.
-#[test]
-fn every_primitive_matches_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("every_primitive_matches_the_cpu_tracer") else {
-        return;
-    };
-    let mut failures = Vec::new();
-    let mut scene = load("operators");
-    scene.blend = None;
-    let hits = check_agreement(
-        &mut gpu,
-        "operators-summed",
-        &scene,
-        &[scene.camera],
-        &mut failures,
-    );
-    assert!(
-        hits > SIZE * SIZE / 10,
-        "operators-summed: only {hits} pixels hit"
-    );
+fn every_primitive() -> Vec<Case> {
+    let mut operators = load("operators");
+    operators.blend = None;
+    let mut cases = vec![Case::of("operators-summed", operators, SIZE * SIZE / 10)];
     let mut shapes = 0;
     for seed in 42..46 {
         let mut rng = SplitMix64::new(seed);
@@ -575,13 +638,14 @@ fn every_primitive_matches_the_cpu_tracer() {
         // pipelines (with the secondary-ray test's random scenes too).
         let groups = common::random_groups(&mut rng, 4);
         shapes += groups.iter().map(|g| g.shapes.len()).sum::<usize>();
-        let scene = common::scene(groups, None);
-        let label = format!("random-{seed}");
-        let hits = check_agreement(&mut gpu, &label, &scene, &[scene.camera], &mut failures);
-        eprintln!("{label}: {hits} pixels hit");
+        cases.push(Case::of(
+            format!("random-{seed}"),
+            common::scene(groups, None),
+            0,
+        ));
     }
     assert!(shapes >= 6, "only {shapes} shapes in the random scenes");
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+    cases
 }
 
 /// Blend trees (blend.rs; compiled to WGSL per scene, blend_wgsl.rs): random trees of depth up to
@@ -591,50 +655,27 @@ fn every_primitive_matches_the_cpu_tracer() {
 /// tree builds its own pipelines: sphere tracing (values and gradients), segment tracing
 /// (Lipschitz bounds), quadratic Taylor (jets), bottom-up-linear and quadratic-mixed (the
 /// forward-inclusion composition, and the whole-field fallback where it has no rule).
-#[test]
-fn blend_trees_match_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("blend_trees_match_the_cpu_tracer") else {
-        return;
-    };
-    let methods = [
-        GpuMethod::Sphere,
-        GpuMethod::Segment,
-        GpuMethod::QuadraticTaylor,
-        GpuMethod::BottomUpLinear,
-        GpuMethod::QuadraticMixed,
-    ];
-    let mut failures = Vec::new();
+fn blend_trees() -> Vec<Case> {
     let mut operators = std::collections::BTreeSet::new();
     let mut rng = SplitMix64::new(61);
-    let mut checked = 0;
-    while checked < 4 {
+    let mut cases = Vec::new();
+    while cases.len() < 4 {
         let scene = common::random_nested_scene(&mut rng);
         let blend = scene.blend.clone().unwrap_or(Blend::Group(0));
-        let mut own = std::collections::BTreeSet::new();
-        collect_operators(&blend, &mut own);
         if count_operators(&blend) < 2 {
             continue;
         }
-        operators.extend(own);
-        checked += 1;
-        let label = format!("nested-{checked}");
+        collect_operators(&blend, &mut operators);
+        let label = format!("nested-{}", cases.len() + 1);
         eprintln!("{label}: {blend:?}");
-        let hits = check_methods_agreement(
-            &mut gpu,
-            &label,
-            &scene,
-            &[scene.camera],
-            &methods,
-            &mut failures,
-        );
-        eprintln!("{label}: {hits} pixels hit");
+        cases.push(Case::of(label, scene, 0));
     }
     eprintln!("operators: {operators:?}");
     assert!(
         operators.len() >= 5,
         "only {operators:?} in the random trees"
     );
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+    cases
 }
 
 /// The operators asset's Ricci blend at exponents whose p-th powers leave f32's range: p = 32 at
@@ -643,81 +684,48 @@ fn blend_trees_match_the_cpu_tracer() {
 /// Lipschitz bounds' 200th powers overflow: segment tracing stepped by 0). The shaders take the
 /// p-norms relative to their largest term as the CPU does (`blend.rs` `p_norm`), in the values,
 /// the jets and the Lipschitz bound: sphere, segment and quadratic Taylor tracing.
-#[test]
-fn ricci_blends_past_f32_powers_match_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("ricci_blends_past_f32_powers_match_the_cpu_tracer") else {
-        return;
-    };
-    let methods = [
-        GpuMethod::Sphere,
-        GpuMethod::Segment,
-        GpuMethod::QuadraticTaylor,
-    ];
-    let mut failures = Vec::new();
-    for (p, isovalue) in [(32.0, 0.05), (200.0, 1.0)] {
-        let mut scene = load("operators");
-        let Some(Blend::Ricci { of, .. }) = scene.blend.take() else {
-            panic!("the operators asset is a Ricci blend");
-        };
-        scene.blend = Some(Blend::Ricci { p, of });
-        scene.isovalue = isovalue;
-        let label = format!("operators, Ricci p = {p}, isovalue {isovalue}");
-        let hits = check_methods_agreement(
-            &mut gpu,
-            &label,
-            &scene,
-            &[scene.camera],
-            &methods,
-            &mut failures,
-        );
-        eprintln!("{label}: {hits} pixels hit");
-        assert!(hits > 100, "{label}: {hits} pixels hit");
-    }
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+fn ricci_past_f32_powers() -> Vec<Case> {
+    [(32.0, 0.05), (200.0, 1.0)]
+        .into_iter()
+        .map(|(p, isovalue)| {
+            let mut scene = load("operators");
+            let Some(Blend::Ricci { of, .. }) = scene.blend.take() else {
+                panic!("the operators asset is a Ricci blend");
+            };
+            scene.blend = Some(Blend::Ricci { p, of });
+            scene.isovalue = isovalue;
+            Case::of(
+                format!("operators, Ricci p = {p}, isovalue {isovalue}"),
+                scene,
+                100,
+            )
+        })
+        .collect()
 }
 
 /// Scenes of more groups than the eight slots the shaders held before: each scene's shaders
 /// hold one per group (`GROUPS`, emitted with the blend tree), so the max of twelve and of
 /// forty sums of blobs agrees with the CPU, in the methods that blend values, jets and the
 /// groups' inclusions.
-#[test]
-fn scenes_of_many_groups_match_the_cpu_tracer() {
-    let Some(mut gpu) = gpu_or_skip("scenes_of_many_groups_match_the_cpu_tracer") else {
-        return;
-    };
-    let methods = [
-        GpuMethod::Segment,
-        GpuMethod::QuadraticTaylor,
-        GpuMethod::BottomUpQuadratic,
-        GpuMethod::QuadraticMixed,
-    ];
-    let mut failures = Vec::new();
-    for (groups, seed) in [(12, 71), (40, 72)] {
-        let options = skeletrace_core::model::generate::GenerateOptions {
-            seed,
-            size: Some(10 * groups),
-            groups: Some(groups),
-            ..Default::default()
-        };
-        let scene = skeletrace_core::model::generate::generate(
-            skeletrace_core::model::generate::GeneratorKind::Blobs,
-            &options,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(scene.groups.len(), groups);
-        let label = format!("blobs in {groups} groups");
-        let hits = check_methods_agreement(
-            &mut gpu,
-            &label,
-            &scene,
-            &[scene.camera],
-            &methods,
-            &mut failures,
-        );
-        eprintln!("{label}: {hits} pixels hit");
-        assert!(hits > SIZE * SIZE / 10, "{label}: {hits} pixels hit");
-    }
-    assert!(failures.is_empty(), "disagreements: {failures:?}");
+fn many_groups() -> Vec<Case> {
+    [(12, 71), (40, 72)]
+        .into_iter()
+        .map(|(groups, seed)| {
+            let options = skeletrace_core::model::generate::GenerateOptions {
+                seed,
+                size: Some(10 * groups),
+                groups: Some(groups),
+                ..Default::default()
+            };
+            let scene = skeletrace_core::model::generate::generate(
+                skeletrace_core::model::generate::GeneratorKind::Blobs,
+                &options,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(scene.groups.len(), groups);
+            Case::of(format!("blobs in {groups} groups"), scene, SIZE * SIZE / 10)
+        })
+        .collect()
 }
 
 /// The editor's GPU viewport compiles a new scene's pipelines on threads of their own
@@ -731,7 +739,10 @@ fn pipelines_compiled_in_the_background_trace_the_same_frames() {
     else {
         return;
     };
-    let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
+    let methods = [
+        shader_of(MethodId::Segment),
+        shader_of(MethodId::QuadraticTaylor),
+    ];
     let ricci = load("operators");
     let summed = Scene {
         blend: Some(Blend::Sum((0..3).map(Blend::Group).collect())),
@@ -785,7 +796,10 @@ fn parameter_edits_compile_no_pipelines_and_match_the_cpu() {
     else {
         return;
     };
-    let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
+    let methods = [
+        shader_of(MethodId::Segment),
+        shader_of(MethodId::QuadraticTaylor),
+    ];
     fn tree(outer: f64, p: f64, inner: f64) -> Blend {
         let g = Blend::Group;
         Blend::SmoothUnion {
@@ -889,7 +903,7 @@ fn pipelines_are_kept_across_runs_and_a_corrupt_cache_is_ignored() {
         gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
         let frames = shaded_frames(
             &mut gpu,
-            &[GpuMethod::Segment],
+            &[shader_of(MethodId::Segment)],
             &scene.camera,
             &compiled.settings,
             label,
@@ -1070,7 +1084,7 @@ fn field_shading_and_group_operators_agree_with_the_cpu() {
         let program = &compiled.program;
         let settings = compiled.settings;
         gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
-        let method = GpuMethod::QuadraticTaylor;
+        let method = shader_of(MethodId::QuadraticTaylor);
         let tracer = method.id().method().prepare(program, settings);
         let cpu = |shading| {
             Renderer::new(&compiled, tracer.as_ref(), settings).render(
@@ -1207,7 +1221,10 @@ fn occluders_shorten_the_tile_lists_and_keep_the_surface() {
         fov_degrees: scene.camera.fov_degrees / 5.0,
         ..scene.camera
     };
-    let methods = [GpuMethod::Segment, GpuMethod::QuadraticTaylor];
+    let methods = [
+        shader_of(MethodId::Segment),
+        shader_of(MethodId::QuadraticTaylor),
+    ];
     let mut frames = |occluders| {
         gpu.set_occluders(occluders);
         (
@@ -1253,13 +1270,23 @@ fn beam_culling_shortens_the_tile_lists_and_keeps_the_frames() {
         (
             "foam-1000",
             &foam,
-            &[GpuMethod::QuadraticTaylor, GpuMethod::ScalisQuadratic][..],
+            &[
+                shader_of(MethodId::QuadraticTaylor),
+                shader_of(MethodId::ScalisQuadratic),
+            ][..],
         ),
-        ("tree", &load("tree"), &[GpuMethod::ScalisQuadratic][..]),
+        (
+            "tree",
+            &load("tree"),
+            &[shader_of(MethodId::ScalisQuadratic)][..],
+        ),
         (
             "blobs-400",
             &blobs,
-            &[GpuMethod::Segment, GpuMethod::QuadraticTaylor][..],
+            &[
+                shader_of(MethodId::Segment),
+                shader_of(MethodId::QuadraticTaylor),
+            ][..],
         ),
     ] {
         let compiled = compile(scene);
@@ -1359,7 +1386,7 @@ fn lists_too_large_for_one_binding_widen_the_tiles() {
     let settings = compiled.settings;
     let diagonal = compiled.program.support_bounds().diagonal();
     gpu.set_scene(&compiled).unwrap_or_else(|e| panic!("{e}"));
-    let methods = [GpuMethod::Segment];
+    let methods = [shader_of(MethodId::Segment)];
     let frame = |gpu: &mut GpuRenderer| {
         let frames = shaded_frames(gpu, &methods, &scene.camera, &settings, "molecule");
         (frames, gpu.last_tile_items(), gpu.tile_edge())
@@ -1544,7 +1571,10 @@ fn a_dense_foam_matches_the_cpu() {
         "foam-8200",
         &foam,
         &[framed, foam.camera],
-        &[GpuMethod::QuadraticTaylor, GpuMethod::ScalisQuadratic],
+        &[
+            shader_of(MethodId::QuadraticTaylor),
+            shader_of(MethodId::ScalisQuadratic),
+        ],
         &mut failures,
     );
     assert!(hits > SIZE * SIZE / 2, "foam-8200: {hits} pixels hit");
@@ -1568,7 +1598,12 @@ fn a_frame_past_lavapipes_loop_limit_fails_naming_it() {
     gpu.set_scene(&compiled)
         .unwrap_or_else(|e| panic!("tree: {e}"));
     let frame = |gpu: &mut GpuRenderer| {
-        try_shaded_frames(gpu, &[GpuMethod::Sphere], &tree.camera, &compiled.settings)
+        try_shaded_frames(
+            gpu,
+            &[shader_of(MethodId::Sphere)],
+            &tree.camera,
+            &compiled.settings,
+        )
     };
     if let Err(e) = frame(&mut gpu) {
         panic!("tree, the default allowance: {e}");
@@ -1592,34 +1627,23 @@ fn a_frame_past_lavapipes_loop_limit_fails_naming_it() {
 /// on a machine without a Vulkan loader: its shaders go through naga's GLSL and the driver's
 /// GLSL compiler, which once dropped a store in the SCALIS tracer's breakpoint sort that
 /// Vulkan kept (48 of the tree's 3 000 statistics rays; docs/gpu.md). Held to the CPU as on
-/// Vulkan: that statistics case (scalis-quadratic through the tree, every crossing), and the
-/// tree's frames of scalis-quadratic and quadratic Taylor (the window's refills and the
-/// inclusion march) at its scene camera. Only these: llvmpipe compiles a GL pipeline in about
-/// 50 s (a fresh shader cache, as in CI), where every GPU method on the tree and `blobs`
-/// (31 pipelines) agreed in a run with a warm cache.
+/// Vulkan: that statistics case (scalis-quadratic through the tree, every crossing); its frames
+/// are the `opengl` instance of the agreement suite.
 #[test]
-fn the_opengl_backend_agrees_with_the_cpu() {
-    use skeletrace_core::methods::{MethodId, Protocol, TraceMode};
-    let Some(mut gpu) = skeletrace_tests::opengl_or_skip("the_opengl_backend_agrees_with_the_cpu")
-    else {
+fn the_opengl_backend_traces_the_statistics_rays_as_the_cpu() {
+    use skeletrace_core::methods::{Protocol, TraceMode};
+    let Some(mut gpu) = skeletrace_tests::opengl_or_skip(
+        "the_opengl_backend_traces_the_statistics_rays_as_the_cpu",
+    ) else {
         return;
     };
     eprintln!("adapter: {}", gpu.adapter_name());
-    let mut failures = statistics_disagreements(
+    let failures = statistics_disagreements(
         &mut gpu,
         "tree (OpenGL)",
         &load("tree"),
         (Protocol::Default, TraceMode::Transparent),
         (&[MethodId::ScalisQuadratic], STEPS_TOLERANCE),
-    );
-    let tree = load("tree");
-    check_methods_agreement(
-        &mut gpu,
-        "tree (OpenGL)",
-        &tree,
-        &[tree.camera],
-        &[GpuMethod::ScalisQuadratic, GpuMethod::QuadraticTaylor],
-        &mut failures,
     );
     assert!(failures.is_empty(), "disagreements: {failures:?}");
 }
@@ -1779,7 +1803,10 @@ fn secondary_rays_match_the_cpu_renderer() {
             g.material.opacity = 1.0;
         }
         let opaque = compile(&opaque);
-        for method in [GpuMethod::QuadraticTaylor, GpuMethod::Sphere] {
+        for method in [
+            shader_of(MethodId::QuadraticTaylor),
+            shader_of(MethodId::Sphere),
+        ] {
             let cpu_render = |compiled: &skeletrace_core::Compiled, shadows: bool| {
                 let tracer = method.id().method().prepare(&compiled.program, settings);
                 Renderer::new(compiled, tracer.as_ref(), settings).render(
@@ -1829,7 +1856,7 @@ fn secondary_rays_match_the_cpu_renderer() {
             // Sphere tracing's global Lipschitz bound may be too weak for a random scene to
             // hit anything; the guaranteed method must show the secondary rays.
             let shows_little = both.len() < SIZE * SIZE / 20 || changed * 20 < both.len();
-            if method == GpuMethod::QuadraticTaylor && shows_little {
+            if method == shader_of(MethodId::QuadraticTaylor) && shows_little {
                 failures.push(format!(
                     "{label}: {} hit pixels, {changed} changed: the case shows too little",
                     both.len()

@@ -21,7 +21,7 @@ fn value_min(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
 
 // min(a, 2c − b), a on ties.
 fn value_difference(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
-    let complement = 2.0 * globals.isovalue - b.x;
+    let complement = 2.0 * frame.globals.isovalue - b.x;
     return select(vec4<f32>(complement, -b.yzw), a, a.x <= complement);
 }
 
@@ -68,7 +68,7 @@ fn groups_at(sp: ptr<function, RaySupports>, ray: Ray, t: f32) -> array<vec4<f32
         }
     }
     // Groups holding an HRBF set are clamped at 0 (program.rs clamp_group_slots).
-    for (var g = 0u; g < globals.group_count; g++) {
+    for (var g = 0u; g < frame.globals.group_count; g++) {
         if kernels[g].clamped != 0u && values[g].x < 0.0 {
             values[g] = vec4<f32>(0.0);
         }

@@ -102,7 +102,18 @@ struct Light {
     colour: vec4<f32>, // w: intensity
 };
 
-@group(0) @binding(0) var<uniform> globals: Globals;
+// The frame's constants and the blend operators' parameters (smooth widths, Ricci exponents),
+// one slot per parametrised operator in pre-order, which the generated blend functions read at
+// constant indices (blend_wgsl.rs): a parameter's new value is an upload, not a new pipeline. Storage, not uniform: lavapipe inlines the uniform
+// values a loop condition reads and compiles the pipeline again for every new set of them (every
+// scene, every frame size), seconds each; storage reads are never inlined. One buffer: wgpu's
+// OpenGL backend allows 16 storage buffers per stage, which the trace shaders use up.
+struct FrameConstants {
+    globals: Globals,
+    blend_parameters: array<f32>,
+};
+
+@group(0) @binding(0) var<storage, read> frame: FrameConstants;
 @group(0) @binding(1) var<storage, read> primitives: array<Primitive>;
 @group(0) @binding(2) var<storage, read> kernels: array<Kernel>;
 @group(0) @binding(3) var<storage, read> materials: array<Material>;
@@ -129,11 +140,6 @@ struct BvhNode {
 // tiles (gather_every).
 @group(0) @binding(15) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(16) var<storage, read> bvh_items: array<u32>;
-
-// The blend operators' parameters (smooth widths, Ricci exponents), one slot per parametrised
-// operator in pre-order, which the generated blend functions read at constant indices
-// (blend_wgsl.rs): a parameter's new value is an upload, not a new pipeline.
-@group(0) @binding(17) var<storage, read> blend_parameters: array<f32>;
 
 const INF: f32 = 3.0e38;
 

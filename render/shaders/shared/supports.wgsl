@@ -21,12 +21,12 @@ struct RaySupports {
 
 
 fn pixel_ray(px: u32, py: u32) -> Ray {
-    let w = f32(globals.width);
-    let h = f32(globals.height);
-    let u = (2.0 * (f32(px) + 0.5) / w - 1.0) * globals.tan_half_fov * globals.aspect;
-    let v = (1.0 - 2.0 * (f32(py) + 0.5) / h) * globals.tan_half_fov;
-    let dir = normalize(globals.forward + u * globals.right + v * globals.up);
-    return Ray(globals.origin, dir);
+    let w = f32(frame.globals.width);
+    let h = f32(frame.globals.height);
+    let u = (2.0 * (f32(px) + 0.5) / w - 1.0) * frame.globals.tan_half_fov * frame.globals.aspect;
+    let v = (1.0 - 2.0 * (f32(py) + 0.5) / h) * frame.globals.tan_half_fov;
+    let dir = normalize(frame.globals.forward + u * frame.globals.right + v * frame.globals.up);
+    return Ray(frame.globals.origin, dir);
 }
 
 // Fills the window with the supports of the ray's list (a tile's, or with gather_every the
@@ -64,14 +64,14 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
                 found = true;
                 break;
             }
-            if listed && band + 1u < globals.list_bands {
+            if listed && band + 1u < frame.globals.list_bands {
                 // The next band's supports are at least `nearest` from the eye (binning.wgsl
                 // band_list), less a margin for rounding. Where that is past the ray's end, or
                 // past the horizon of a full window, none of them would be taken, nor move the
                 // horizon (window_take): the window is complete.
                 band += 1u;
-                let lower = globals.band_near + f32(band - 1u) * globals.band_width;
-                let nearest = lower - 1e-3 * (lower + globals.band_width);
+                let lower = frame.globals.band_near + f32(band - 1u) * frame.globals.band_width;
+                let nearest = lower - 1e-3 * (lower + frame.globals.band_width);
                 if nearest > (*sp).far || ((*sp).count == RAY_SUPPORTS && nearest >= (*sp).horizon) {
                     break;
                 }
@@ -100,8 +100,8 @@ fn fill_window(sp: ptr<function, RaySupports>, ray: Ray, floor: f32) {
             }
             if unbounded {
                 unbounded = false;
-                j = globals.bvh_unbounded;
-                end = globals.bvh_items;
+                j = frame.globals.bvh_unbounded;
+                end = frame.globals.bvh_items;
                 continue;
             }
             break;
@@ -146,15 +146,15 @@ fn window_take(sp: ptr<function, RaySupports>, ray: Ray, i: u32) {
 }
 
 fn gather_supports(sp: ptr<function, RaySupports>, ray: Ray, px: u32, py: u32, floor: f32) {
-    let ts = globals.tile_size;
-    gather_list(sp, ray, (py / ts) * globals.tiles_x + px / ts, globals.far, floor);
+    let ts = frame.globals.tile_size;
+    gather_list(sp, ray, (py / ts) * frame.globals.tiles_x + px / ts, frame.globals.far, floor);
 }
 
 // The supports along `ray` over [floor, far] among those of list `list` (a tile's, made of
-// globals.list_bands lists in tile_ranges).
+// frame.globals.list_bands lists in tile_ranges).
 fn gather_list(sp: ptr<function, RaySupports>, ray: Ray, list: u32, far: f32, floor: f32) {
     (*sp).far = far;
-    (*sp).list = list * globals.list_bands;
+    (*sp).list = list * frame.globals.list_bands;
     (*sp).listed = true;
     fill_window(sp, ray, floor);
 }
@@ -238,5 +238,5 @@ fn next_part(sp: ptr<function, RaySupports>, ray: Ray, start_at: f32) -> vec2<f3
     }
     // More than RAY_SUPPORTS supports overlap at lo: the window is incomplete there; march a
     // minimum step with what it holds rather than stall.
-    return vec2<f32>(lo, min(hi, max((*sp).horizon, lo + globals.min_step)));
+    return vec2<f32>(lo, min(hi, max((*sp).horizon, lo + frame.globals.min_step)));
 }

@@ -469,11 +469,7 @@ impl GpuRenderer {
                 list_bands: DEPTH_BANDS,
                 ..scene.globals(settings, self.steps_per_dispatch)
             };
-            let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("globals"),
-                contents: bytemuck::bytes_of(&globals),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
+            let globals = scene.frame_constants(d, "frame constants", &globals);
             let pipeline = &self.trace_pipelines[method];
             let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(method.name()),
@@ -495,7 +491,6 @@ impl GpuRenderer {
                     entry(14, &outputs.unfinished[0]),
                     entry(15, &scene.bvh_nodes),
                     entry(16, &scene.bvh_items),
-                    entry(17, &scene.blend_parameters),
                 ],
             });
             // A marching method goes on from where each ray stopped until every budget is spent;
@@ -642,11 +637,7 @@ impl GpuRenderer {
             stats_crossings: slots,
             ..scene.globals(settings, self.steps_per_dispatch)
         };
-        let globals = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("ray globals"),
-            contents: bytemuck::bytes_of(&globals),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let globals = scene.frame_constants(d, "ray frame constants", &globals);
         let ray_buffer = storage(d, "statistics rays", bytemuck::cast_slice(rays));
         let output = |label: &str, per_ray: u32, usage: wgpu::BufferUsages| {
             d.create_buffer(&wgpu::BufferDescriptor {
@@ -691,7 +682,6 @@ impl GpuRenderer {
                 entry(14, &unfinished[0]),
                 entry(15, &scene.bvh_nodes),
                 entry(16, &scene.bvh_items),
-                entry(17, &scene.blend_parameters),
             ],
         });
         let dispatches = if method.resumable() {

@@ -176,8 +176,6 @@ struct SceneBuffers {
     boxes: wgpu::Buffer,
     bvh_nodes: wgpu::Buffer,
     bvh_items: wgpu::Buffer,
-    /// [`PackedScene::blend_parameters`].
-    blend_parameters: wgpu::Buffer,
     /// [`RayBvh::point_walk_bound`] of `packed.bvh`, computed when a frame's field shading
     /// first needs it.
     point_walk_bound: OnceLock<usize>,

@@ -4,8 +4,28 @@
 use super::*;
 
 impl SceneBuffers {
-    /// The trace uniforms of the scene and the settings; the camera, frame and shading fields
+    /// The trace constants of the scene and the settings; the camera, frame and shading fields
     /// are left for the caller.
+    /// The buffer of a frame's constants (binding 0, `FrameConstants` in shared/scene.wgsl):
+    /// `globals`, then the scene's blend parameters.
+    pub(super) fn frame_constants(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        globals: &GpuGlobals,
+    ) -> wgpu::Buffer {
+        let mut bytes = bytemuck::bytes_of(globals).to_vec();
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.packed.blend_parameters));
+        // The struct's size rounds up to its alignment (Globals' 16 bytes), which wgpu asks of
+        // the binding.
+        bytes.resize(bytes.len().next_multiple_of(16), 0);
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &bytes,
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+    }
+
     pub(super) fn globals(&self, settings: &TraceSettings, steps_per_dispatch: u32) -> GpuGlobals {
         GpuGlobals {
             origin: [0.0; 3],
@@ -143,11 +163,6 @@ impl GpuRenderer {
                 .write_buffer(&old.lights, 0, bytemuck::cast_slice(&packed.lights));
             self.queue
                 .write_buffer(&old.boxes, 0, bytemuck::cast_slice(&packed.boxes));
-            self.queue.write_buffer(
-                &old.blend_parameters,
-                0,
-                bytemuck::cast_slice(&packed.blend_parameters),
-            );
             if old.packed.bvh != packed.bvh {
                 old.point_walk_bound = OnceLock::new();
                 let (nodes, items) = (&packed.bvh.nodes, &packed.bvh.items);
@@ -173,11 +188,6 @@ impl GpuRenderer {
             boxes: storage(d, "HRBF boxes", bytemuck::cast_slice(&packed.boxes)),
             bvh_nodes: storage(d, "BVH nodes", bytemuck::cast_slice(&packed.bvh.nodes)),
             bvh_items: storage(d, "BVH items", bytemuck::cast_slice(&packed.bvh.items)),
-            blend_parameters: storage(
-                d,
-                "blend parameters",
-                bytemuck::cast_slice(&packed.blend_parameters),
-            ),
             point_walk_bound: OnceLock::new(),
             compiled: Arc::clone(compiled),
             packed,
