@@ -84,155 +84,9 @@ pub(super) struct Prompts {
 impl Editor {
     pub(super) fn menu_bar(&mut self, ui: &mut egui::Ui) {
         egui::MenuBar::new().ui(ui, |ui| {
-            ui.menu_button("File", |ui| {
-                let ctx = ui.ctx().clone();
-                ui.menu_button("New", |ui| {
-                    for template in super::Template::ALL {
-                        let mut button = egui::Button::new(template.label());
-                        if template == super::Template::Empty {
-                            button = button.shortcut_text(ui.ctx().format_shortcut(
-                                &egui::KeyboardShortcut::new(
-                                    egui::Modifiers::COMMAND,
-                                    egui::Key::N,
-                                ),
-                            ));
-                        }
-                        if ui.add(button).clicked() {
-                            self.replace_document(Replacement::New(template));
-                        }
-                    }
-                });
-                if ui.button("Open…").clicked() {
-                    self.ask_for_file(&ctx, FilePurpose::Open);
-                }
-                if ui.button("Save").clicked() {
-                    self.save_or_ask(&ctx);
-                }
-                if ui.button("Save As…").clicked() {
-                    self.ask_for_file(&ctx, FilePurpose::SaveAs);
-                }
-                ui.separator();
-                ui.horizontal(|ui| {
-                    if ui.button("Screenshot…").clicked() {
-                        self.ask_for_file(&ctx, FilePurpose::Screenshot);
-                    }
-                    let (w, h) = &mut self.ui_state.screenshot_size;
-                    ui.add(egui::DragValue::new(w).range(16..=8192).suffix(" px"));
-                    ui.label("×");
-                    ui.add(egui::DragValue::new(h).range(16..=8192).suffix(" px"));
-                });
-                self.export_menu_entry(ui);
-                ui.separator();
-                let recent = self.ui_state.recent.clone();
-                ui.menu_button("Recent", |ui| {
-                    if recent.is_empty() {
-                        ui.label("(none)");
-                    }
-                    for p in recent {
-                        if ui.button(p.display().to_string()).clicked() {
-                            self.replace_document(Replacement::Open(p));
-                        }
-                    }
-                });
-            });
-            ui.menu_button("Edit", |ui| {
-                let undo = self.doc.undo_label().map(|l| format!("Undo {l}"));
-                if ui
-                    .add_enabled(
-                        undo.is_some(),
-                        egui::Button::new(undo.unwrap_or("Undo".into())),
-                    )
-                    .clicked()
-                {
-                    self.undo();
-                }
-                let redo = self.doc.redo_label().map(|l| format!("Redo {l}"));
-                if ui
-                    .add_enabled(
-                        redo.is_some(),
-                        egui::Button::new(redo.unwrap_or("Redo".into())),
-                    )
-                    .clicked()
-                {
-                    self.redo();
-                }
-                ui.separator();
-                if ui.button("Duplicate").clicked() {
-                    self.duplicate();
-                }
-                if ui.button("Delete").clicked() {
-                    self.delete();
-                }
-                if ui.button("Connect").clicked() {
-                    self.connect();
-                }
-                if ui.button("Disconnect").clicked() {
-                    self.disconnect();
-                }
-                for (label, key, edit) in [
-                    ("Insert vertex", "I", SkeletonEdit::Insert),
-                    ("Merge vertices", "M", SkeletonEdit::Merge),
-                    ("Dissolve vertex", "Shift+X", SkeletonEdit::Dissolve),
-                ] {
-                    if ui
-                        .add(egui::Button::new(label).shortcut_text(key))
-                        .on_hover_text(edit.hint())
-                        .clicked()
-                    {
-                        self.edit_skeleton(edit);
-                    }
-                }
-                if ui.button("Add blob").clicked() {
-                    self.add_blob();
-                }
-                ui.separator();
-                let symmetrize = ui
-                    .add_enabled(
-                        self.ui_state.mirror.is_some(),
-                        egui::Button::new("Symmetrize group"),
-                    )
-                    .on_hover_text(
-                        "rebuild the edited group's skeletons and blobs from the positive side of \
-                         the mirror plane",
-                    );
-                if symmetrize.clicked()
-                    && let Some(mirror) = self.ui_state.mirror
-                {
-                    let g = self.active_group;
-                    if self.apply(Edit::new("symmetrize"), |s| {
-                        symmetry::symmetrize(s, g, mirror);
-                    }) {
-                        self.selection.clear();
-                    }
-                }
-            });
-            ui.menu_button("View", |ui| {
-                if ui.button("Frame all").clicked() {
-                    self.frame_all();
-                }
-                if ui.button("Frame selection").clicked() {
-                    self.frame_selection();
-                }
-                ui.separator();
-                for view in super::view::StandardView::ALL {
-                    let (_, _, key) = view.key();
-                    if ui
-                        .add(egui::Button::new(view.label()).shortcut_text(key))
-                        .clicked()
-                    {
-                        self.look_from(view);
-                    }
-                }
-                ui.separator();
-                if ui
-                    .button("Use this view as the scene camera")
-                    .on_hover_text("the scene file's camera (renders, exports, the next opening)")
-                    .clicked()
-                {
-                    let camera = self.orbit.camera();
-                    self.apply(Edit::new("scene camera"), |s| s.camera = camera);
-                }
-            });
+            ui.menu_button("File", |ui| self.file_menu(ui));
+            ui.menu_button("Edit", |ui| self.edit_menu(ui));
+            ui.menu_button("View", |ui| self.view_menu(ui));
             ui.separator();
             ui.selectable_value(&mut self.ui_state.view, ViewMode::Shaded, "Shaded");
             ui.selectable_value(
@@ -260,6 +114,158 @@ impl Editor {
                 self.prompts.help = !self.prompts.help;
             }
         });
+    }
+
+    /// The File menu: new, open, save, screenshot, mesh export, recent files.
+    fn file_menu(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        ui.menu_button("New", |ui| {
+            for template in super::Template::ALL {
+                let mut button = egui::Button::new(template.label());
+                if template == super::Template::Empty {
+                    button = button.shortcut_text(ui.ctx().format_shortcut(
+                        &egui::KeyboardShortcut::new(egui::Modifiers::COMMAND, egui::Key::N),
+                    ));
+                }
+                if ui.add(button).clicked() {
+                    self.replace_document(Replacement::New(template));
+                }
+            }
+        });
+        if ui.button("Open…").clicked() {
+            self.ask_for_file(&ctx, FilePurpose::Open);
+        }
+        if ui.button("Save").clicked() {
+            self.save_or_ask(&ctx);
+        }
+        if ui.button("Save As…").clicked() {
+            self.ask_for_file(&ctx, FilePurpose::SaveAs);
+        }
+        ui.separator();
+        ui.horizontal(|ui| {
+            if ui.button("Screenshot…").clicked() {
+                self.ask_for_file(&ctx, FilePurpose::Screenshot);
+            }
+            let (w, h) = &mut self.ui_state.screenshot_size;
+            ui.add(egui::DragValue::new(w).range(16..=8192).suffix(" px"));
+            ui.label("×");
+            ui.add(egui::DragValue::new(h).range(16..=8192).suffix(" px"));
+        });
+        self.export_menu_entry(ui);
+        ui.separator();
+        let recent = self.ui_state.recent.clone();
+        ui.menu_button("Recent", |ui| {
+            if recent.is_empty() {
+                ui.label("(none)");
+            }
+            for p in recent {
+                if ui.button(p.display().to_string()).clicked() {
+                    self.replace_document(Replacement::Open(p));
+                }
+            }
+        });
+    }
+
+    /// The Edit menu: undo and redo, the selection's edits, symmetrize.
+    fn edit_menu(&mut self, ui: &mut egui::Ui) {
+        let undo = self.doc.undo_label().map(|l| format!("Undo {l}"));
+        if ui
+            .add_enabled(
+                undo.is_some(),
+                egui::Button::new(undo.unwrap_or("Undo".into())),
+            )
+            .clicked()
+        {
+            self.undo();
+        }
+        let redo = self.doc.redo_label().map(|l| format!("Redo {l}"));
+        if ui
+            .add_enabled(
+                redo.is_some(),
+                egui::Button::new(redo.unwrap_or("Redo".into())),
+            )
+            .clicked()
+        {
+            self.redo();
+        }
+        ui.separator();
+        if ui.button("Duplicate").clicked() {
+            self.duplicate();
+        }
+        if ui.button("Delete").clicked() {
+            self.delete();
+        }
+        if ui.button("Connect").clicked() {
+            self.connect();
+        }
+        if ui.button("Disconnect").clicked() {
+            self.disconnect();
+        }
+        for (label, key, edit) in [
+            ("Insert vertex", "I", SkeletonEdit::Insert),
+            ("Merge vertices", "M", SkeletonEdit::Merge),
+            ("Dissolve vertex", "Shift+X", SkeletonEdit::Dissolve),
+        ] {
+            if ui
+                .add(egui::Button::new(label).shortcut_text(key))
+                .on_hover_text(edit.hint())
+                .clicked()
+            {
+                self.edit_skeleton(edit);
+            }
+        }
+        if ui.button("Add blob").clicked() {
+            self.add_blob();
+        }
+        ui.separator();
+        let symmetrize = ui
+            .add_enabled(
+                self.ui_state.mirror.is_some(),
+                egui::Button::new("Symmetrize group"),
+            )
+            .on_hover_text(
+                "rebuild the edited group's skeletons and blobs from the positive side of \
+                 the mirror plane",
+            );
+        if symmetrize.clicked()
+            && let Some(mirror) = self.ui_state.mirror
+        {
+            let g = self.active_group;
+            if self.apply(Edit::new("symmetrize"), |s| {
+                symmetry::symmetrize(s, g, mirror);
+            }) {
+                self.selection.clear();
+            }
+        }
+    }
+
+    /// The View menu: framing, standard views, the scene camera.
+    fn view_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("Frame all").clicked() {
+            self.frame_all();
+        }
+        if ui.button("Frame selection").clicked() {
+            self.frame_selection();
+        }
+        ui.separator();
+        for view in super::view::StandardView::ALL {
+            let (_, _, key) = view.key();
+            if ui
+                .add(egui::Button::new(view.label()).shortcut_text(key))
+                .clicked()
+            {
+                self.look_from(view);
+            }
+        }
+        ui.separator();
+        if ui
+            .button("Use this view as the scene camera")
+            .on_hover_text("the scene file's camera (renders, exports, the next opening)")
+            .clicked()
+        {
+            let camera = self.orbit.camera();
+            self.apply(Edit::new("scene camera"), |s| s.camera = camera);
+        }
     }
 
     pub(super) fn inspector(&mut self, ui: &mut egui::Ui) {
