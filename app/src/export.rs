@@ -74,6 +74,7 @@ pub fn extract_cancellable(
     let TetraMesh {
         positions,
         triangles,
+        lost_features,
     } = isosurface::extract(
         &program,
         grid,
@@ -93,6 +94,7 @@ pub fn extract_cancellable(
         &triangles,
         grid,
         program.has_unbounded_support(),
+        lost_features,
     );
     let triangles = split_by_group(&program, &positions, triangles);
     Ok(Extracted {

@@ -46,6 +46,8 @@ pub struct TetraMesh {
     pub positions: Vec<DVec3>,
     /// Triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+    /// Skeleton points inside the surface that the grid did not see ([`lost_features`]).
+    pub lost_features: usize,
 }
 
 /// The grid: `dims` points along each axis from `origin`, `cell` apart.
@@ -183,10 +185,49 @@ pub fn extract(
             }
         })
         .collect();
+    let lost_features = lost_features(program, grid, &values);
     Some(TetraMesh {
         positions,
         triangles,
+        lost_features,
     })
+}
+
+/// Points of the skeleton — blob centres, segment ends and midpoints — where the field is inside
+/// the surface but no corner of the grid cell around them is: a part thinner than a cell there,
+/// which the mesh lacks. `values` are the grid's samples of `f − c`.
+fn lost_features(program: &FieldProgram, grid: Grid, values: &[f64]) -> usize {
+    use skeletrace_core::field::primitives::Primitive;
+    let c = program.isovalue();
+    let [nx, ny, nz] = grid.dims;
+    let probes = program.primitives().iter().flat_map(|p| match p {
+        Primitive::Point(b) => vec![b.center],
+        Primitive::Scalis(s) => cone_points(&s.cone),
+        Primitive::Distance(s) => cone_points(&s.cone),
+        Primitive::Shape(_) | Primitive::Hrbf(_) => Vec::new(),
+    });
+    probes
+        .filter(|&p| program.value(p) > c)
+        .filter(|&p| {
+            let cell = ((p - grid.origin) / grid.cell).floor();
+            let [x, y, z] = cell.to_array().map(|v| v.max(0.0) as usize);
+            if x + 1 >= nx || y + 1 >= ny || z + 1 >= nz {
+                return false;
+            }
+            let corner_inside = (0..8).any(|k| {
+                let i = (x + (k & 1)) + nx * ((y + ((k >> 1) & 1)) + ny * (z + (k >> 2)));
+                values[i] > 0.0
+            });
+            !corner_inside
+        })
+        .count()
+}
+
+/// A segment's ends and midpoint.
+fn cone_points(cone: &skeletrace_core::field::geometry::SphereCone) -> Vec<DVec3> {
+    [0.0, 0.5, 1.0]
+        .map(|f| cone.start + cone.axis * (f * cone.length))
+        .to_vec()
 }
 
 /// The root of `f = c` on the edge from `inside` (where `f − c` is `d_in > 0`) to `outside`
@@ -265,6 +306,9 @@ pub struct MeshReport {
     /// Vertices of the cap that closes a surface cut at the grid's box (a plane's): on the box,
     /// where the field is inside, left out of the distance.
     pub vertices_on_cut: usize,
+    /// Points of the skeleton inside the surface where the grid saw nothing: parts thinner than
+    /// a cell, missing from the mesh there (a finer resolution keeps them).
+    pub lost_features: usize,
 }
 
 /// How close to a vertex, in cells, [`MeshReport`] looks for a sign change of `f − c` where the
@@ -281,6 +325,7 @@ impl MeshReport {
         triangles: &[[u32; 3]],
         grid: Grid,
         closed_at_border: bool,
+        lost_features: usize,
     ) -> Self {
         let cell = grid.cell;
         let box_max = grid.origin
@@ -373,6 +418,7 @@ impl MeshReport {
             max_distance_cells,
             vertices_at_jumps,
             vertices_on_cut,
+            lost_features,
         }
     }
 }

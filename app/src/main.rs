@@ -149,6 +149,14 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
         );
     }
     let r = &mesh.report;
+    if r.lost_features > 0 {
+        eprintln!(
+            "skeletrace: {}: {} points of the skeleton lie in parts thinner than a cell ({:.4}), missing from the mesh; a larger --resolution keeps them",
+            args.scene.display(),
+            r.lost_features,
+            mesh.cell
+        );
+    }
     if args.json {
         #[derive(serde::Serialize)]
         struct ExportJson<'a> {

@@ -524,7 +524,7 @@ fn near_misses(rng: &mut SplitMix64, cell: f64) -> Scene {
 #[test]
 fn two_hundred_random_scenes_export_watertight_manifold_outward_meshes() {
     let mut rng = SplitMix64::new(64);
-    let (mut checked, mut triangles, mut cut_planes, mut at_jumps) = (0, 0, 0, 0);
+    let (mut checked, mut triangles, mut cut_planes, mut at_jumps, mut lost) = (0, 0, 0, 0, 0);
     while checked < 200 {
         let resolution = 12 + rng.below(29);
         let (label, scene) = match checked % 4 {
@@ -587,11 +587,46 @@ fn two_hundred_random_scenes_export_watertight_manifold_outward_meshes() {
         );
         triangles += all.len();
         at_jumps += r.vertices_at_jumps;
+        lost += usize::from(r.lost_features > 0);
         checked += 1;
     }
     eprintln!(
         "{checked} meshes, {triangles} triangles: watertight, manifold, outward; \
-         {cut_planes} with a plane cut and capped at the box; {at_jumps} vertices at jumps of the field"
+         {cut_planes} with a plane cut and capped at the box; {at_jumps} vertices at jumps of the field; {lost} meshes report parts thinner than a cell lost"
     );
     assert!(triangles > 200 * 100, "only {triangles} triangles in all");
+}
+
+/// A strut thinner than a cell is reported lost (its skeleton is inside the surface, no grid
+/// point around it is) and kept at a resolution whose cells are finer than it.
+#[test]
+fn parts_thinner_than_a_cell_are_reported_lost_until_the_grid_resolves_them() {
+    use skeletrace_core::model::scene::{Blob, Skeleton, SkeletonField, Vertex};
+    let mut group = common::group(skeletrace_core::model::kernel::Kernel::default());
+    group.blobs.push(Blob {
+        center: [0.0, 0.0, 0.0],
+        radius: 1.0,
+    });
+    group.skeletons.push(Skeleton {
+        name: "strut".into(),
+        field: SkeletonField::Scalis,
+        end_correctors: false,
+        vertices: vec![
+            Vertex {
+                position: [1.5, -0.5, 0.0],
+                radius: 0.03,
+            },
+            Vertex {
+                position: [1.5, 0.5, 0.0],
+                radius: 0.03,
+            },
+        ],
+        edges: vec![[0, 1]],
+    });
+    let scene = common::scene(vec![group], None);
+    let coarse = export::extract(&scene, 12, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
+    assert!(coarse.report.lost_features > 0, "{:?}", coarse.report);
+    let fine = export::extract(&scene, 128, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(fine.report.lost_features, 0, "{:?}", fine.report);
+    assert!(fine.report.watertight, "{:?}", fine.report);
 }
