@@ -377,6 +377,10 @@ pub struct Reference<'a> {
     pub want: &'a [Crossing],
     /// The reference's next crossing after the last of `want`, if any.
     pub next: Option<f64>,
+    /// Every crossing of the reference: a method crossing at one of them is not spurious, even
+    /// where it is not one the method had to find (an opaque hit on the far side of a part
+    /// whose entry it skipped).
+    pub all: &'a [Crossing],
 }
 
 impl<'a> Reference<'a> {
@@ -388,10 +392,12 @@ impl<'a> Reference<'a> {
             TraceMode::Transparent => Self {
                 want: all,
                 next: None,
+                all,
             },
             TraceMode::Opaque => Self {
                 want: &all[..all.len().min(1)],
                 next: all.get(1).map(|c| c.t),
+                all,
             },
         }
     }
@@ -459,7 +465,15 @@ fn compare(reference: Reference<'_>, got: &[Crossing], tolerance: f64) -> Verdic
             None => verdict.skipped = true,
         }
     }
-    verdict.spurious = !unmatched_outside_slivers(got, &used, tolerance).is_empty();
+    let at_a_reference_crossing = |g: &Crossing| {
+        reference
+            .all
+            .iter()
+            .any(|r| r.entering == g.entering && (r.t - g.t).abs() <= tolerance)
+    };
+    verdict.spurious = unmatched_outside_slivers(got, &used, tolerance)
+        .into_iter()
+        .any(|i| reference.want.len() == reference.all.len() || !at_a_reference_crossing(&got[i]));
     verdict
 }
 
@@ -585,12 +599,15 @@ mod tests {
     fn a_late_crossing_is_told_from_a_skipped_one() {
         let want = crossings(&[(1.0, true), (2.0, false), (3.0, true), (4.0, false)]);
         // Opaque: a hit at 1.1 is late (before the exit at 2); at 3.0 it is the next part's
-        // entry: the first part was skipped, and the hit is spurious for it.
+        // entry: the first part was skipped, and the hit, a real crossing, is not spurious;
+        // at 2.5 there is no crossing: skipped and spurious.
         let v = compare(first(&want), &crossings(&[(1.1, true)]), 1e-4);
         assert!(v.late && !v.skipped && !v.spurious);
         assert!((v.late_error - 0.1).abs() < 1e-12);
         let v = compare(first(&want), &crossings(&[(3.0, true)]), 1e-4);
-        assert!(v.skipped && !v.late);
+        assert!(v.skipped && !v.late && !v.spurious);
+        let v = compare(first(&want), &crossings(&[(2.5, true)]), 1e-4);
+        assert!(v.skipped && v.spurious);
         // Early is spurious, never late or skipped.
         let v = compare(first(&want), &crossings(&[(0.9, true)]), 1e-4);
         assert!(v.spurious && !v.late && !v.skipped);
