@@ -1,5 +1,5 @@
 //! Mesh export (DESIGN.md, "Command line": `export`): the isosurface `f = c` extracted by
-//! marching tetrahedra on a grid over the field's support (`crate::isosurface`: watertight,
+//! marching tetrahedra on a grid over the field's support (`skeletrace_core::isosurface`: watertight,
 //! 2-manifold and outward by construction, vertices on the surface), with the analytic
 //! normal, and measured ([`MeshReport`]). Each triangle goes to the group whose field is
 //! largest at its centre: one glTF mesh per
@@ -21,7 +21,7 @@ use skeletrace_core::field::geometry::Ray;
 use skeletrace_core::output::write_file;
 use skeletrace_core::{FieldProgram, Scene};
 
-use crate::isosurface::{self, Grid, MeshReport, TetraMesh};
+use skeletrace_core::isosurface::{self, Grid, MeshReport, TetraMesh};
 
 /// Grid cells along the longest side that [`extract`] accepts: coarser grids lose whole
 /// primitives; past 1 024 the grid's samples (a billion) take minutes and gigabytes.

@@ -5,7 +5,6 @@ pub mod backends;
 pub mod editor;
 pub mod export;
 pub mod import;
-pub mod isosurface;
 pub mod mesh_formats;
 pub mod picture;
 pub mod ray_probe;

@@ -104,6 +104,7 @@ const EXPORT_MEMORY_LIMIT: u64 = 4_000_000_000;
 /// reports and writes; a progress bar on standard error when it is a terminal.
 fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
     let started = std::time::Instant::now();
+    let terminal = std::io::stderr().is_terminal();
     let estimate = skeletrace::export::estimate(scene, args.resolution)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let stated = format!(
@@ -121,10 +122,11 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
             EXPORT_MEMORY_LIMIT as f64 / 1e6
         ));
     }
-    if !args.json {
+    // On a terminal, beside the progress bar; otherwise the summary says it (a failure stays
+    // one line on standard error).
+    if terminal && !args.json {
         eprintln!("skeletrace: exporting {}: {stated}", args.scene.display());
     }
-    let terminal = std::io::stderr().is_terminal();
     let progress = |fraction: f64| {
         if terminal {
             let filled = (fraction * 30.0).round() as usize;
@@ -165,7 +167,7 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
             groups: usize,
             seconds: f64,
             #[serde(flatten)]
-            report: &'a skeletrace::isosurface::MeshReport,
+            report: &'a skeletrace_core::isosurface::MeshReport,
         }
         let json = ExportJson {
             output: args.output.display().to_string(),
@@ -179,7 +181,7 @@ fn run_export(args: &cli::ExportArgs, scene: &Scene) -> Result<(), String> {
         );
     }
     stdout::print(&format!(
-        "{}: {} vertices, {} triangles in {} group meshes, cell {:.4}; {}: {} boundary edges, {} non-manifold edges, {} non-manifold vertices, {} degenerate triangles, {} misoriented edges, volume {:.4e}; vertices within {:.1e} cells of the surface; {:.1} s\n",
+        "{}: {} vertices, {} triangles in {} group meshes (estimated {stated}), cell {:.4}; {}: {} boundary edges, {} non-manifold edges, {} non-manifold vertices, {} degenerate triangles, {} misoriented edges, volume {:.4e}; vertices within {:.1e} cells of the surface; {:.1} s\n",
         args.output.display(),
         r.vertices,
         r.triangles,

@@ -48,6 +48,7 @@ pub mod compile;
 pub mod cpu;
 pub mod field;
 pub mod frame;
+pub mod isosurface;
 pub mod methods;
 pub mod model;
 pub mod output;

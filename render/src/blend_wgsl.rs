@@ -418,7 +418,9 @@ fn compose_node(tree: &BlendTree, body: &mut Body) -> String {
             let b = compose_node(b, body);
             let items = vec![
                 body.bind(&format!("composed_neg({a})")),
-                body.bind(&format!("composed_shift({b}, -2.0 * globals.isovalue)")),
+                body.bind(&format!(
+                    "composed_shift({b}, -2.0 * frame.globals.isovalue)"
+                )),
             ];
             let h = hull(items, body);
             Some(body.bind(&format!("composed_neg({h})")))

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use skeletrace::export;
-use skeletrace::isosurface::MeshReport;
+use skeletrace_core::isosurface::MeshReport;
 use skeletrace_core::model::generate::{GenerateOptions, GeneratorKind, generate};
 use skeletrace_core::model::rng::SplitMix64;
 use skeletrace_core::{FieldProgram, Scene};

@@ -17,9 +17,9 @@
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crate::FieldProgram;
 use glam::DVec3;
 use rayon::prelude::*;
-use skeletrace_core::FieldProgram;
 
 /// The six tetrahedra of a unit cube, as paths from corner 0 to corner 7 (corners numbered by
 /// their bits x = 1, y = 2, z = 4): one per order in which the three axes are stepped.
@@ -197,7 +197,7 @@ pub fn extract(
 /// the surface but no corner of the grid cell around them is: a part thinner than a cell there,
 /// which the mesh lacks. `values` are the grid's samples of `f − c`.
 fn lost_features(program: &FieldProgram, grid: Grid, values: &[f64]) -> usize {
-    use skeletrace_core::field::primitives::Primitive;
+    use crate::field::primitives::Primitive;
     let c = program.isovalue();
     let [nx, ny, nz] = grid.dims;
     let probes = program.primitives().iter().flat_map(|p| match p {
@@ -224,7 +224,7 @@ fn lost_features(program: &FieldProgram, grid: Grid, values: &[f64]) -> usize {
 }
 
 /// A segment's ends and midpoint.
-fn cone_points(cone: &skeletrace_core::field::geometry::SphereCone) -> Vec<DVec3> {
+fn cone_points(cone: &crate::field::geometry::SphereCone) -> Vec<DVec3> {
     [0.0, 0.5, 1.0]
         .map(|f| cone.start + cone.axis * (f * cone.length))
         .to_vec()
