@@ -350,6 +350,25 @@ fn check_gltf_rules(path: &Path) -> usize {
     meshes
 }
 
+/// A scene of generator `kind` from a random seed and a size drawn for its kind (small enough
+/// to export in a test).
+fn random_generated(rng: &mut SplitMix64, kind: GeneratorKind) -> (GenerateOptions, Scene) {
+    let size = match kind {
+        GeneratorKind::Tree => 2 + rng.below(4),
+        GeneratorKind::Truss => 1 + rng.below(3),
+        GeneratorKind::Foam => 3 + rng.below(10),
+        GeneratorKind::Molecule => 10 + rng.below(60),
+        _ => 3 + rng.below(30),
+    };
+    let options = GenerateOptions {
+        seed: rng.below(1 << 30) as u64,
+        size: Some(size),
+        ..GenerateOptions::default()
+    };
+    let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+    (options, scene)
+}
+
 /// Exports of scenes nobody tuned the exporter on: per generator, a dozen scenes from random
 /// seeds and sizes, as `.glb` and `.gltf`, each checked against the glTF rules above (a vertex
 /// where the analytic gradient vanishes once got a zero normal), and every asset.
@@ -361,19 +380,7 @@ fn exports_of_generated_scenes_and_assets_follow_the_gltf_rules() {
     let mut files = 0;
     for &(kind, name) in &GeneratorKind::ALL {
         for k in 0..12 {
-            let size = match kind {
-                GeneratorKind::Tree => 2 + rng.below(4),
-                GeneratorKind::Truss => 1 + rng.below(3),
-                GeneratorKind::Foam => 3 + rng.below(10),
-                GeneratorKind::Molecule => 10 + rng.below(60),
-                _ => 3 + rng.below(30),
-            };
-            let options = GenerateOptions {
-                seed: rng.below(1 << 30) as u64,
-                size: Some(size),
-                ..GenerateOptions::default()
-            };
-            let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+            let (options, scene) = random_generated(&mut rng, kind);
             let mesh = export::extract(&scene, 24, &|_| {})
                 .unwrap_or_else(|e| panic!("{name} {options:?}: {e}"));
             let path = scratch.path(&format!(
@@ -530,19 +537,7 @@ fn two_hundred_random_scenes_export_watertight_manifold_outward_meshes() {
         let (label, scene) = match checked % 4 {
             0 | 1 => {
                 let (kind, name) = GeneratorKind::ALL[rng.below(GeneratorKind::ALL.len())];
-                let size = match kind {
-                    GeneratorKind::Tree => 2 + rng.below(4),
-                    GeneratorKind::Truss => 1 + rng.below(3),
-                    GeneratorKind::Foam => 3 + rng.below(10),
-                    GeneratorKind::Molecule => 10 + rng.below(60),
-                    _ => 3 + rng.below(30),
-                };
-                let options = GenerateOptions {
-                    seed: rng.below(1 << 30) as u64,
-                    size: Some(size),
-                    ..GenerateOptions::default()
-                };
-                let scene = generate(kind, &options).unwrap_or_else(|e| panic!("{e}"));
+                let (options, scene) = random_generated(&mut rng, kind);
                 (format!("{name} {options:?}"), scene)
             }
             2 => {

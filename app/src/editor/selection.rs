@@ -357,12 +357,9 @@ pub fn duplicate(scene: &mut Scene, selection: &Selection, offset: [f64; 3]) -> 
     copies
 }
 
-/// Joins two selected vertices of one skeleton by a segment; `Err` says why not.
-///
-/// # Errors
-/// Not exactly two vertices of the same skeleton, or already joined.
-pub fn connect(scene: &mut Scene, selection: &Selection) -> Result<(), String> {
-    let vertices: Vec<(usize, usize, usize)> = selection
+/// The selected vertices as (group, skeleton, vertex).
+pub(super) fn selected_vertices(selection: &Selection) -> Vec<(usize, usize, usize)> {
+    selection
         .iter()
         .filter_map(|i| match *i {
             Item::Vertex {
@@ -372,13 +369,30 @@ pub fn connect(scene: &mut Scene, selection: &Selection) -> Result<(), String> {
             } => Some((group, skeleton, vertex)),
             Item::Blob { .. } | Item::HrbfPoint { .. } => None,
         })
-        .collect();
-    let [(g, s, a), (g2, s2, b)] = vertices[..] else {
-        return Err("select exactly two vertices to connect".to_owned());
+        .collect()
+}
+
+/// The two selected vertices of one skeleton as (group, skeleton, a, b), or why not (`what`
+/// names the edit).
+pub(super) fn two_of_one_skeleton(
+    selection: &Selection,
+    what: &str,
+) -> Result<(usize, usize, usize, usize), String> {
+    let [(g, s, a), (g2, s2, b)] = selected_vertices(selection)[..] else {
+        return Err(format!("select exactly two vertices to {what}"));
     };
     if (g, s) != (g2, s2) {
         return Err("the two vertices belong to different skeletons".to_owned());
     }
+    Ok((g, s, a, b))
+}
+
+/// Joins two selected vertices of one skeleton by a segment; `Err` says why not.
+///
+/// # Errors
+/// Not exactly two vertices of the same skeleton, or already joined.
+pub fn connect(scene: &mut Scene, selection: &Selection) -> Result<(), String> {
+    let (g, s, a, b) = two_of_one_skeleton(selection, "connect")?;
     let edges = &mut scene.groups[g].skeletons[s].edges;
     let (a, b) = (a as u32, b as u32);
     if edges.iter().any(|&e| e == [a, b] || e == [b, a]) {

@@ -5,7 +5,7 @@
 use skeletrace_core::Scene;
 use skeletrace_core::model::scene::{Skeleton, Vertex};
 
-use super::selection::{Item, Selection, keep_vertices};
+use super::selection::{Item, Selection, keep_vertices, selected_vertices, two_of_one_skeleton};
 
 /// The three edits, as the Edit menu and the keys name them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,35 +38,6 @@ impl SkeletonEdit {
             Self::Dissolve => "select a vertex of two segments: its neighbours are joined instead",
         }
     }
-}
-
-/// The selected vertices as (group, skeleton, vertex).
-fn selected_vertices(selection: &Selection) -> Vec<(usize, usize, usize)> {
-    selection
-        .iter()
-        .filter_map(|i| match *i {
-            Item::Vertex {
-                group,
-                skeleton,
-                vertex,
-            } => Some((group, skeleton, vertex)),
-            Item::Blob { .. } | Item::HrbfPoint { .. } => None,
-        })
-        .collect()
-}
-
-/// The two selected vertices of one skeleton, or why not.
-fn two_of_one_skeleton(
-    selection: &Selection,
-    what: &str,
-) -> Result<(usize, usize, usize, usize), String> {
-    let [(g, s, a), (g2, s2, b)] = selected_vertices(selection)[..] else {
-        return Err(format!("select exactly two vertices to {what}"));
-    };
-    if (g, s) != (g2, s2) {
-        return Err("the two vertices belong to different skeletons".to_owned());
-    }
-    Ok((g, s, a, b))
 }
 
 fn skeleton_mut(scene: &mut Scene, group: usize, skeleton: usize) -> Result<&mut Skeleton, String> {
